@@ -1,0 +1,178 @@
+"""Contact regions C_i: the common currency of the video analysis, simulator and model.
+
+A frame's contact is a set of disconnected intervals ``[a_i, b_i]`` of surface position
+in mm (the paper's C_i, "Modeling frictional forces"). Over many frames they are stored
+as one padded array:
+
+``regions : (n_frames, n_max, 2) float ndarray``
+    ``regions[t, i] = (a_i, b_i)`` in mm with ``a_i <= b_i``; intervals of a frame are
+    sorted by ``a`` and do not overlap; unused slots are ``(nan, nan)`` and come last.
+    A frame with no contact has only NaN slots.
+
+:func:`as_regions` converts the other accepted forms (one frame as a list of pairs, a
+list of frames) to this array and validates it; every public function that takes
+regions calls it, so bad input fails at the door with the frame and slot named.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = ["as_regions", "regions_from_mask", "region_lengths", "n_regions"]
+
+
+def as_regions(regions, *, name: str = "regions", allow_touching: bool = True) -> np.ndarray:
+    """Validate contact regions and return them as a ``(n_frames, n_max, 2)`` array.
+
+    Parameters
+    ----------
+    regions : array_like or sequence
+        ``(n_frames, n_max, 2)`` array with NaN padding; or ``(n_max, 2)`` / a list of
+        ``(a, b)`` pairs for a single frame (returned with ``n_frames = 1``); or a list of
+        frames, each a list of pairs (ragged allowed).
+    name : str
+        Argument name used in error messages.
+    allow_touching : bool
+        Whether intervals of one frame may share an end point (``b_i == a_{i+1}``).
+
+    Returns
+    -------
+    (n_frames, n_max, 2) ndarray of float
+        ``n_max >= 1``.
+
+    Raises
+    ------
+    ValueError
+        For an inverted interval (``a > b``), an infinite end point, a half-NaN pair,
+        overlapping or unsorted intervals, naming the frame, the slot and the values.
+    """
+    arr = _to_array(regions, name)
+    nan_a = np.isnan(arr[..., 0])
+    nan_b = np.isnan(arr[..., 1])
+    if np.any(nan_a != nan_b):
+        t, i = np.argwhere(nan_a != nan_b)[0]
+        raise ValueError(
+            f"{name}: frame {t}, region {i} has one NaN end point {tuple(arr[t, i])}; "
+            "both ends must be numbers (mm) or both NaN (unused slot)"
+        )
+    valid = ~nan_a
+    if np.any(np.isinf(arr[valid])):
+        t, i = np.argwhere(valid & np.isinf(arr).any(-1))[0]
+        raise ValueError(f"{name}: frame {t}, region {i} has an infinite end point {tuple(arr[t, i])}")
+    inverted = valid & (arr[..., 0] > arr[..., 1])
+    if inverted.any():
+        t, i = np.argwhere(inverted)[0]
+        a, b = arr[t, i]
+        raise ValueError(
+            f"{name}: frame {t}, region {i} is inverted: [a, b] = [{a!r}, {b!r}] mm; "
+            "each region must have a <= b"
+        )
+    # NaN slots must come last: a valid slot after a NaN slot is a layout error.
+    if arr.shape[1] > 1:
+        gap = (~valid[:, :-1]) & valid[:, 1:]
+        if gap.any():
+            t = int(np.argwhere(gap)[0][0])
+            raise ValueError(f"{name}: frame {t} has a valid region after an unused (NaN) slot")
+        both = valid[:, :-1] & valid[:, 1:]
+        nxt_a = arr[:, 1:, 0]
+        cur_b = arr[:, :-1, 1]
+        bad = both & ((nxt_a < cur_b) if allow_touching else (nxt_a <= cur_b))
+        if bad.any():
+            t, i = np.argwhere(bad)[0]
+            raise ValueError(
+                f"{name}: frame {t}, regions {i} {tuple(arr[t, i])} and {i + 1} "
+                f"{tuple(arr[t, i + 1])} overlap or are not sorted by position"
+            )
+    return arr
+
+
+def _to_array(regions, name: str) -> np.ndarray:
+    if isinstance(regions, np.ndarray):
+        arr = regions.astype(float, copy=False)
+    elif isinstance(regions, Sequence) and not isinstance(regions, (str, bytes)):
+        if len(regions) == 0:
+            return np.full((1, 1, 2), np.nan)
+        first = regions[0]
+        single_frame = _is_pair(first)
+        frames = [regions] if single_frame else list(regions)
+        n_max = max(1, max((len(f) for f in frames), default=0))
+        arr = np.full((len(frames), n_max, 2), np.nan)
+        for t, f in enumerate(frames):
+            if not isinstance(f, (Sequence, np.ndarray)) or isinstance(f, (str, bytes)):
+                raise TypeError(f"{name}: frame {t} must be a list of (a, b) pairs, got {f!r}")
+            for i, pair in enumerate(f):
+                if not _is_pair(pair):
+                    raise ValueError(
+                        f"{name}: frame {t}, region {i} must be an (a, b) pair in mm, got {pair!r}"
+                    )
+                arr[t, i] = (float(pair[0]), float(pair[1]))
+    else:
+        raise TypeError(f"{name} must be an array or a list of (a, b) pairs, got {type(regions).__name__}")
+    if arr.ndim == 2 and arr.shape[-1] == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.shape[-1] != 2:
+        raise ValueError(f"{name} must have shape (n_frames, n_max, 2), got {arr.shape}")
+    if arr.shape[1] == 0:
+        arr = np.full((arr.shape[0], 1, 2), np.nan)
+    return arr
+
+
+def _is_pair(obj) -> bool:
+    if isinstance(obj, np.ndarray):
+        return obj.shape == (2,)
+    if isinstance(obj, Sequence) and not isinstance(obj, (str, bytes)) and len(obj) == 2:
+        return all(isinstance(v, (int, float, np.integer, np.floating)) for v in obj)
+    return False
+
+
+def region_lengths(regions) -> np.ndarray:
+    """Lengths ``L_i = b_i - a_i`` in mm, ``(n_frames, n_max)``, NaN for unused slots."""
+    arr = as_regions(regions)
+    return arr[..., 1] - arr[..., 0]
+
+
+def n_regions(regions) -> np.ndarray:
+    """Number of contact regions per frame, ``(n_frames,)`` int."""
+    arr = as_regions(regions)
+    return np.sum(~np.isnan(arr[..., 0]), axis=1)
+
+
+def regions_from_mask(x: np.ndarray, mask: np.ndarray, *, n_max: int | None = None) -> np.ndarray:
+    """Contact regions from a boolean contact mask sampled at grid positions.
+
+    Parameters
+    ----------
+    x : (n,) ndarray
+        Increasing, uniformly spaced positions in mm (cell centres).
+    mask : (n,) or (n_frames, n) bool ndarray
+        True where in contact.
+    n_max : int, optional
+        Number of slots; by default the largest count found. Extra regions beyond
+        ``n_max`` raise ``ValueError`` rather than being dropped silently.
+
+    Returns
+    -------
+    (n_frames, n_max, 2) ndarray
+        Each run of True cells ``[i0, i1]`` becomes ``[x[i0] - dx/2, x[i1] + dx/2]``.
+    """
+    x = np.asarray(x, dtype=float)
+    m = np.atleast_2d(np.asarray(mask, dtype=bool))
+    if m.shape[-1] != x.size:
+        raise ValueError(f"mask has {m.shape[-1]} columns but x has {x.size} positions")
+    dx = float(x[1] - x[0]) if x.size > 1 else 0.0
+    pad = np.zeros((m.shape[0], 1), dtype=bool)
+    d = np.diff(np.concatenate([pad, m, pad], axis=1).astype(np.int8), axis=1)
+    starts_t, starts_i = np.nonzero(d == 1)
+    _, ends_i = np.nonzero(d == -1)
+    counts = np.bincount(starts_t, minlength=m.shape[0])
+    need = int(counts.max(initial=0))
+    k = max(need, 1) if n_max is None else n_max
+    if need > k:
+        raise ValueError(f"a frame has {need} contact regions, more than n_max={n_max}")
+    out = np.full((m.shape[0], k, 2), np.nan)
+    slot = np.arange(starts_t.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    out[starts_t, slot, 0] = x[starts_i] - dx / 2
+    out[starts_t, slot, 1] = x[ends_i - 1] + dx / 2
+    return out
