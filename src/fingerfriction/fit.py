@@ -162,10 +162,18 @@ def nmse_eq5(measured, estimate) -> float:
 # ------------------------------------------------------------------------ trial container
 
 
+_SHAPE_LABELS = {"bump": "Bump", "step-up": "Step Up", "step-down": "Step Down"}
+
+
 def _surface_labels(surface: Surface) -> tuple[str, str]:
     if isinstance(surface, RaisedCosine):
-        return surface.shape, f"{surface.width:g} mm"
+        return _SHAPE_LABELS[surface.shape], f"{surface.width:g} mm"
     return surface.name, ""
+
+
+def _fit_labels(trial: Trial) -> dict:
+    """Labels carried by a TrialFit: the trial's, plus surface, shape and scale."""
+    return {**trial.labels, "surface": trial.surface.name, "shape": trial.shape, "scale": trial.scale}
 
 
 @dataclass(frozen=True, eq=False)
@@ -248,7 +256,7 @@ class Trial:
 
     @property
     def shape(self) -> str:
-        """Feature shape ('bump', 'step-up', 'step-down') or the profile's name."""
+        """Feature shape as in Table 1 ('Bump', 'Step Up', 'Step Down') or the profile's name."""
         return _surface_labels(self.surface)[0]
 
     @property
@@ -677,7 +685,7 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
     options = options or FitOptions()
     _check_method(method)
     FrictionParams(mu=mu, p0=0.0, p1=0.0)  # validates mu
-    return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, trial.labels)
+    return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, _fit_labels(trial))
 
 
 def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
@@ -737,7 +745,10 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     else:
         j = int(np.nanargmin(np.where(np.isfinite(curve), curve, np.nan)))
     mu = float(mus[j])
-    fits = tuple(_fit_one(d, mu, method, options, t.subject, t.labels) for d, t in zip(designs, trials))
+    fits = tuple(
+        _fit_one(d, mu, method, options, t.subject, _fit_labels(t))
+        for d, t in zip(designs, trials, strict=True)
+    )
     n_bad = sum(not f.success for f in fits)
     success, parts = True, [f"mu = {mu:g} minimises the summed {options.objective} over {len(trials)} trials"]
     if not np.isfinite(curve[j]):
