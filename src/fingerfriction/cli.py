@@ -60,6 +60,101 @@ def fail(message: str) -> None:
 # ---------------------------------------------------------------------------------------
 
 
+def _print_failures(failures) -> None:
+    for tid, reason in failures:
+        err_console.print(f"[red]failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
+
+
+@app.command("analyze")
+def analyze_cmd(
+    study: str = typer.Argument(..., help="Study folder (with manifest.json)."),
+    out: str = typer.Option(..., "--out", "-o", help="Results folder (created; resumed if it exists)."),
+    scheduler: str = typer.Option(None, "--scheduler", help="Address of a running Dask scheduler, "
+                                  "e.g. tcp://10.0.0.5:8786 (default: a local cluster on all cores)."),
+    workers: int = typer.Option(None, "--workers", "-j", min=1, help="Local workers (default: all cores)."),
+    force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
+) -> None:
+    """Every trial through video analysis and force processing, in parallel (resumable)."""
+    from .pipeline import analyze
+
+    try:
+        res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_failures(res.failures)
+    console.print(
+        f"{res.n_computed} computed, {res.n_skipped} already done, {res.n_failed} failed "
+        f"of {res.n_trials} trials in {res.elapsed_s:.1f} s ({res.scheduler}, {res.n_workers} workers) "
+        f"-> {res.results}", highlight=False)
+
+
+@app.command("fit")
+def fit_cmd(
+    results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
+    method: str = typer.Option("lstsq", help="p0, p1 fit: lstsq (closed form) or nelder-mead (paper)."),
+    mu_min: float = typer.Option(0.30, help="Smallest mu of the grid."),
+    mu_max: float = typer.Option(0.90, help="Largest mu of the grid."),
+    mu_step: float = typer.Option(0.01, help="Step of the mu grid."),
+    median: int = typer.Option(11, help="Median filter window on the model, samples (odd; 1 = off)."),
+) -> None:
+    """mu per subject (grid search), p0 and p1 per trial, model forces with F_int and F_def."""
+    from .pipeline import fit
+
+    try:
+        res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
+                  progress=True)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_failures(res.failures)
+    for subj, mu in res.mu.items():
+        console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
+    console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {results}/fit", highlight=False)
+
+
+def _print_tables(rep) -> None:
+    from rich.table import Table
+
+    from .report.tables import table1_display
+
+    if rep.table1 is not None:
+        wide = table1_display(rep.table1)
+        t = Table(title="Table 1: Pearson rho, measured vs model (* p < 0.01)")
+        for c in wide.columns:
+            t.add_column(str(c))
+        for row in wide.itertuples(index=False):
+            t.add_row(*[str(v) for v in row])
+        console.print(t)
+    t = Table(title="Tactile blind spots (all trials pooled)")
+    for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):
+        t.add_column(c)
+    for r in rep.blindspots.itertuples(index=False):
+        t.add_row(str(r.surface), str(r.n_trials), f"{r.start_mm:.2f}", f"{r.end_mm:.2f}",
+                  f"{r.width_mm:.2f}")
+    console.print(t)
+    for key, df in rep.truth.items():
+        t = Table(title=f"Recovered vs ground truth: {key}")
+        for c in df.columns:
+            t.add_column(str(c))
+        for row in df.itertuples(index=False):
+            t.add_row(*[f"{v:.3f}" if isinstance(v, float) else str(v) for v in row])
+        console.print(t)
+
+
+@app.command("report")
+def report_cmd(
+    results: str = typer.Argument(..., help="Results folder (after analyze; fit for Fig. 6/S3, Table 1)."),
+) -> None:
+    """Figures (PNG, SVG), Table 1, blind-spot table and a self-contained HTML report."""
+    from .report import make_report
+
+    try:
+        rep = make_report(results, progress=True)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_tables(rep)
+    console.print(f"report: {rep.html}  ({len(rep.files)} files)", highlight=False)
+
+
 # ---------------------------------------------------------------------------------------
 # predict / render (prediction and haptic rendering)
 # ---------------------------------------------------------------------------------------
