@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import os
 import platform
 import sys
@@ -83,71 +82,66 @@ _VERSIONED = (
 
 @dataclass(frozen=True)
 class AnalysisParams:
-    """Options of the per-trial analysis (the paper's values by default).
+    """Options of the per-trial analysis: passed through to the two stages.
 
     Parameters
     ----------
-    threshold : float or None
-        Grey level (0-255) separating background from finger/surface; None picks one
-        automatically per trial (reported in the trial's status ``info``).
-    contact_tol_px : float
-        Finger and surface contour points closer than this (pixels) are in contact
-        (Methods "Image analysis": 3 px, about 70 um).
-    line_above_mm : float
-        Height in mm above the feature's top of the line that closes the finger region
-        C_f in the first finger frame (Methods: 0.4 mm).
-    notch_hz : tuple of float
-        Mains notch frequencies in Hz (Methods: 50, 150, 300 Hz).
-    lowpass_hz : float
-        Zero-phase low-pass cut-off for F_T in Hz (Methods: 500 Hz).
-    window_mm : float
-        Length in mm of the position window centred on the feature (Methods: 26 mm).
-    grid_mm : float
-        Position grid step in mm (Methods: 0.01 mm).
+    video : dict
+        Keyword options of the video analysis (:mod:`fingerfriction.video`); empty means
+        its defaults, the paper's Methods (3 px contact tolerance, the 0.4 mm line, ...).
+    forces : dict
+        Keyword options of :class:`fingerfriction.forces.ForceProcessingParams`; empty
+        means the paper's Methods (notches at 50/150/300 Hz, 500 Hz low-pass, a 26 mm
+        window on a 0.01 mm grid).
+
+    Notes
+    -----
+    :meth:`resolved` expands both into the stages' full parameter sets (defaults
+    included); that is what the run record stores and what decides whether a finished
+    trial was computed with the same parameters.
     """
 
-    threshold: float | None = None
-    contact_tol_px: float = 3.0
-    line_above_mm: float = 0.4
-    notch_hz: tuple[float, ...] = (50.0, 150.0, 300.0)
-    lowpass_hz: float = 500.0
-    window_mm: float = 26.0
-    grid_mm: float = 0.01
+    video: Mapping = field(default_factory=dict)
+    forces: Mapping = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.threshold is not None and not (
-            isinstance(self.threshold, (int, float)) and 0 < self.threshold < 255
-        ):
-            raise ValueError(f"threshold must be None or a grey level in (0, 255), got {self.threshold!r}")
-        for name in ("contact_tol_px", "line_above_mm", "lowpass_hz", "window_mm", "grid_mm"):
+        for name in ("video", "forces"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"AnalysisParams.{name} must be a positive number, got {v!r}")
-            object.__setattr__(self, name, float(v))
-        notch = tuple(float(f) for f in self.notch_hz)
-        if any(not (math.isfinite(f) and f > 0) for f in notch):
-            raise ValueError(f"notch_hz must be positive frequencies in Hz, got {self.notch_hz!r}")
-        object.__setattr__(self, "notch_hz", notch)
-        if self.grid_mm >= self.window_mm:
-            raise ValueError(
-                f"grid_mm ({self.grid_mm} mm) must be smaller than window_mm ({self.window_mm} mm)"
-            )
+            if not isinstance(v, Mapping):
+                raise TypeError(f"AnalysisParams.{name} must be a dict of options, got {type(v).__name__}")
+            object.__setattr__(self, name, dict(v))
 
-    def to_dict(self) -> dict:
-        d = dataclasses.asdict(self)
-        d["notch_hz"] = list(self.notch_hz)
-        return d
+    def resolved(self) -> dict:
+        """``{'video': {...}, 'forces': {...}}`` with every stage parameter spelled out.
 
-    @classmethod
-    def from_dict(cls, d: Mapping) -> AnalysisParams:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(d) - known
-        if unknown:
-            raise ValueError(f"unknown analysis parameters {sorted(unknown)}; allowed: {sorted(known)}")
-        kw = dict(d)
-        if "notch_hz" in kw:
-            kw["notch_hz"] = tuple(kw["notch_hz"])
-        return cls(**kw)
+        Raises
+        ------
+        ValueError
+            An unknown or invalid option (from the stage's own validation).
+        """
+        return {"video": _video_params(self.video), "forces": _force_params(self.forces)}
+
+
+def _force_params(opts: Mapping) -> dict:
+    from .forces import ForceProcessingParams
+
+    try:
+        return ForceProcessingParams(**dict(opts)).to_dict()
+    except TypeError as exc:  # unknown keyword
+        raise ValueError(f"force option: {exc}") from None
+
+
+def _video_params(opts: Mapping) -> dict:
+    from . import video
+
+    cls = getattr(video, "VideoParams", None)
+    if cls is None:
+        return dict(opts)
+    try:
+        obj = cls(**dict(opts))
+    except TypeError as exc:
+        raise ValueError(f"video option: {exc}") from None
+    return obj.to_dict() if hasattr(obj, "to_dict") else dataclasses.asdict(obj)
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,7 +154,7 @@ class TrialResult:
     frames : pandas.DataFrame
         Per-frame table (:func:`fingerfriction.results.frames_table`).
     forces : pandas.DataFrame
-        Per-position table: ``x_mm``, ``F_T_N``, ``t_s`` (and ``F_N_N`` when available).
+        Per-position table: ``x_mm``, ``F_T_N``, ``F_N_N``, ``n_samples``.
     info : dict
         Stage diagnostics (calibration, threshold used, flagged-frame counts, ...).
     """
@@ -244,20 +238,14 @@ def _resolve(study_dir: Path, rel: str, what: str) -> Path:
     """Resolve a manifest path inside the study folder (refusing escapes)."""
     from .study import resolve_path
 
-    return Path(resolve_path(study_dir, rel, field=what))
+    return Path(resolve_path(study_dir, rel, where=what))
 
 
-def _run_video(study_dir: Path, trial: dict, surface_spec: dict, params: AnalysisParams) -> dict:
+def _run_video(study_dir: Path, trial: dict, surface_spec: dict, options: dict) -> dict:
     """Video stage adapter: returns t_s, x_mm, regions, flags, frame, info."""
     from . import video
 
-    res = video.analyze_trial(
-        study_dir,
-        trial,
-        threshold=params.threshold,
-        contact_tol_px=params.contact_tol_px,
-        line_above_mm=params.line_above_mm,
-    )
+    res = video.analyze_trial(study_dir, trial, surface_spec, **options)
     return {
         "t_s": np.asarray(res.t_s, dtype=float),
         "x_mm": np.asarray(res.x_mm, dtype=float),
@@ -268,31 +256,20 @@ def _run_video(study_dir: Path, trial: dict, surface_spec: dict, params: Analysi
     }
 
 
-def _run_forces(
-    study_dir: Path, trial: dict, surface_spec: dict, video_out: dict, params: AnalysisParams
-) -> dict:
-    """Force stage adapter: returns x_mm grid, F_T_N, t_s (F_N_N optional), info."""
+def _run_forces(study_dir: Path, trial: dict, surface_spec: dict, video_out: dict, options: dict):
+    """Force stage adapter: the trial's F_T(x) table and diagnostics."""
     from . import forces
 
-    res = forces.process_trial_forces(
-        study_dir,
-        trial,
-        t_video=video_out["t_s"],
-        x_video=video_out["x_mm"],
-        notch_hz=params.notch_hz,
-        lowpass_hz=params.lowpass_hz,
-        window_mm=params.window_mm,
-        grid_mm=params.grid_mm,
+    manifest = {"trials": [trial], "surfaces": {trial.get("surface"): surface_spec}}
+    prof = forces.process_trial(
+        study_dir, manifest, trial["id"], video_out["x_mm"],
+        params=forces.ForceProcessingParams(**options), regions=video_out["regions"], on_error="raise",
     )
-    out = {
-        "x_mm": np.asarray(res.x_mm, dtype=float),
-        "F_T_N": np.asarray(res.F_T, dtype=float),
-        "t_s": np.asarray(res.t_s, dtype=float),
-        "info": dict(getattr(res, "info", {}) or {}),
-    }
-    if getattr(res, "F_N", None) is not None:
-        out["F_N_N"] = np.asarray(res.F_N, dtype=float)
-    return out
+    info = {"flags": [f"{f.code}: {f.message}" for f in prof.flags],
+            "flat_segment_mm": list(prof.flat_segment_mm), "message": prof.message}
+    if not prof.success:  # on_error='raise' should have raised; never keep unusable values
+        raise ValueError(f"force processing failed: {prof.message}")
+    return prof.to_frame(), info
 
 
 def process_trial(study_dir: str | os.PathLike, trial, params: AnalysisParams | None = None,
@@ -323,15 +300,12 @@ def process_trial(study_dir: str | os.PathLike, trial, params: AnalysisParams | 
     study_dir = Path(study_dir)
     rec = _trial_dict(trial)
     tid = rec.get("id")
-    v = _run_video(study_dir, rec, surface_spec or {}, params)
-    f = _run_forces(study_dir, rec, surface_spec or {}, v, params)
+    resolved = params.resolved()
+    v = _run_video(study_dir, rec, surface_spec or {}, resolved["video"])
+    forces_df, f_info = _run_forces(study_dir, rec, surface_spec or {}, v, resolved["forces"])
     frames = frames_table(v["t_s"], v["x_mm"], v["regions"], v["flags"], frame=v["frame"])
-    cols = {"x_mm": f["x_mm"], "F_T_N": f["F_T_N"], "t_s": f["t_s"]}
-    if "F_N_N" in f:
-        cols["F_N_N"] = f["F_N_N"]
-    forces_df = pd.DataFrame(cols)
     n_flag = int(sum(1 for s in v["flags"] if s))
-    info = {"video": v["info"], "forces": f["info"], "n_frames": len(frames), "n_flagged_frames": n_flag,
+    info = {"video": v["info"], "forces": f_info, "n_frames": len(frames), "n_flagged_frames": n_flag,
             "n_positions": len(forces_df)}
     return TrialResult(trial_id=str(tid), frames=frames, forces=forces_df, info=info)
 
@@ -353,7 +327,7 @@ def _run_trial(study_dir: str, trial: dict, surface_spec: dict, params: dict) ->
                 raise ValueError(f"trial {trial.get('id')!r}: manifest field {key}.path is missing")
             p = _resolve(study, rel, f"{key}.path")
             inputs[key] = {"path": rel, "sha256": sha256_file(p), "bytes": p.stat().st_size}
-        res = process_trial(study, trial, AnalysisParams.from_dict(params), surface_spec=surface_spec)
+        res = process_trial(study, trial, AnalysisParams(**params), surface_spec=surface_spec)
         return {"ok": True, "frames": res.frames, "forces": res.forces, "info": res.info,
                 "inputs": inputs, "elapsed_s": time.perf_counter() - t0}
     except Exception as exc:  # a failing trial is recorded, the others go on
@@ -505,7 +479,7 @@ def analyze(
     store = ResultsStore(out)
     for tid in ids:
         store.trial_dir(tid)  # validates the id before anything runs
-    pdict = params.to_dict()
+    pdict = params.resolved()
     pdigest = params_digest(pdict)
     t_start = time.perf_counter()
     started = _now()

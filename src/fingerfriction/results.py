@@ -38,9 +38,9 @@ Per-frame table (``frames.parquet``): ``frame`` (int, index in the video), ``t_s
 as the trial's largest count, at least one), ``flag`` (str, empty when the frame is
 good, else the reason it was flagged).
 
-Per-position table (``forces.parquet``): ``x_mm`` (0.01 mm grid), ``F_T_N``
-(tangential force, N), ``t_s`` (s, time the finger was at ``x_mm``), and optionally
-``F_N_N`` (normal force, N).
+Per-position table (``forces.parquet``): ``x_mm`` (finger position on the 0.01 mm grid),
+``F_T_N`` and ``F_N_N`` (tangential and normal force in N, drift-corrected over the flat
+segment), ``n_samples`` (force samples averaged into the bin; 0 = interpolated).
 """
 
 from __future__ import annotations
