@@ -79,7 +79,7 @@ def test_fit_recovers_parameters(synthetic_results):
 
 
 def test_report_before_fit_leaves_out_model_figures(tmp_path):
-    from conftest import write_synthetic_results
+    from report_synthetic import write_synthetic_results
 
     write_synthetic_results(tmp_path / "r")
     rep = make_report(tmp_path / "r")
@@ -90,7 +90,7 @@ def test_report_before_fit_leaves_out_model_figures(tmp_path):
 
 
 def test_failed_trials_listed(tmp_path):
-    from conftest import write_synthetic_results
+    from report_synthetic import write_synthetic_results
 
     write_synthetic_results(tmp_path / "r")
     store = ResultsStore(tmp_path / "r")
