@@ -75,24 +75,31 @@ def fit_parameter_table(data: ReportData) -> pd.DataFrame | None:
     return out.reset_index()
 
 
+def _mu_of(v) -> float | None:
+    if not isinstance(v, dict):
+        return None
+    if "mu" in v:
+        return float(v["mu"])
+    for key in ("force_law", "friction"):  # the simulator's truth: subjects.<s>.force_law.mu
+        if isinstance(v.get(key), dict) and "mu" in v[key]:
+            return float(v[key]["mu"])
+    return None
+
+
 def _truth_mu(truth: dict) -> dict[str, float]:
-    """Per-subject true mu from truth/study.json (tolerant of the layout)."""
+    """Per-subject true mu from truth/study.json (``subjects`` as a dict or a list)."""
     subs = truth.get("subjects")
     out = {}
     if isinstance(subs, dict):
-        for k, v in subs.items():
-            mu = v.get("mu") if isinstance(v, dict) else None
-            if mu is None and isinstance(v, dict):
-                mu = (v.get("friction") or {}).get("mu")
-            if mu is not None:
-                out[str(k)] = float(mu)
+        items = [(str(k), v) for k, v in subs.items()]
     elif isinstance(subs, list):
-        for v in subs:
-            if isinstance(v, dict):
-                key = v.get("subject", v.get("id", v.get("label", v.get("name"))))
-                mu = v.get("mu", (v.get("friction") or {}).get("mu"))
-                if key is not None and mu is not None:
-                    out[str(key)] = float(mu)
+        items = [(str(v.get("subject", v.get("id", v.get("name")))), v) for v in subs if isinstance(v, dict)]
+    else:
+        items = []
+    for k, v in items:
+        mu = _mu_of(v)
+        if mu is not None:
+            out[k] = mu
     return out
 
 
