@@ -476,6 +476,13 @@ def analyze(
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
         raise ValueError(f"study {str(study_dir)!r}: duplicate trial ids {dup}")
+    # Every manifest path must resolve inside the study folder (symbolic links included):
+    # a study that points outside itself is refused before anything runs.
+    for i, t in enumerate(trials):
+        for key in ("video", "force"):
+            rel = (t.get(key) or {}).get("path")
+            if rel:
+                _resolve(study_dir, rel, f"{study_dir / 'manifest.json'}: trials[{i}].{key}.path")
     store = ResultsStore(out)
     for tid in ids:
         store.trial_dir(tid)  # validates the id before anything runs
