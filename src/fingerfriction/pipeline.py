@@ -30,7 +30,7 @@ import platform
 import sys
 import time
 import traceback
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
@@ -424,6 +424,7 @@ def analyze(
     progress: bool = True,
     params: AnalysisParams | None = None,
     callback: Callable[[TrialOutcome], None] | None = None,
+    trials: Sequence[str] | None = None,
 ) -> AnalyzeResult:
     """Analyse every trial of a study in parallel on Dask; resumable.
 
@@ -452,6 +453,8 @@ def analyze(
         Called in this process with a :class:`TrialOutcome` after each trial is recorded
         (and for each skipped trial). An exception raised by it stops the run; what was
         recorded so far stays.
+    trials : sequence of str, optional
+        Analyse only these trial ids (default: every trial of the study).
 
     Returns
     -------
@@ -469,13 +472,22 @@ def analyze(
         raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
     study_dir, manifest = _load_study(study)
     study_dir = study_dir.resolve()
-    trials = manifest["trials"]
+    selected = trials
+    trials = all_trials = manifest["trials"]
     if not trials:
         raise ValueError(f"study {str(study_dir)!r} lists no trials")
     ids = [t.get("id") for t in trials]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
         raise ValueError(f"study {str(study_dir)!r}: duplicate trial ids {dup}")
+    if selected is not None:
+        if isinstance(selected, str):
+            selected = [selected]
+        unknown = sorted(set(selected) - set(ids))
+        if unknown:
+            raise ValueError(f"trials {unknown} are not in the study {str(study_dir)!r}")
+        trials = [t for t in trials if t["id"] in set(selected)]
+        ids = [t["id"] for t in trials]
     # Every manifest path must resolve inside the study folder (symbolic links included):
     # a study that points outside itself is refused before anything runs.
     for i, t in enumerate(trials):
@@ -510,8 +522,7 @@ def analyze(
         "platform": {"system": platform.system(), "machine": platform.machine(),
                      "node": platform.node(), "cpu_count": os.cpu_count()},
         "surfaces": manifest.get("surfaces", {}),
-        "trials": [{"id": t.get("id"), **{k: t.get(k) for k in _LABELS}}
-                   for t in trials],
+        "trials": [{"id": t.get("id"), **{k: t.get(k) for k in _LABELS}} for t in all_trials],
         "truth": str(study_dir / "truth") if (study_dir / "truth" / "study.json").is_file() else None,
     }
     store.write_run({**base_record, "state": "running", "started": started, "runs": previous})
@@ -585,7 +596,7 @@ def analyze(
                     "interrupted": n_ok + n_fail + len(skipped) < len(trials)}
         inputs = {}
         trial_status = {}
-        for tid in ids:
+        for tid in (t["id"] for t in all_trials):
             st = store.status(tid) or {}
             inputs[tid] = st.get("inputs", {})
             trial_status[tid] = {"status": st.get("status", "not run"), "reason": st.get("reason", "")}
