@@ -87,7 +87,7 @@ def _pair(measured, estimate) -> tuple[np.ndarray, np.ndarray]:
     for name, v in (("measured", f), ("estimate", g)):
         if not np.all(np.isfinite(v)):
             i = int(np.flatnonzero(~np.isfinite(v))[0])
-            raise ValueError(f"{name} has a non-finite value {v[i]!r} at index {i}")
+            raise ValueError(f"{name} has a non-finite value {float(v[i])!r} at index {i}")
     return f, g
 
 
@@ -216,11 +216,11 @@ class Trial:
             raise ValueError(f"Trial.x must be a 1-D array of >= 3 positions (mm), got shape {x.shape}")
         if not np.all(np.isfinite(x)):
             i = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise ValueError(f"Trial.x has a non-finite value {x[i]!r} at index {i}")
+            raise ValueError(f"Trial.x has a non-finite value {float(x[i])!r} at index {i}")
         if np.any(np.diff(x) <= 0):
             i = int(np.flatnonzero(np.diff(x) <= 0)[0])
             raise ValueError(
-                f"Trial.x must be strictly increasing; x[{i}]={x[i]!r} is followed by x[{i + 1}]={x[i + 1]!r}"
+                f"Trial.x must be strictly increasing; x[{i}]={float(x[i])!r} is followed by x[{i + 1}]={float(x[i + 1])!r}"
             )
         if f.shape != x.shape:
             raise ValueError(
@@ -229,7 +229,7 @@ class Trial:
         if not np.all(np.isfinite(f)):
             i = int(np.flatnonzero(~np.isfinite(f))[0])
             raise ValueError(
-                f"Trial.force has a non-finite value {f[i]!r} at index {i} (x={x[i]:g} mm); "
+                f"Trial.force has a non-finite value {float(f[i])!r} at index {i} (x={x[i]:g} mm); "
                 "interpolate or drop such samples before fitting"
             )
         r = as_regions(self.regions, name="Trial.regions")
