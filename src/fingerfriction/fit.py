@@ -220,7 +220,8 @@ class Trial:
         if np.any(np.diff(x) <= 0):
             i = int(np.flatnonzero(np.diff(x) <= 0)[0])
             raise ValueError(
-                f"Trial.x must be strictly increasing; x[{i}]={float(x[i])!r} is followed by x[{i + 1}]={float(x[i + 1])!r}"
+                f"Trial.x must be strictly increasing; x[{i}]={float(x[i])!r} is followed by "
+                f"x[{i + 1}]={float(x[i + 1])!r}"
             )
         if f.shape != x.shape:
             raise ValueError(
