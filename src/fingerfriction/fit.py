@@ -690,7 +690,7 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
 
 
 def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
-                options: FitOptions | None = None) -> SubjectFit:
+                options: FitOptions | None = None, refine: bool = False) -> SubjectFit:
     """Per-subject ``mu`` by grid search, refitting ``p0, p1`` per trial at each ``mu``.
 
     Parameters
@@ -704,6 +704,10 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
         the grid (two :meth:`FrictionModel.basis` calls per trial, exact because the basis
         is affine in ``mu``); Nelder-Mead runs once per trial per grid point.
     options : FitOptions, optional
+    refine : bool
+        If True, refine ``mu`` below the grid step by the vertex of the parabola through
+        the minimum and its two neighbours (then refit every trial at that ``mu``). The
+        paper reports the grid value (False, the default).
 
     Returns
     -------
@@ -746,6 +750,8 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     else:
         j = int(np.nanargmin(np.where(np.isfinite(curve), curve, np.nan)))
     mu = float(mus[j])
+    if refine and 0 < j < mus.size - 1 and np.all(np.isfinite(curve[j - 1 : j + 2])):
+        mu = _parabola_vertex(mus[j - 1 : j + 2], curve[j - 1 : j + 2])
     fits = tuple(
         _fit_one(d, mu, method, options, t.subject, _fit_labels(t))
         for d, t in zip(designs, trials, strict=True)
@@ -761,12 +767,24 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     if n_bad:
         success = False
         parts.append(f"{n_bad} of {len(fits)} trial fits failed")
+    if mu != float(mus[j]):
+        parts.append(f"refined from the grid value {mus[j]:g} by a parabola through 3 grid points")
     return SubjectFit(subject=subjects[0], mu=mu, grid=mus, curve=curve, trials=fits,
                       success=success, message="; ".join(parts), method=method)
 
 
+def _parabola_vertex(x: np.ndarray, y: np.ndarray) -> float:
+    """Abscissa of the vertex of the parabola through three points, clipped to their span."""
+    (x0, x1, x2), (y0, y1, y2) = x, y
+    num = (x1 - x0) ** 2 * (y1 - y2) - (x1 - x2) ** 2 * (y1 - y0)
+    den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0)
+    if den == 0 or not math.isfinite(num / den):
+        return float(x1)
+    return float(np.clip(x1 - 0.5 * num / den, x0, x2))
+
+
 def fit_trials(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
-               options: FitOptions | None = None) -> dict[str, SubjectFit]:
+               options: FitOptions | None = None, refine: bool = False) -> dict[str, SubjectFit]:
     """:func:`fit_subject` for every subject present in ``trials`` (keyed by subject)."""
     trials = list(trials)
     if not trials:
@@ -776,4 +794,5 @@ def fit_trials(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
         if not isinstance(t, Trial):
             raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
         by.setdefault(t.subject, []).append(t)
-    return {s: fit_subject(ts, grid=grid, method=method, options=options) for s, ts in sorted(by.items())}
+    return {s: fit_subject(ts, grid=grid, method=method, options=options, refine=refine)
+            for s, ts in sorted(by.items())}
