@@ -364,7 +364,8 @@ class FitOptions:
     flat_margin : float
         Clearance in mm between the flat segment and the feature start (default 0).
     xatol, fatol : float
-        Nelder-Mead tolerances on the *relative* parameters and on the objective.
+        Nelder-Mead tolerances on the *relative* parameters (default 1e-6) and on the
+        objective (default 1e-10).
     maxiter : int
         Nelder-Mead iteration limit.
     """
@@ -373,8 +374,8 @@ class FitOptions:
     median_kernel: int = 11
     median_on: str = "basis"
     flat_margin: float = 0.0
-    xatol: float = 1e-7
-    fatol: float = 1e-12
+    xatol: float = 1e-6
+    fatol: float = 1e-10
     maxiter: int = 2000
 
     def __post_init__(self) -> None:
@@ -575,15 +576,26 @@ class _Design:
         H = T.T @ self.Ac @ T
         c, sst = self.c, self.sst
 
+        # Plain float arithmetic: Nelder-Mead calls this ~100 times per fit, and numpy's
+        # per-call overhead on 2-vectors would dominate (measured ~3x slower).
+        g00, g01, g11 = float(G[0, 0]), float(G[0, 1]), float(G[1, 1])
+        g0, g1 = float(g[0]), float(g[1])
+        h00, h01, h11 = float(H[0, 0]), float(H[0, 1]), float(H[1, 1])
+
+        def sse(p):
+            a, b = float(p[0]), float(p[1])
+            return max(g00 * a * a + 2.0 * g01 * a * b + g11 * b * b - 2.0 * (g0 * a + g1 * b) + c, 0.0)
+
         if name == "nmse":
             def f(p):
-                return max(p @ G @ p - 2.0 * p @ g + c, 0.0) / sst
+                return sse(p) / sst
         else:
             def f(p):
-                den = p @ H @ p
+                a, b = float(p[0]), float(p[1])
+                den = h00 * a * a + 2.0 * h01 * a * b + h11 * b * b
                 if den <= 0:
                     return math.inf
-                return math.sqrt(max(p @ G @ p - 2.0 * p @ g + c, 0.0) / den)
+                return math.sqrt(sse(p) / den)
         return f
 
     def exact_objective(self, mu: float, name: str):
@@ -593,7 +605,8 @@ class _Design:
         return lambda p: fn(self.F, self.estimate(mu, p))
 
 
-def _fit_one(d: _Design, mu: float, method: str, options: FitOptions, subject: str, labels) -> TrialFit:
+def _fit_one(d: _Design, mu: float, method: str, options: FitOptions, subject: str, labels,
+             x0=None) -> TrialFit:
     name = options.objective
     if method == "lstsq":
         if name != "nmse":
@@ -615,12 +628,16 @@ def _fit_one(d: _Design, mu: float, method: str, options: FitOptions, subject: s
     else:
         f = d.exact_objective(mu, name)
         # Start from a crude common scale, not from the closed form, so the comparison
-        # between the two methods is meaningful; optimise relative parameters q = p / s.
+        # between the two methods is meaningful (or from x0, e.g. the previous grid
+        # point's solution); optimise relative parameters q = p / s.
         col = d.P @ (d.T(mu) @ np.ones(2))
         s = float(np.linalg.norm(d.F) / max(np.linalg.norm(col), 1e-300))
         s = s if math.isfinite(s) and s > 0 else 1.0
+        q0 = np.ones(2)
+        if x0 is not None and np.all(np.isfinite(x0)) and np.all(np.asarray(x0) != 0):
+            q0 = np.asarray(x0, dtype=float) / s
         res = optimize.minimize(
-            lambda q: f(s * q), np.ones(2), method="Nelder-Mead",
+            lambda q: f(s * q), q0, method="Nelder-Mead",
             options={"xatol": options.xatol, "fatol": options.fatol, "maxiter": options.maxiter,
                      "maxfev": 4 * options.maxiter},
         )
@@ -743,7 +760,13 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
         if method == "lstsq":
             _, obj, _ = d.lstsq_curve(mus)
         else:
-            obj = np.array([_fit_one(d, m, method, options, "", {}).objective for m in mus])
+            # One simplex per grid point, each warm-started from the previous point's solution.
+            obj = np.empty(mus.size)
+            prev = None
+            for i, m in enumerate(mus):
+                r = _fit_one(d, float(m), method, options, "", {}, x0=prev)
+                obj[i] = r.objective
+                prev = (r.p0, r.p1) if r.success else None
         curve += obj
     if not np.any(np.isfinite(curve)):
         j = 0
