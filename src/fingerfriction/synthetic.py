@@ -116,7 +116,7 @@ def synthetic_trial(
     window: float = 26.0,
     step: float = 0.01,
     indentation: float = 0.05,
-    indentation_sd: float = 0.015,
+    indentation_sd: float = 0.05,
     subject: str = "S1",
     labels: dict | None = None,
 ):
