@@ -625,7 +625,8 @@ class PositionResampling:
     x : (L,) ndarray
         Bin centres in mm.
     values : (L,) ndarray
-        Mean of the samples in each bin (N); empty bins filled by linear interpolation.
+        Per bin, the mean of its samples placed at their mean position, linearly
+        interpolated onto the bin centres (empty bins are filled by the same interpolation).
     counts : (L,) ndarray of int
         Samples averaged in each bin (0: filled).
     n_filled : int
@@ -680,30 +681,39 @@ def resample_to_positions(
     n_bins = int(round((hi - lo) / res)) + 1
     grid = lo + res * np.arange(n_bins)
     ok = np.isfinite(x) & np.isfinite(y)
-    idx = np.rint((x - lo) / res)
-    use = ok & (idx >= 0) & (idx < n_bins)
-    idx = idx[use].astype(np.intp)
-    counts = np.bincount(idx, minlength=n_bins)
-    sums = np.bincount(idx, weights=y[use], minlength=n_bins)
-    if counts.sum() == 0:
-        raise ValueError(f"no sample has a finger position in the window [{lo:g}, {hi:g}] mm")
-    filled = counts == 0
-    if filled[0] or filled[-1]:
-        have = grid[~filled]
+    if not ok.any():
+        raise ValueError("no sample has both a finite finger position and a finite value")
+    x_min, x_max = float(x[ok].min()), float(x[ok].max())
+    if x_min > lo + res / 2 or x_max < hi - res / 2:
         raise ValueError(
-            f"the finger positions cover [{have[0]:.3f}, {have[-1]:.3f}] mm of the window "
+            f"the finger positions cover [{max(x_min, lo):.3f}, {min(x_max, hi):.3f}] mm of the window "
             f"[{lo:g}, {hi:g}] mm; the whole window must be traversed"
         )
-    values = np.full(n_bins, np.nan)
-    values[~filled] = sums[~filled] / counts[~filled]
-    values[filled] = np.interp(grid[filled], grid[~filled], values[~filled])
+    # bins on the window extended by a margin, so that an empty bin at either end of the
+    # window is interpolated from samples just outside it
+    margin = 50
+    idx = np.rint((x - lo) / res) + margin
+    use = ok & (idx >= 0) & (idx < n_bins + 2 * margin)
+    idx = idx[use].astype(np.intp)
+    counts_ext = np.bincount(idx, minlength=n_bins + 2 * margin)
+    sums = np.bincount(idx, weights=y[use], minlength=n_bins + 2 * margin)
+    sums_x = np.bincount(idx, weights=x[use], minlength=n_bins + 2 * margin)
+    have = counts_ext > 0
+    # each bin's mean force sits at the bin's mean sample position (not exactly its centre);
+    # interpolating those points onto the centres makes the result exact for a force linear
+    # in x and reduces to linear interpolation when bins hold one sample or none.
+    x_mean = sums_x[have] / counts_ext[have]
+    y_mean = sums[have] / counts_ext[have]
+    values = np.interp(grid, x_mean, y_mean)
+    counts = counts_ext[margin : margin + n_bins]
+    filled = counts == 0
     # longest run of filled bins
     max_run = 0
     if filled.any():
         d = np.diff(np.concatenate(([0], filled.astype(np.int8), [0])))
         starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
         max_run = int(np.max(ends - starts))
-    xs = x[use]
+    xs = x[ok & (x >= lo - res / 2) & (x <= hi + res / 2)]
     reversal = float(np.max(np.maximum.accumulate(xs) - xs)) if xs.size else 0.0
     return PositionResampling(
         x=grid,
