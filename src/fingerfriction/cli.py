@@ -132,6 +132,83 @@ def demo(
 # ---------------------------------------------------------------------------------------
 
 
+def _frame_positions(study: str, trial: dict, positions: str | None, from_truth: bool):
+    """Per-frame finger positions (mm) for the forces command: a file, or the study's truth."""
+    import numpy as np
+
+    from .forces.readers import study_path
+
+    if positions is not None:
+        if positions.endswith(".npy"):
+            return np.load(positions, allow_pickle=False)
+        import pandas as pd
+
+        df = pd.read_csv(positions)
+        if "x_mm" not in df.columns:
+            raise ValueError(f"{positions!r} has no column 'x_mm' (columns: {list(df.columns)})")
+        return df["x_mm"].to_numpy(dtype=float)
+    if from_truth:
+        if not trial.get("truth"):
+            raise ValueError(f"trial {trial.get('id')!r} has no 'truth' file (not a simulated study)")
+        path = study_path(study, trial["truth"], f"trial {trial.get('id')!r}: truth")
+        with np.load(path, allow_pickle=False) as z:
+            return np.asarray(z["x_finger_video"], dtype=float)
+    raise ValueError(
+        "finger positions are needed: --positions FILE (x_mm per video frame, from the video "
+        "analysis; .csv with column x_mm or .npy) or --from-truth (simulated studies)"
+    )
+
+
+@app.command("forces")
+def forces_cmd(
+    study: str = typer.Argument(..., help="study folder (with manifest.json)"),
+    trial: str = typer.Argument(..., help="trial id"),
+    out: str = typer.Option(None, "--out", help="write F_T(x) to this CSV (x_mm, F_T_N, F_N_N, n_samples)"),
+    positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
+    from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
+    highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none"),
+    notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches"),
+) -> None:
+    """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+
+    from .forces import ForceProcessingParams, process_trial
+
+    try:
+        manifest = json.loads((Path(study) / "manifest.json").read_text())
+        rec = next((t for t in manifest.get("trials", []) if t.get("id") == trial), None)
+        if rec is None:
+            raise ValueError(f"no trial {trial!r} in {study}/manifest.json")
+        x = _frame_positions(study, rec, positions, from_truth)
+        params = ForceProcessingParams(sensor_highpass_hz=highpass_hz or None, notch_q=notch_q)
+        prof = process_trial(study, manifest, trial, x, params=params, on_error="flag")
+        if out is not None:
+            prof.write_csv(out)
+    except (ValueError, OSError, KeyError) as exc:
+        fail(str(exc).strip("'\""))
+        return
+    for f in prof.flags:
+        colour = "red" if f.severity == "error" else "yellow"
+        console.print(f"[{colour}]{f.severity}[/] [{f.code}] {f.message}", highlight=False)
+    if not prof.success:
+        fail(prof.message)
+    ok = np.isfinite(prof.f_t)
+    console.print(
+        f"trial {trial}: F_T(x) on {prof.x.size} positions "
+        f"[{prof.window_mm[0]:g}, {prof.window_mm[1]:g}] mm, "
+        f"flat segment [{prof.flat_segment_mm[0]:.2f}, {prof.flat_segment_mm[1]:.2f}] mm; "
+        f"F_T from {np.min(prof.f_t[ok]) * 1e3:.1f} to {np.max(prof.f_t[ok]) * 1e3:.1f} mN "
+        f"(peak at x = {prof.x[np.argmax(prof.f_t)]:.2f} mm)",
+        highlight=False,
+    )
+    console.print("steps: " + ", ".join(h["step"] for h in prof.history), highlight=False)
+    if out is not None:
+        console.print(f"wrote {out}", highlight=False)
+
+
 # ---------------------------------------------------------------------------------------
 # analyze / fit / report (study pipeline, fingerfriction.pipeline and .report)
 # ---------------------------------------------------------------------------------------

@@ -11,7 +11,9 @@ Visell (2018):
 3. a zero-phase low-pass at 500 Hz (:func:`lowpass_filter`);
 4. removal of the sensor drift: the best linear fit (in time) to the force over the flat
    segment before the feature is subtracted from the whole record
-   (:func:`remove_linear_drift`);
+   (:func:`remove_linear_drift`), preceded, beyond the paper, by the compensation of the
+   piezo chain's high-pass (:func:`fit_baseline`, :func:`compensate_highpass`; see
+   below);
 5. synchronisation with the video clock and association of ``F_T(t)`` with the finger
    position ``x(t)`` (:func:`positions_at_times`);
 6. resampling onto positions at 0.01 mm over the 26 mm window centred on the feature
@@ -55,6 +57,23 @@ feature centred at 0). It can also be given in mm, or derived from contact regio
 constant/linear level the true force has there, so the recovered ``F_T(x)`` is the force
 relative to its flat-ground trend, not the absolute friction force.
 
+**The sensor's high-pass (beyond the paper).** A first-order high-pass at 5 Hz has a time
+constant of 32 ms, while a slide across the 26 mm window lasts 0.2 to 0.65 s: the
+recorded force is the *derivative-like* response of the true force (the friction level
+set up when the slide starts decays away, slow features are distorted), and no linear
+trend fitted on the flat segment can undo that. Measured on simulated trials, the paper's
+procedure alone leaves RMS errors of 12 to 68 % of the peak-to-peak force (see
+``benchmarks/forces.py``). We therefore invert the high-pass (:func:`compensate_highpass`,
+``sensor_highpass_hz``, default 5 Hz as stated in the paper's Methods; ``None`` gives the
+paper's procedure). The inverse is an integrator, so it turns a linear drift ``a t + b``
+into ``b + (a + 2 pi fc b) t + pi fc a t**2``, which a linear fit no longer removes: the
+drift line is therefore first estimated on the unloaded rest at the start of the record
+(before the finger touches, where the true force is zero; :func:`fit_baseline`, fitted
+together with the mains sinusoids, which the notch filters only remove later) and
+subtracted, then the high-pass is inverted, then the paper's flat-segment fit is applied.
+The result depends on knowing the cut-off: a 10 % error in ``sensor_highpass_hz`` costs
+several % of the peak-to-peak force (measured in the benchmark).
+
 References
 ----------
 .. [1] M. Janko, M. Wiertlewski, Y. Visell, "Contact geometry and mechanics predict
@@ -89,6 +108,9 @@ __all__ = [
     "lowpass_filter",
     "fit_linear_drift",
     "remove_linear_drift",
+    "fit_baseline",
+    "compensate_highpass",
+    "detect_baseline",
     "positions_at_times",
     "flat_segment_from_positions",
     "flat_mask_from_regions",
@@ -207,6 +229,23 @@ class ForceProcessingParams:
     max_fill_mm : float
         Longest run of empty position bins in mm that may be filled by interpolation
         without flagging. Default 0.1.
+    sensor_highpass_hz : float or None
+        Cut-off in Hz of the first-order high-pass of the piezo / charge-amplifier chain,
+        inverted by :func:`compensate_highpass`. Default 5.0 (Methods: "approximately
+        5 Hz"). ``None``: no compensation (the paper's procedure as written).
+    baseline : "auto", None or (float, float)
+        The unloaded rest at the start of the record on which the drift line is fitted
+        before the compensation: ``"auto"`` (default) detects it (from the record start to
+        ``baseline_guard_s`` before the force first departs from its initial level by
+        ``contact_threshold_n``); a ``(t_lo, t_hi)`` interval in s on the common clock;
+        ``None``: no baseline (a warning when compensating).
+    contact_threshold_n : float
+        Force departure in N that marks the first touch for ``baseline="auto"``. Default
+        0.02.
+    baseline_guard_s : float
+        Time in s left out between the baseline and the detected touch. Default 0.01.
+    min_baseline_s : float
+        Shortest usable baseline in s. Default 0.02.
     """
 
     notch_hz: tuple[float, ...] = (50.0, 150.0, 300.0)
@@ -223,6 +262,11 @@ class ForceProcessingParams:
     full_scale_n: float | None = None
     max_reversal_mm: float = 0.05
     max_fill_mm: float = 0.1
+    sensor_highpass_hz: float | None = 5.0
+    baseline: str | tuple[float, float] | None = "auto"
+    contact_threshold_n: float = 0.02
+    baseline_guard_s: float = 0.01
+    min_baseline_s: float = 0.02
 
     def __post_init__(self) -> None:
         notch = tuple(float(f) for f in np.atleast_1d(np.asarray(self.notch_hz, dtype=float)))
@@ -269,6 +313,26 @@ class ForceProcessingParams:
             object.__setattr__(self, name, int(v))
         if self.full_scale_n is not None:
             object.__setattr__(self, "full_scale_n", _positive("full_scale_n", self.full_scale_n, "N"))
+        if self.sensor_highpass_hz is not None:
+            object.__setattr__(
+                self, "sensor_highpass_hz", _positive("sensor_highpass_hz", self.sensor_highpass_hz, "Hz")
+            )
+        if isinstance(self.baseline, str):
+            if self.baseline != "auto":
+                raise ValueError(f"baseline must be 'auto', None or (t_lo, t_hi) in s, got {self.baseline!r}")
+        elif self.baseline is not None:
+            try:
+                lo, hi = (float(v) for v in self.baseline)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"baseline must be 'auto', None or (t_lo, t_hi) in s, got {self.baseline!r}"
+                ) from None
+            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+                raise ValueError(f"baseline must be (t_lo, t_hi) in s with t_lo < t_hi, got {(lo, hi)!r}")
+            object.__setattr__(self, "baseline", (lo, hi))
+        for name in ("contact_threshold_n", "baseline_guard_s", "min_baseline_s"):
+            unit = "N" if name.endswith("_n") else "s"
+            object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
 
     def to_dict(self) -> dict:
         """JSON-serialisable dict of the parameters."""
@@ -276,6 +340,8 @@ class ForceProcessingParams:
         d["notch_hz"] = list(self.notch_hz)
         if self.flat_segment_mm is not None:
             d["flat_segment_mm"] = list(self.flat_segment_mm)
+        if isinstance(self.baseline, tuple):
+            d["baseline"] = list(self.baseline)
         return d
 
 
@@ -518,6 +584,123 @@ def remove_linear_drift(t, y, mask=None) -> tuple[np.ndarray, tuple[float, float
     return np.asarray(y, dtype=np.float64) - line, (slope, intercept)
 
 
+def fit_baseline(t, y, mask, *, mains_hz: Sequence[float] = (50.0, 150.0, 300.0)) -> tuple[float, float]:
+    """Drift line of an unloaded baseline, fitted together with mains sinusoids.
+
+    Least squares of ``y ~ slope * t + intercept + sum_k (c_k cos 2 pi f_k t + s_k sin 2 pi
+    f_k t)`` over the samples in ``mask``: on a short baseline (0.1 s holds 5 periods of
+    50 Hz) the interference would otherwise bias the slope.
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Sample times in s.
+    y : (n,) array_like
+        Force in N (unfiltered: the sinusoids are part of the model).
+    mask : (n,) array_like of bool
+        Baseline samples (the true force is zero, or constant, there).
+    mains_hz : sequence of float
+        Interference frequencies in Hz. Default (50, 150, 300).
+
+    Returns
+    -------
+    slope : float
+        N/s.
+    intercept : float
+        N at ``t = 0``.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    m = np.asarray(mask, dtype=bool)
+    if t.ndim != 1 or t.shape != y.shape or m.shape != t.shape:
+        raise ValueError(f"t, y and mask must be 1-D of the same length, got {t.shape}, {y.shape}, {m.shape}")
+    m = m & np.isfinite(y)
+    n_par = 2 + 2 * len(mains_hz)
+    if m.sum() < 2 * n_par:
+        raise ValueError(f"the baseline fit needs at least {2 * n_par} samples in mask, got {int(m.sum())}")
+    tm = t[m]
+    tc = tm.mean()
+    cols = [np.ones_like(tm), tm - tc]
+    for f in mains_hz:
+        cols += [np.cos(2 * np.pi * f * tm), np.sin(2 * np.pi * f * tm)]
+    coef, *_ = np.linalg.lstsq(np.column_stack(cols), y[m], rcond=None)
+    slope = float(coef[1])
+    return slope, float(coef[0] - slope * tc)
+
+
+def compensate_highpass(y, fs: float, cutoff: float, *, axis: int = -1) -> np.ndarray:
+    """Invert a first-order high-pass: the force before a piezo / charge-amplifier chain.
+
+    The chain ``H(s) = s / (s + w0)``, ``w0 = 2 pi cutoff``, discretised by the bilinear
+    transform (:func:`scipy.signal.butter` of order 1), has the exact inverse
+    ``x = y + w0 * integral(y dt)`` with trapezoidal integration, applied here with
+    :func:`scipy.signal.lfilter` and the filter's coefficients swapped. The input is
+    assumed to start from rest (zero state); otherwise the result is off by a constant.
+
+    Parameters
+    ----------
+    y : array_like
+        Recorded signal(s), finite.
+    fs : float
+        Sampling frequency in Hz.
+    cutoff : float
+        High-pass cut-off in Hz, below ``fs / 2``.
+    axis : int
+        Time axis. Default -1.
+
+    Returns
+    -------
+    ndarray, same shape as ``y``
+
+    Notes
+    -----
+    The inverse has a pole at z = 1 (an integrator): an offset ``b`` in ``y`` grows as
+    ``b w0 t``, a slope ``a`` as ``a w0 t**2 / 2``. Remove the drift on an unloaded
+    baseline first (:func:`fit_baseline`).
+    """
+    fs = _check_fs(fs)
+    cutoff = _check_freq("cutoff", cutoff, fs)
+    y = np.asarray(y, dtype=np.float64)
+    if not np.all(np.isfinite(y)):
+        raise ValueError("y contains NaN or infinite values; fill or remove them before compensating")
+    b, a = signal.butter(1, cutoff, btype="highpass", fs=fs)
+    return signal.lfilter(a, b, y, axis=axis)
+
+
+def detect_baseline(f_n, f_t, fs: float, *, threshold: float = 0.02, guard_s: float = 0.01) -> int:
+    """Number of samples of unloaded rest at the start of a record.
+
+    The rest ends ``guard_s`` before the first sample at which ``F_N`` or ``F_T`` departs
+    from its initial level (median of the first 5 ms) by more than ``threshold`` N.
+
+    Parameters
+    ----------
+    f_n, f_t : (n,) array_like
+        Normal and tangential force in N (filtered: mains and noise well below
+        ``threshold``).
+    fs : float
+        Sampling frequency in Hz.
+    threshold : float
+        Departure in N marking the touch. Default 0.02.
+    guard_s : float
+        Margin in s before the touch. Default 0.01.
+
+    Returns
+    -------
+    int
+        0 when the force departs immediately (no rest) or never does.
+    """
+    fs = _check_fs(fs)
+    dev = np.zeros(np.shape(f_n))
+    k0 = max(int(0.005 * fs), 1)
+    for y in (np.asarray(f_n, float), np.asarray(f_t, float)):
+        dev = np.maximum(dev, np.abs(y - np.median(y[:k0])))
+    above = np.flatnonzero(dev > threshold)
+    if above.size == 0:
+        return 0
+    return max(int(above[0]) - int(round(guard_s * fs)), 0)
+
+
 # --------------------------------------------------------------------------------------
 # synchronisation and positions
 # --------------------------------------------------------------------------------------
@@ -625,7 +808,8 @@ class PositionResampling:
     x : (L,) ndarray
         Bin centres in mm.
     values : (L,) ndarray
-        Mean of the samples in each bin (N); empty bins filled by linear interpolation.
+        Per bin, the mean of its samples placed at their mean position, linearly
+        interpolated onto the bin centres (empty bins are filled by the same interpolation).
     counts : (L,) ndarray of int
         Samples averaged in each bin (0: filled).
     n_filled : int
@@ -680,30 +864,39 @@ def resample_to_positions(
     n_bins = int(round((hi - lo) / res)) + 1
     grid = lo + res * np.arange(n_bins)
     ok = np.isfinite(x) & np.isfinite(y)
-    idx = np.rint((x - lo) / res)
-    use = ok & (idx >= 0) & (idx < n_bins)
-    idx = idx[use].astype(np.intp)
-    counts = np.bincount(idx, minlength=n_bins)
-    sums = np.bincount(idx, weights=y[use], minlength=n_bins)
-    if counts.sum() == 0:
-        raise ValueError(f"no sample has a finger position in the window [{lo:g}, {hi:g}] mm")
-    filled = counts == 0
-    if filled[0] or filled[-1]:
-        have = grid[~filled]
+    if not ok.any():
+        raise ValueError("no sample has both a finite finger position and a finite value")
+    x_min, x_max = float(x[ok].min()), float(x[ok].max())
+    if x_min > lo + res / 2 or x_max < hi - res / 2:
         raise ValueError(
-            f"the finger positions cover [{have[0]:.3f}, {have[-1]:.3f}] mm of the window "
+            f"the finger positions cover [{max(x_min, lo):.3f}, {min(x_max, hi):.3f}] mm of the window "
             f"[{lo:g}, {hi:g}] mm; the whole window must be traversed"
         )
-    values = np.full(n_bins, np.nan)
-    values[~filled] = sums[~filled] / counts[~filled]
-    values[filled] = np.interp(grid[filled], grid[~filled], values[~filled])
+    # bins on the window extended by a margin, so that an empty bin at either end of the
+    # window is interpolated from samples just outside it
+    margin = 50
+    idx = np.rint((x - lo) / res) + margin
+    use = ok & (idx >= 0) & (idx < n_bins + 2 * margin)
+    idx = idx[use].astype(np.intp)
+    counts_ext = np.bincount(idx, minlength=n_bins + 2 * margin)
+    sums = np.bincount(idx, weights=y[use], minlength=n_bins + 2 * margin)
+    sums_x = np.bincount(idx, weights=x[use], minlength=n_bins + 2 * margin)
+    have = counts_ext > 0
+    # each bin's mean force sits at the bin's mean sample position (not exactly its centre);
+    # interpolating those points onto the centres makes the result exact for a force linear
+    # in x and reduces to linear interpolation when bins hold one sample or none.
+    x_mean = sums_x[have] / counts_ext[have]
+    y_mean = sums[have] / counts_ext[have]
+    values = np.interp(grid, x_mean, y_mean)
+    counts = counts_ext[margin : margin + n_bins]
+    filled = counts == 0
     # longest run of filled bins
     max_run = 0
     if filled.any():
         d = np.diff(np.concatenate(([0], filled.astype(np.int8), [0])))
         starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
         max_run = int(np.max(ends - starts))
-    xs = x[use]
+    xs = x[ok & (x >= lo - res / 2) & (x <= hi + res / 2)]
     reversal = float(np.max(np.maximum.accumulate(xs) - xs)) if xs.size else 0.0
     return PositionResampling(
         x=grid,
@@ -844,6 +1037,26 @@ class ForceSignals:
         sos = design_lowpass(self.fs_hz, cutoff, order)
         both = _zero_phase(sos, np.vstack([self.f_n, self.f_t]), -1)
         step = {"step": "lowpass", "cutoff_hz": float(cutoff), "order": int(order), "zero_phase": True}
+        return self._with(step, f_n=both[0], f_t=both[1])
+
+    def remove_baseline(self, mask, *, mains_hz: Sequence[float] = (50.0, 150.0, 300.0)) -> ForceSignals:
+        """Subtract the drift line fitted on an unloaded baseline (:func:`fit_baseline`)."""
+        t = self.times()
+        out = {}
+        step: dict = {"step": "remove_baseline", "n_samples": int(np.count_nonzero(mask))}
+        for name in ("f_n", "f_t"):
+            a, b = fit_baseline(t, getattr(self, name), mask, mains_hz=mains_hz)
+            out[name] = getattr(self, name) - (a * t + b)
+            step[f"{name[2:].upper()}_slope_N_per_s"] = a
+            step[f"{name[2:].upper()}_intercept_N"] = b
+        sel = np.flatnonzero(mask)
+        step["t_s"] = [float(t[sel[0]]), float(t[sel[-1]])]
+        return self._with(step, **out)
+
+    def compensate_highpass(self, cutoff: float) -> ForceSignals:
+        """Invert the sensor's first-order high-pass at ``cutoff`` Hz (:func:`compensate_highpass`)."""
+        both = compensate_highpass(np.vstack([self.f_n, self.f_t]), self.fs_hz, cutoff)
+        step = {"step": "compensate_highpass", "cutoff_hz": float(cutoff), "order": 1, "from_rest": True}
         return self._with(step, f_n=both[0], f_t=both[1])
 
     def remove_drift(self, mask, *, segment: str = "") -> ForceSignals:
@@ -997,6 +1210,47 @@ def _check_channels(record: ForceRecord, params: ForceProcessingParams, flags: l
             )
         out.append(x)
     return out[0], out[1]
+
+
+def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list) -> np.ndarray | None:
+    """The unloaded-rest samples before the high-pass compensation, or None (flagged)."""
+    t = sig.times()
+    fs = sig.fs_hz
+    if params.baseline is None:
+        flags.append(
+            Flag(
+                "no-baseline",
+                "baseline=None: the drift is not removed before the high-pass compensation, so a "
+                "drift becomes quadratic in time and the flat-segment fit removes only its linear part",
+            )
+        )
+        return None
+    if params.baseline == "auto":
+        quick = lowpass_filter(np.vstack([sig.f_n, sig.f_t]), fs, min(50.0, 0.4 * fs))
+        n = detect_baseline(
+            quick[0], quick[1], fs, threshold=params.contact_threshold_n, guard_s=params.baseline_guard_s
+        )
+        mask = np.arange(t.size) < n
+        how = (
+            f"the record starts with {n / fs:.4f} s of rest before the force departs by "
+            f"contact_threshold_n={params.contact_threshold_n:g} N"
+        )
+    else:
+        lo, hi = params.baseline
+        mask = (t >= lo) & (t <= hi)
+        how = f"baseline=({lo:g}, {hi:g}) s holds {int(mask.sum())} samples"
+    if mask.sum() < params.min_baseline_s * fs:
+        flags.append(
+            Flag(
+                "no-baseline",
+                f"no usable unloaded baseline: {how}, less than min_baseline_s={params.min_baseline_s:g} s; "
+                "the drift is not removed before the high-pass compensation (it becomes quadratic in "
+                "time, and the flat-segment fit removes only its linear part). Record a rest before the "
+                "touch, or set baseline=(t_lo, t_hi)",
+            )
+        )
+        return None
+    return mask
 
 
 def _empty_profile(params, window, flat, flags, signals=None, x_at=None) -> ForceProfile:
@@ -1158,10 +1412,16 @@ def process_forces(
 
     # --- signals ----------------------------------------------------------------------
     sig = ForceSignals.from_record(replace(record, f1=f1, f2=f2))
+    if params.sensor_highpass_hz is not None:
+        base = _baseline_mask(sig, params, flags)
+        if base is not None:
+            sig = sig.remove_baseline(base, mains_hz=params.notch_hz)
     if params.notch_hz:
         sig = sig.notch(params.notch_hz, q=params.notch_q)
     if params.lowpass_hz is not None:
         sig = sig.lowpass(params.lowpass_hz, order=params.lowpass_order)
+    if params.sensor_highpass_hz is not None:
+        sig = sig.compensate_highpass(params.sensor_highpass_hz)
 
     # --- flat segment and drift ---------------------------------------------------------
     if params.flat_segment_mm is None and regions is not None:

@@ -31,6 +31,7 @@ __all__ = [
     "ForceRecord",
     "read_force_file",
     "read_trial_forces",
+    "study_path",
 ]
 
 logger = logging.getLogger(__name__)
@@ -435,6 +436,27 @@ def read_force_file(
     return ForceRecord(f1=f1, f2=f2, fs_hz=fs, t0_s=t0_s, path=str(p), format=fmt, channels=chans)
 
 
+def study_path(study_dir: str | os.PathLike, relpath, field: str) -> Path:
+    """Absolute path of a manifest path inside the study folder; refuses one that escapes it.
+
+    Parameters
+    ----------
+    study_dir : path-like
+        The study folder.
+    relpath : str
+        A path from the manifest, relative to the folder.
+    field : str
+        What to call it in the error message (``"force.path"``).
+    """
+    root = Path(study_dir).resolve()
+    if not isinstance(relpath, str) or not relpath or Path(relpath).is_absolute():
+        raise ValueError(f"{field} must be a relative path inside the study folder, got {relpath!r}")
+    target = (root / relpath).resolve()
+    if root != target and root not in target.parents:
+        raise ValueError(f"{field} {relpath!r} escapes the study folder {str(root)!r}")
+    return target
+
+
 def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceRecord:
     """Read the force file of one trial of a study (``docs/study-format.md``).
 
@@ -456,7 +478,6 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceReco
         For a missing field, units other than ``"N"``, or a path that escapes the study
         folder; and any error of :func:`read_force_file`.
     """
-    root = Path(study_dir).resolve()
     tid = trial.get("id", "?") if isinstance(trial, Mapping) else "?"
     force = trial.get("force") if isinstance(trial, Mapping) else None
     if not isinstance(force, Mapping):
@@ -467,11 +488,7 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceReco
     units = force.get("units", "N")
     if units != "N":
         raise ValueError(f"trial {tid!r}: force.units is {units!r}; only 'N' (newtons) is supported")
-    target = (root / str(force["path"])).resolve()
-    if root != target and root not in target.parents:
-        raise ValueError(
-            f"trial {tid!r}: force.path {force['path']!r} escapes the study folder {str(root)!r}"
-        )
+    target = study_path(study_dir, force["path"], f"trial {tid!r}: force.path")
     return read_force_file(
         target,
         fs_hz=force["fs_hz"],
