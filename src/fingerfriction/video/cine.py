@@ -158,7 +158,8 @@ def read_cine_header(path: str | os.PathLike) -> CineHeader:
             if len(setup) >= 2:
                 fr16 = struct.unpack_from("<H", setup, 0)[0]
                 fps = float(fr16) if fr16 else None
-            if len(setup) >= _SETUP_LENGTH_OFFSET + 2 and setup[_SETUP_MARK_OFFSET:_SETUP_MARK_OFFSET + 2] == b"ST":
+            marked = setup[_SETUP_MARK_OFFSET:_SETUP_MARK_OFFSET + 2] == b"ST"
+            if len(setup) >= _SETUP_LENGTH_OFFSET + 2 and marked:
                 length = struct.unpack_from("<H", setup, _SETUP_LENGTH_OFFSET)[0]
                 if length >= _SETUP_FRAMERATE_OFFSET + 4 and len(setup) >= _SETUP_FRAMERATE_OFFSET + 4:
                     fr = struct.unpack_from("<I", setup, _SETUP_FRAMERATE_OFFSET)[0]

@@ -54,7 +54,6 @@ def contact_distance(f: np.ndarray, s: np.ndarray, *, metric: str = "euclidean",
     if metric != "euclidean":
         raise ValueError(f"metric must be 'euclidean' or 'vertical', got {metric!r}")
     J = int(math.ceil(tol_px)) + 1
-    w = s.size
     d = np.maximum(s[None, :] - f, 0.0)
     # Only points whose vertical gap is below 2 tol (or the slope bound) can be within tol
     # of a neighbouring column; the others keep their vertical gap (> tol either way).

@@ -303,7 +303,18 @@ class AVReader(VideoReader):
                 pix = cc.pix_fmt or ""
                 n = int(s.frames or 0)
                 if n == 0:  # MKV does not store a frame count: count packets (no decoding)
+                    dur = None
+                    if s.duration is not None and s.time_base is not None:
+                        dur = float(s.duration * s.time_base)
+                    elif c.duration is not None:
+                        dur = c.duration / 1e6
                     n = sum(1 for p in c.demux(s) if p.size)
+                    # The container's duration announces the frame count: fewer packets
+                    # than that means the file was cut short.
+                    if dur and self.fps and round(dur * self.fps) > n:
+                        n_ann = int(round(dur * self.fps))
+                        log.warning("%s: duration says %d frames but only %d are stored", path, n_ann, n)
+                        n = n_ann
         except av.error.FFmpegError as exc:
             raise ValueError(f"{path}: cannot open as video ({exc})") from None
         self.n_frames = n
