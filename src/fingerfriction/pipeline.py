@@ -507,6 +507,8 @@ def analyze(
         raise ValueError(f"n_workers must be a positive integer, got {n_workers!r}")
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
+    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
+    pdigest = params_digest(pdict)
     study_dir, manifest = _load_study(study)
     study_dir = study_dir.resolve()
     selected = trials
@@ -535,8 +537,6 @@ def analyze(
     store = ResultsStore(out)
     for tid in ids:
         store.trial_dir(tid)  # validates the id before anything runs
-    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
-    pdigest = params_digest(pdict)
     raw = {"video": dict(params.video), "forces": dict(params.forces)}
     t_start = time.perf_counter()
     started = _now()
