@@ -895,7 +895,7 @@ def _sim_progress(enabled: bool):
 
 
 def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None, seed: int = 0,
-         n_workers: int | None = None, progress: bool = True) -> DemoResult:
+         n_workers: int | None = None, progress: bool = True, design: Mapping | None = None) -> DemoResult:
     """Simulate the built-in default study, analyse it, fit the model and write the report.
 
     Parameters
@@ -915,6 +915,9 @@ def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None,
         Worker processes for simulation and analysis (default: all cores).
     progress : bool
         Progress bars on stderr.
+    design : dict, optional
+        Overrides of the simulated design (``subjects``, ``surfaces``, ``speeds``), e.g.
+        for a smaller demo; default: the paper's 2 subjects x 6 surfaces x 3 speeds.
 
     Returns
     -------
@@ -930,7 +933,8 @@ def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None,
     t0 = time.perf_counter()
     cb, close = _sim_progress(progress)
     try:
-        simulate_study(study, SimOptions(reps=reps, seed=seed), workers=n_workers, progress=cb,
+        simulate_study(study, SimOptions(reps=reps, seed=seed, **dict(design or {})), workers=n_workers,
+                       progress=cb,
                        description="fingerfriction demo: the paper's design, simulated")
     finally:
         close()
