@@ -285,6 +285,18 @@ def test_interrupted_run_resumes_without_loss_or_recomputation(tiny_study, tmp_p
     again = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM)
     assert again.n_computed == 0 and again.n_skipped == len(ids) and again.scheduler == "none"
     assert not store.is_finished(ids[0], "digest of other parameters")
+    # an input file that changed since (size or modification time) is analysed again
+    t0 = json.loads((tiny_study / "manifest.json").read_text())["trials"][0]
+    force_file = tiny_study / t0["force"]["path"]
+    st = force_file.stat()
+    try:
+        os.utime(force_file, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+        seen = []
+        changed = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM, callback=seen.append)
+    finally:
+        os.utime(force_file, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert changed.n_computed == 1 and changed.n_skipped == len(ids) - 1
+    assert [o.trial_id for o in seen if o.status == "ok"] == [t0["id"]]
 
 
 @pytest.mark.slow

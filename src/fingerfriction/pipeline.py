@@ -363,7 +363,9 @@ def _run_trial(study_dir: str, trial: dict, surface_spec: dict, params: dict) ->
             if not rel:
                 raise ValueError(f"trial {trial.get('id')!r}: manifest field {key}.path is missing")
             p = _resolve(study, rel, f"{key}.path")
-            inputs[key] = {"path": rel, "sha256": sha256_file(p), "bytes": p.stat().st_size}
+            st = p.stat()
+            inputs[key] = {"path": rel, "sha256": sha256_file(p), "bytes": st.st_size,
+                           "mtime_ns": st.st_mtime_ns}
         res = process_trial(study, trial, AnalysisParams(**params), surface_spec=surface_spec)
         return {"ok": True, "frames": res.frames, "forces": res.forces, "info": res.info,
                 "inputs": inputs, "elapsed_s": time.perf_counter() - t0}
@@ -543,7 +545,7 @@ def analyze(
 
     todo, skipped = [], []
     for t in trials:
-        if not force and store.is_finished(t["id"], pdigest):
+        if not force and store.is_finished(t["id"], pdigest) and _inputs_unchanged(study_dir, t, store):
             skipped.append(t["id"])
         else:
             todo.append(t)
@@ -575,13 +577,17 @@ def analyze(
             if callback is not None:
                 callback(TrialOutcome(tid, "skipped"))
         if todo:
+            import dask
             from distributed import Client, LocalCluster, as_completed
 
             cluster = None
             if scheduler is None:
                 nw = n_workers or os.cpu_count() or 1
-                cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+                # allowed-failures=0: a trial that kills its worker (a crash in a decoder)
+                # is reported at once instead of being retried on, and killing, the others.
+                with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                    cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
+                                           dashboard_address=None, silence_logs=logging.ERROR)
                 client = Client(cluster)
                 sched_name = "local"
             else:
@@ -645,6 +651,25 @@ def analyze(
     return AnalyzeResult(results=store.root, n_trials=len(trials), n_computed=n_ok, n_skipped=len(skipped),
                          n_failed=n_fail, failures=tuple(failures), elapsed_s=elapsed,
                          scheduler=sched_name, n_workers=workers_used)
+
+
+def _inputs_unchanged(study_dir: Path, trial: dict, store: ResultsStore) -> bool:
+    """True if the trial's input files have the size and modification time recorded when it
+    was analysed (a cheap check: hashing every video again would cost as much as reading it)."""
+    rec = (store.status(trial["id"]) or {}).get("inputs", {})
+    for key in ("video", "force"):
+        r = rec.get(key) or {}
+        rel = (trial.get(key) or {}).get("path")
+        if r.get("path") != rel:
+            return False
+        try:
+            st = _resolve(study_dir, rel, f"{key}.path").stat()
+        except (OSError, ValueError):
+            return False
+        if st.st_size != r.get("bytes") or st.st_mtime_ns != r.get("mtime_ns"):
+            logger.info("trial %s: %s changed since it was analysed; recomputing", trial["id"], rel)
+            return False
+    return True
 
 
 def _previous_runs(store: ResultsStore) -> list:
