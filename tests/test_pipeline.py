@@ -30,7 +30,7 @@ from fingerfriction.results import (
 )
 
 SRC = Path(__file__).resolve().parents[1] / "src"
-# The simulated camera tracks x(t) over about +-10.3 mm only: a 20 mm force window (see
+# The simulated camera tracks x(t) over about +-9.3 mm only: an 18 mm force window (see
 # fingerfriction.pipeline.DEMO_WINDOW_MM) instead of the paper's 26 mm.
 SIM = AnalysisParams(forces={"window_mm": DEMO_WINDOW_MM})
 

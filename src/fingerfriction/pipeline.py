@@ -880,11 +880,12 @@ DEMO_REPS = 1
 FULL_REPS = 5
 
 #: Force window of the demo in mm. The paper's is 26 mm, but the simulated camera sees
-#: 1280 px x 23 um = 29.4 mm, and the centroid of C_f (about 7 mm wide at 0.4 mm above a
-#: 2 mm bump) can only be tracked while C_f is whole inside the crop: about -10.3 to
-#: +10.3 mm (measured on simulated trials). The force processing needs x(t) over the
-#: whole window, so the demo uses 20 mm.
-DEMO_WINDOW_MM = 20.0
+#: 1280 px x 23 um = 29.4 mm, and the centroid of C_f (the finger below a line 0.4 mm
+#: above the feature's top: about 7 mm wide on the 2 mm surfaces, wider on the 4 mm ones)
+#: is only tracked while C_f is whole inside the crop. Measured on simulated trials of
+#: all six surfaces: x(t) spans at least -9.3 to +9.3 mm (2 mm surfaces: +-10.3 mm). The
+#: force processing needs x(t) over the whole window, so the demo uses 18 mm.
+DEMO_WINDOW_MM = 18.0
 
 
 @dataclass(frozen=True)
