@@ -131,8 +131,9 @@ def fig3_occupancy(data: ReportData) -> Figure:
             ax.plot(xs, surf.h(xs), color="k", lw=1)
         for a, b in bs.intervals:
             ax.axvspan(a, b, color="#d62728", alpha=0.35, lw=0)
-        widths = ", ".join(f"{w:.2f}" for w in bs.widths) or "none"
-        ax.set_title(f"{_label(data, name)} ({len(ts)} trials): blind spots {widths} mm", fontsize=9)
+        widths = ", ".join(f"{w:.2f}" for w in bs.widths)
+        widths = f"{widths} mm" if widths else "none"
+        ax.set_title(f"{_label(data, name)} ({len(ts)} trials): blind spots {widths}", fontsize=9)
         ax.set_ylim(-0.4 * H, 1.25 * H)
         ax.set_yticks([])
         ax.set_xlim(lo, hi)
