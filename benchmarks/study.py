@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import sys
 import tempfile
@@ -72,10 +73,17 @@ def _frames(results: Path) -> int:
 
 def timed(study: Path, results: Path, workers: int, params: AnalysisParams, trials=None):
     shutil.rmtree(results, ignore_errors=True)
+    c0 = _cpu()
     t0 = time.perf_counter()
     res = analyze(study, results, n_workers=workers, progress=False, trials=trials, params=params)
     wall = time.perf_counter() - t0
-    return wall, res
+    return wall, res, _cpu() - c0
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and its reaped children (the cluster's worker processes)."""
+    s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return s.ru_utime + s.ru_stime + c.ru_utime + c.ru_stime
 
 
 def main(argv=None) -> int:
@@ -100,11 +108,12 @@ def main(argv=None) -> int:
     try:
         # 1. the whole study on all cores (the default of `fingerfriction analyze`)
         workers = os.cpu_count() or 1
-        wall, res = timed(study, tmp / "all", workers, params)
+        wall, res, cpu = timed(study, tmp / "all", workers, params)
         frames = _frames(tmp / "all")
         print(f"analyze, {workers} workers: {res.n_computed} trials OK, {res.n_failed} failed, "
               f"{frames} frames in {wall:.1f} s = {wall / max(n, 1):.2f} s/trial, "
-              f"{frames / wall:.0f} frames/s (wall, incl. cluster start-up)")
+              f"{frames / wall:.0f} frames/s (wall, incl. cluster start-up); CPU {cpu:.0f} s "
+              f"= {cpu / max(n, 1):.2f} CPU-s/trial")
         for tid, reason in res.failures[:5]:
             print(f"  failed {tid}: {reason}")
         if n >= PAPER_TRIALS:
@@ -114,13 +123,16 @@ def main(argv=None) -> int:
             est = wall / n * PAPER_TRIALS
             print(f"180-trial study: EXTRAPOLATED from {n} trials: {est:.0f} s = {est / 60:.2f} min "
                   f"(target < 5 min: {'met' if est < 300 else 'NOT met'})")
+        idle = cpu / max(n, 1) * PAPER_TRIALS / workers
+        print(f"180-trial study on {workers} otherwise idle cores, from CPU time: about {idle:.0f} s = "
+              f"{idle / 60:.2f} min")
 
         # 2. speed-up of 2 workers over 1 on the same trials
         ids = [t["id"] for t in json.loads((study / "manifest.json").read_text())["trials"]]
         k = len(ids) if args.speedup_trials <= 0 else min(args.speedup_trials, len(ids))
         sel = ids[:k]
-        w1, r1 = timed(study, tmp / "w1", 1, params, sel)
-        w2, r2 = timed(study, tmp / "w2", 2, params, sel)
+        w1, r1, _ = timed(study, tmp / "w1", 1, params, sel)
+        w2, r2, _ = timed(study, tmp / "w2", 2, params, sel)
         print(f"speed-up on {k} trials: 1 worker {w1:.1f} s, 2 workers {w2:.1f} s, "
               f"2 over 1 = {w1 / w2:.2f}x (ideal 2.00x on 2 free cores); "
               f"load average now {os.getloadavg()[0]:.1f}")
