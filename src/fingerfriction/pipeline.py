@@ -200,6 +200,9 @@ class AnalyzeResult:
         ``(trial_id, reason)`` of each failure of this run.
     elapsed_s : float
         Wall time of the run in s.
+    compute_s : float
+        Wall time in s from the first trial submitted to the last result written (the run
+        without connecting to or starting the cluster).
     scheduler : str
         Scheduler address used (or ``'local'`` for a LocalCluster started here).
     n_workers : int
@@ -215,6 +218,7 @@ class AnalyzeResult:
     elapsed_s: float
     scheduler: str
     n_workers: int
+    compute_s: float = 0.0
 
     @property
     def success(self) -> bool:
@@ -571,6 +575,7 @@ def analyze(
     failures: list[tuple[str, str]] = []
     bar = _Progress(progress, len(trials), "analyze")
     sched_name, workers_used = "none", 0
+    t_submit = t_done = None
     try:
         for tid in skipped:
             bar.advance(f"{tid} (done before)")
@@ -597,6 +602,7 @@ def analyze(
                 workers_used = len(client.scheduler_info().get("workers", {}))
                 surfaces = manifest.get("surfaces", {})
                 futures = {}
+                t_submit = time.perf_counter()
                 for t in todo:
                     fut = client.submit(_run_trial, str(study_dir), t, surfaces.get(t.get("surface"), {}),
                                         raw, key=f"fingerfriction-trial-{t['id']}-{pdigest[:12]}",
@@ -624,6 +630,7 @@ def analyze(
                         failures.append((tid, res["reason"]))
                         logger.warning("trial %s failed: %s", tid, res["reason"])
                         outcome = TrialOutcome(tid, "failed", res["reason"], status["elapsed_s"])
+                    t_done = time.perf_counter()
                     bar.advance(tid if res["ok"] else f"{tid} FAILED")
                     if callback is not None:
                         callback(outcome)
@@ -634,7 +641,9 @@ def analyze(
     finally:
         bar.close()
         elapsed = time.perf_counter() - t_start
+        compute = (t_done - t_submit) if (t_submit is not None and t_done is not None) else 0.0
         this_run = {"started": started, "finished": _now(), "elapsed_s": round(elapsed, 3),
+                    "compute_s": round(compute, 3),
                     "scheduler": sched_name, "n_workers": workers_used, "force": bool(force),
                     "computed": n_ok, "skipped": len(skipped), "failed": n_fail,
                     "interrupted": n_ok + n_fail + len(skipped) < len(trials)}
@@ -650,7 +659,7 @@ def analyze(
 
     return AnalyzeResult(results=store.root, n_trials=len(trials), n_computed=n_ok, n_skipped=len(skipped),
                          n_failed=n_fail, failures=tuple(failures), elapsed_s=elapsed,
-                         scheduler=sched_name, n_workers=workers_used)
+                         scheduler=sched_name, n_workers=workers_used, compute_s=compute)
 
 
 def _inputs_unchanged(study_dir: Path, trial: dict, store: ResultsStore) -> bool:
