@@ -66,7 +66,7 @@ class ForceLaw:
     """
 
     mu: float = 0.55
-    beta0: float = 1.0
+    beta0: float = 0.5
     beta_speed: float = 0.08
     v_ref: float = 80.0
     transient: float = 0.35
@@ -86,8 +86,8 @@ class ForceLaw:
 
 
 SUBJECT_FORCE_LAWS: dict[str, ForceLaw] = {
-    "1": ForceLaw(mu=0.55, beta0=1.0),
-    "2": ForceLaw(mu=0.60, beta0=1.2),
+    "1": ForceLaw(mu=0.55, beta0=0.5),
+    "2": ForceLaw(mu=0.60, beta0=0.6),
 }
 
 
