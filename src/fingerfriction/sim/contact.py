@@ -367,6 +367,24 @@ class ContactTable:
         }, compress=False)
 
     @classmethod
+    def stack(cls, tables) -> ContactTable:
+        """One table from tables of the same surface, finger and positions at different
+        loads (sorted by load)."""
+        tables = sorted(tables, key=lambda t: float(t.loads[0]))
+        t0 = tables[0]
+        for t in tables[1:]:
+            if not (np.array_equal(t.xi, t0.xi) and np.array_equal(t.positions, t0.positions)
+                    and t.provider == t0.provider):
+                raise ValueError("ContactTable.stack: tables differ in grid, positions or provider")
+        if len(tables) == 1:
+            return t0
+        return cls(
+            xi=t0.xi, positions=t0.positions, loads=np.concatenate([t.loads for t in tables]),
+            y_f=np.concatenate([t.y_f for t in tables]), p=np.concatenate([t.p for t in tables]),
+            integrals=np.concatenate([t.integrals for t in tables]), provider=t0.provider,
+        )
+
+    @classmethod
     def load(cls, path) -> ContactTable:
         with np.load(path, allow_pickle=False) as z:
             return cls(

@@ -414,25 +414,34 @@ def _trial_complete(root: Path, rec: TrialRecord) -> bool:
 _TABLE_CACHE: dict = {}
 
 
-def _get_table(path: str) -> ContactTable:
-    if path not in _TABLE_CACHE:
+def _get_table(paths: tuple[str, ...]) -> ContactTable:
+    if paths not in _TABLE_CACHE:
         _TABLE_CACHE.clear()
-        _TABLE_CACHE[path] = ContactTable.load(path)
-    return _TABLE_CACHE[path]
+        _TABLE_CACHE[paths] = ContactTable.stack([ContactTable.load(p) for p in paths])
+    return _TABLE_CACHE[paths]
 
 
-def _table_task(surface_spec: str, subject: str, opts: SimOptions, path: str) -> str:
+def _init_worker() -> None:
+    """One OpenCV thread per worker process: the pool already uses every core."""
+    import cv2
+
+    cv2.setNumThreads(1)
+
+
+def _table_task(surface_spec: str, subject: str, load: float, opts: SimOptions, path: str) -> str:
+    """Tabulate one load of one (surface, subject): loads are separate tasks so that a
+    study with few surfaces still keeps every worker busy."""
     if not os.path.exists(path):
         surf = surface_from_spec(surface_spec)
-        table = build_table(surf, subject, loads=opts.table_loads, step=opts.table_step,
+        table = build_table(surf, subject, loads=(load,), step=opts.table_step,
                             provider=get_provider(opts.contact_model))
         table.save(path)
     return path
 
 
-def _trial_task(spec: TrialSpec, opts: SimOptions, table_path: str, root: str) -> str:
+def _trial_task(spec: TrialSpec, opts: SimOptions, table_paths: tuple[str, ...], root: str) -> str:
     plan = plan_trial(spec, opts)
-    simulate_trial(plan, opts, _get_table(table_path), SUBJECT_FORCE_LAWS[spec.subject], Path(root))
+    simulate_trial(plan, opts, _get_table(table_paths), SUBJECT_FORCE_LAWS[spec.subject], Path(root))
     return spec.id
 
 
@@ -490,23 +499,34 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
     for p in todo:
         groups.setdefault((p.spec.surface_spec, p.spec.subject), []).append(p)
     table_paths = {
-        key: str(cache / f"table-{surface_from_spec(key[0]).name}-s{key[1]}.npz") for key in groups
+        key: tuple(
+            str(cache / f"table-{surface_from_spec(key[0]).name}-s{key[1]}-load{j}.npz")
+            for j in range(len(opts.table_loads))
+        )
+        for key in groups
     }
     if todo:
         cache.mkdir(exist_ok=True)
-        ctx = None
         if workers > 1:
             import multiprocessing as mp
 
             ctx = mp.get_context("forkserver") if "forkserver" in mp.get_all_start_methods() else None
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) if workers > 1 else _Serial() as ex:
-            futs = {ex.submit(_table_task, k[0], k[1], opts, table_paths[k]): k for k in groups}
+            ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+        else:
+            ex = _Serial()
+        try:
+            futs = {
+                ex.submit(_table_task, key[0], key[1], load, opts, table_paths[key][j]): (key, load)
+                for key in groups
+                for j, load in enumerate(opts.table_loads)
+            }
             done_n = 0
             for f in _as_completed(futs):
                 f.result()
                 done_n += 1
                 if progress:
-                    progress("tables", done_n, len(futs), f"{futs[f][0]} s{futs[f][1]}")
+                    (surf_spec, subj), load = futs[f]
+                    progress("tables", done_n, len(futs), f"{surf_spec} s{subj} {load:g} N")
             tfuts = {}
             for key, plist in groups.items():
                 for p in plist:
@@ -517,6 +537,10 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
                 done_n += 1
                 if progress:
                     progress("trials", done_n, len(tfuts), tfuts[f])
+        except BaseException:
+            ex.shutdown(wait=True, cancel_futures=True)
+            raise
+        ex.shutdown(wait=True)
         shutil.rmtree(cache, ignore_errors=True)
 
     surfaces = {}
@@ -549,11 +573,8 @@ def _as_completed(futs):
 class _Serial:
     """A stand-in executor running tasks in the calling process (workers=1)."""
 
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
+    def shutdown(self, wait: bool = True, cancel_futures: bool = False) -> None:
+        pass
 
     def submit(self, fn, *args):
         from concurrent.futures import Future
