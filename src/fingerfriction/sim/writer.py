@@ -486,18 +486,20 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
     header = _truth_header(opts)
     resume = _check_folder(out, header)
     specs = opts.trial_specs()
-    plans = [plan_trial(s, opts) for s in specs]  # validates the whole design before writing
+    # plan every trial (cheap) to validate the whole design before writing; keep only the
+    # records (the workers re-plan their trial: kinematics are deterministic)
+    plans = [(s, plan_trial(s, opts).record) for s in specs]
 
     out.mkdir(parents=True, exist_ok=True)
     if not resume:
         atomic_write_text(out / "truth" / "study.json", json.dumps(header, indent=2) + "\n")
-    todo = [p for p in plans if not _trial_complete(out, p.record)]
+    todo = [(s, r) for s, r in plans if not _trial_complete(out, r)]
     log.info("simulate: %d trials, %d to do (%d complete)", len(plans), len(todo), len(plans) - len(todo))
 
     cache = out / ".cache"
-    groups: dict[tuple[str, str], list[TrialPlan]] = {}
+    groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for p in todo:
-        groups.setdefault((p.spec.surface_spec, p.spec.subject), []).append(p)
+        groups.setdefault((p[0].surface_spec, p[0].subject), []).append(p[0])
     table_paths = {
         key: tuple(
             str(cache / f"table-{surface_from_spec(key[0]).name}-s{key[1]}-load{j}.npz")
@@ -530,7 +532,7 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
             tfuts = {}
             for key, plist in groups.items():
                 for p in plist:
-                    tfuts[ex.submit(_trial_task, p.spec, opts, table_paths[key], str(out))] = p.spec.id
+                    tfuts[ex.submit(_trial_task, p, opts, table_paths[key], str(out))] = p.id
             done_n = 0
             for f in _as_completed(tfuts):
                 f.result()
@@ -548,7 +550,7 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
         surf = surface_from_spec(s)
         surfaces[surf.name] = surf.to_dict()
     study = Study(
-        trials=tuple(p.record for p in plans),
+        trials=tuple(r for _, r in plans),
         surfaces=surfaces,
         description=description or (
             f"virtual experiment: {len(opts.subjects)} subjects x {len(opts.surfaces)} surfaces x "
