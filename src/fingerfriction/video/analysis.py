@@ -373,7 +373,8 @@ class FrameAnalyzer:
 
 def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = None,
                   options: AnalysisOptions | None = None, calibration: Calibration | None = None,
-                  start: int = 0, stop: int | None = None) -> VideoResult:
+                  start: int = 0, stop: int | None = None,
+                  n_frames: int | None = None) -> VideoResult:
     """Analyse one video: x(t), contact regions and per-frame flags.
 
     Parameters
@@ -389,6 +390,9 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         Reuse a calibration instead of computing it from ``options.calibration_frame``.
     start, stop : int
         Frame range to analyse (default: all).
+    n_frames : int, optional
+        Frame count the video should have (the manifest's ``video.n_frames``); frames
+        the file does not hold are flagged CORRUPT and the result marked truncated.
 
     Returns
     -------
@@ -406,7 +410,15 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         n = reader.n_frames
         if n == 0:
             raise ValueError(f"{reader.path}: the video has no frames")
-        stop = n if stop is None else min(int(stop), n)
+        expected = n if n_frames is None else int(n_frames)
+        if n_frames is not None and expected < n:
+            log.warning("%s holds %d frames, more than the %d expected; analysing %d",
+                        reader.path, n, expected, expected)
+        total = expected
+        stop = total if stop is None else min(int(stop), total)
+        if not 0 <= start < stop:
+            raise ValueError(f"{reader.path}: frame range [{start}, {stop}) is empty or outside "
+                             f"the video's {total} frames")
         if calibration is None:
             if opt.calibration_frame >= n:
                 raise ValueError(f"{reader.path}: calibration_frame {opt.calibration_frame} is beyond "
@@ -435,7 +447,10 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
             t0 = time.perf_counter()
             t_an += t0 - t1
             n_an += frames.shape[0]
-        truncated = reader.truncated
+        truncated = reader.truncated or stop > n
+        if stop > n and not reader.truncated:
+            reader.error = f"the file holds {n} frames, {expected} expected"
+            reader.n_read = n
     finally:
         if own:
             reader.close()
