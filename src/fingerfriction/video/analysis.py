@@ -37,7 +37,7 @@ from .calibrate import Calibration, calibrate
 from .contact import contact_distance, contact_regions
 from .contours import finger_zone, lower_envelope, trace_finger
 from .readers import VideoReader, open_video
-from .tracking import area_below_line, centroid_below_line, line_for_area
+from .tracking import area_below_line, centroid_below_line, chord_midpoint, line_for_area
 
 __all__ = ["FrameFlag", "FLAG_REASONS", "AnalysisOptions", "FrameAnalyzer", "VideoResult",
            "analyze_video"]
@@ -94,6 +94,9 @@ class AnalysisOptions:
         Shortest finger contour (pixels) accepted; shorter ones are noise.
     n_max_regions : int
         Most contact regions expected in a frame.
+    chord_height_mm : float
+        Height above the feature's top of the chord whose midpoint gives the alternative
+        position ``x_chord`` (not in the paper; 1 mm).
     """
 
     crop: Crop | None = None
@@ -105,6 +108,7 @@ class AnalysisOptions:
     calibration_frame: int = 0
     min_finger_points: int = 20
     n_max_regions: int = 8
+    chord_height_mm: float = 1.0
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.contact_tol_px) and self.contact_tol_px > 0):
@@ -119,6 +123,8 @@ class AnalysisOptions:
             raise ValueError(f"calibration_frame must be >= 0, got {self.calibration_frame!r}")
         if int(self.n_max_regions) < 1:
             raise ValueError(f"n_max_regions must be >= 1, got {self.n_max_regions!r}")
+        if not (math.isfinite(self.chord_height_mm) and self.chord_height_mm > 0):
+            raise ValueError(f"chord_height_mm must be > 0 mm, got {self.chord_height_mm!r}")
         if self.level is not None and not math.isfinite(float(self.level)):
             raise ValueError(f"level must be a finite gray level, got {self.level!r}")
 
@@ -132,8 +138,12 @@ class VideoResult:
     path : str
         The video.
     x : (n_frames,) ndarray
-        Finger position x(t) in mm, surface coordinates (centroid of C_f); NaN where
-        flagged.
+        Finger position x(t) in mm, surface coordinates (centroid of C_f, the paper's
+        definition); NaN where flagged.
+    x_chord : (n_frames,) ndarray
+        Alternative position (not in the paper): midpoint of the finger's chord
+        ``chord_height_mm`` above the feature's top, in mm; NaN where flagged or where
+        the chord is cut by the crop.
     regions : (n_frames, n_max, 2) ndarray
         Contact regions C_i in mm (:mod:`fingerfriction.regions`); no regions (all NaN)
         in flagged frames.
@@ -163,6 +173,7 @@ class VideoResult:
 
     path: str
     x: np.ndarray = field(repr=False)
+    x_chord: np.ndarray = field(repr=False)
     regions: np.ndarray = field(repr=False)
     flags: np.ndarray = field(repr=False)
     line_row: np.ndarray = field(repr=False)
@@ -220,7 +231,7 @@ class VideoResult:
         path = os.fspath(path)
         tmp = path + ".tmp.npz"
         cal = self.calibration
-        np.savez(tmp, x=self.x, regions=self.regions, flags=self.flags, line_row=self.line_row,
+        np.savez(tmp, x=self.x, x_chord=self.x_chord, regions=self.regions, flags=self.flags, line_row=self.line_row,
                  area_px=self.area_px, reference_frame=self.reference_frame,
                  mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
                  surface_x_mm=cal.x_mm, surface_h_mm=cal.h_hat_mm,
@@ -258,6 +269,7 @@ class FrameAnalyzer:
         self.s = calibration.surface_row.astype(float)
         self.buf = np.empty((self.zone_rows, w), np.uint8)
         self.line0 = calibration.top_row - options.line_offset_mm / calibration.mm_per_px
+        self.chord_row = calibration.top_row - options.chord_height_mm / calibration.mm_per_px
         self.area: float | None = None
         self.reference_frame = -1
         self.n_frames_seen = 0
@@ -325,7 +337,7 @@ class FrameAnalyzer:
         Returns
         -------
         dict
-            ``x`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
+            ``x`` (k,) mm, ``x_chord`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
             ``line_row`` (k,) px, ``f`` (k, width) outline rows.
         """
         opt, cal = self.opt, self.cal
@@ -347,11 +359,15 @@ class FrameAnalyzer:
                     log.info("reference area A = %.1f px^2 in frame %d", a, self.reference_frame)
                     break
         line = np.full(k, np.nan)
-        if self.area is None:
-            flags[flags == 0] |= int(FrameFlag.NO_REFERENCE)
-        else:
-            before = idx < self.reference_frame
-            flags[(flags == 0) & before] |= int(FrameFlag.NO_REFERENCE)
+        pre = (flags == 0) & ((self.area is None) | (idx < self.reference_frame))
+        if pre.any():
+            # Before the reference frame: C_f (at the initial line) cut by the crop's side
+            # is "out of view"; anything else has no reference area yet.
+            cut0 = ((np.nan_to_num(f[:, 0], nan=-np.inf) > self.line0)
+                    | (np.nan_to_num(f[:, w - 1], nan=-np.inf) > self.line0))
+            flags[pre & cut0] |= int(FrameFlag.OUT_OF_VIEW)
+            flags[pre & ~cut0] |= int(FrameFlag.NO_REFERENCE)
+        if self.area is not None:
             ok = flags == 0
             if ok.any():
                 line[ok] = line_for_area(f[ok], self.area)
@@ -364,11 +380,12 @@ class FrameAnalyzer:
         line[~good] = np.nan
         xcol = centroid_below_line(f, np.where(good, line, np.inf))
         x = np.where(good, cal.col_to_mm(xcol), np.nan)
+        x_chord = np.where(good, cal.col_to_mm(chord_midpoint(f, self.chord_row)), np.nan)
         fg = np.where(good[:, None], f, np.nan)
         d = contact_distance(fg, self.s, metric=opt.contact_metric, tol_px=opt.contact_tol_px)
         regions = contact_regions(d, opt.contact_tol_px, cal.col_to_mm, n_max=opt.n_max_regions)
         self.n_frames_seen += k
-        return {"x": x, "regions": regions, "flags": flags, "line_row": line, "f": f}
+        return {"x": x, "x_chord": x_chord, "regions": regions, "flags": flags, "line_row": line, "f": f}
 
 
 def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = None,
@@ -432,6 +449,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         an = FrameAnalyzer(calibration, opt, reader.shape)
         m = stop - start
         x = np.full(m, np.nan)
+        x_chord = np.full(m, np.nan)
         line = np.full(m, np.nan)
         flags = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
         regions = np.full((m, opt.n_max_regions, 2), np.nan)
@@ -443,7 +461,8 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
             t_dec += t1 - t0
             r = an.analyze_chunk(i0, frames)
             s = slice(i0 - start, i0 - start + frames.shape[0])
-            x[s], line[s], flags[s], regions[s] = r["x"], r["line_row"], r["flags"], r["regions"]
+            x[s], x_chord[s], line[s] = r["x"], r["x_chord"], r["line_row"]
+            flags[s], regions[s] = r["flags"], r["regions"]
             t0 = time.perf_counter()
             t_an += t0 - t1
             n_an += frames.shape[0]
@@ -462,7 +481,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         msg += f"; video truncated after frame {reader.n_read - 1}: {reader.error}"
     timings = {"decode_s": t_dec, "analysis_s": t_an,
                "frames_per_s": n_an / t_an if t_an > 0 else float("nan")}
-    return VideoResult(path=reader.path, x=x, regions=regions, flags=flags, line_row=line,
+    return VideoResult(path=reader.path, x=x, x_chord=x_chord, regions=regions, flags=flags, line_row=line,
                        area_px=float(an.area) if an.area is not None else float("nan"),
                        reference_frame=an.reference_frame, calibration=calibration, fps=reader.fps,
                        contact_tol_px=opt.contact_tol_px, contact_metric=opt.contact_metric,
