@@ -231,7 +231,8 @@ class VideoResult:
         path = os.fspath(path)
         tmp = path + ".tmp.npz"
         cal = self.calibration
-        np.savez(tmp, x=self.x, x_chord=self.x_chord, regions=self.regions, flags=self.flags, line_row=self.line_row,
+        np.savez(tmp, x=self.x, x_chord=self.x_chord, regions=self.regions, flags=self.flags,
+                 line_row=self.line_row,
                  area_px=self.area_px, reference_frame=self.reference_frame,
                  mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
                  surface_x_mm=cal.x_mm, surface_h_mm=cal.h_hat_mm,
@@ -268,6 +269,8 @@ class FrameAnalyzer:
         self.zone_last = fd - 2
         self.s = calibration.surface_row.astype(float)
         self.buf = np.empty((self.zone_rows, w), np.uint8)
+        # rows from which the zone mask differs from "all rows": only there is it applied
+        self.band_start = int(max(int(fd.min()) - 2, 0))
         self.line0 = calibration.top_row - options.line_offset_mm / calibration.mm_per_px
         self.chord_row = calibration.top_row - options.chord_height_mm / calibration.mm_per_px
         self.area: float | None = None
@@ -292,43 +295,53 @@ class FrameAnalyzer:
         crop = self.cal.crop.apply(frames)
         k = crop.shape[0]
         w = self.width
+        zr = self.zone_rows
         level = self.cal.level
-        env = np.full((k, w), -1, dtype=np.int64)
+        f = np.full((k, w), np.nan)
         flags = np.zeros(k, np.uint8)
         eight = crop.dtype == np.uint8
         lvl8 = int(math.floor(level))
-        boolbuf = np.empty((self.zone_rows, w), bool)
+        # Each frame's finger zone is copied to a small contiguous buffer first: OpenCV
+        # copies strided inputs internally, and the gathers below stay in cache.
+        gray = np.empty((zr + 1, w), crop.dtype)
+        boolbuf = np.empty((zr, w), bool)
+        b0 = self.band_start
+        zone_band = self.zone[b0:]
+        s = self.s
+        zone_last = self.zone_last
+        min_pts = self.opt.min_finger_points
         for t in range(k):
-            img = crop[t, : self.zone_rows]
+            np.copyto(gray, crop[t, : zr + 1])
             if eight:
-                cv2.threshold(img, lvl8, 255, cv2.THRESH_BINARY_INV, dst=self.buf)
-                cv2.bitwise_and(self.buf, self.zone, dst=self.buf)
                 binimg = self.buf
+                cv2.threshold(gray[:zr], lvl8, 255, cv2.THRESH_BINARY_INV, dst=binimg)
+                band = binimg[b0:]
+                cv2.bitwise_and(band, zone_band, dst=band)
             else:
-                np.less_equal(img, level, out=boolbuf)
-                np.logical_and(boolbuf, self.zone_bool, out=boolbuf)
+                np.less_equal(gray[:zr], level, out=boolbuf)
+                np.logical_and(boolbuf[b0:], self.zone_bool[b0:], out=boolbuf[b0:])
                 binimg = boolbuf.view(np.uint8)
-            nz = cv2.countNonZero(binimg)
-            if nz > 0.98 * self.zone_count:
-                flags[t] = int(FrameFlag.NO_CONTOUR)
-                continue
-            fc = trace_finger(binimg, min_points=self.opt.min_finger_points) if nz else None
+            fc = trace_finger(binimg, min_points=min_pts)
             if fc is None:
                 flags[t] = int(FrameFlag.FINGER_MISSING)
                 continue
-            env[t] = lower_envelope(fc.points, w)
-        has = env >= 0
-        yb = np.where(has, env, 0)
-        tt = np.arange(k)[:, None]
-        cc = np.arange(w)[None, :]
-        g0 = crop[tt, yb, cc].astype(np.float32)
-        g1 = crop[tt, yb + 1, cc].astype(np.float32)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            frac = np.where(g1 > g0, (level - g0) / (g1 - g0), 0.5)
-        f = yb + np.clip(frac, 0.0, 1.0)
-        touch = (yb >= self.zone_last[None, :]) & (g1 <= level)
-        f = np.where(touch, self.s[None, :], np.minimum(f, self.s[None, :]))
-        f[~has] = np.nan
+            env = lower_envelope(fc.points, w)
+            cols = np.flatnonzero(env >= 0)
+            yb = env[cols]
+            g0 = gray[yb, cols].astype(np.float32)
+            g1 = gray[yb + 1, cols].astype(np.float32)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                frac = np.where(g1 > g0, (level - g0) / (g1 - g0), 0.5)
+            sc = s[cols]
+            fr = np.minimum(yb + np.clip(frac, 0.0, 1.0), sc)
+            touch = (yb >= zone_last[cols]) & (g1 <= level)
+            fr[touch] = sc[touch]
+            if touch.size > 0.98 * w:
+                # Dark down to the surface in nearly every column: the threshold leaves
+                # no finger contour to speak of (frame too dark or level too high).
+                flags[t] = int(FrameFlag.NO_CONTOUR)
+                continue
+            f[t, cols] = fr
         return f, flags
 
     def analyze_chunk(self, start: int, frames: np.ndarray) -> dict:
