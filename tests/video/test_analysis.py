@@ -100,3 +100,15 @@ def test_frames_with_only_a_lifted_finger_are_flagged(tmp_path):
     p = write_video(tmp_path / "lift.mkv", np.stack(frames))
     res = analyze_video(p, 0.4, surface=SURF)
     assert res.flags[1] == 0 and res.flags[2] == FrameFlag.AREA_UNREACHABLE
+
+
+def test_result_save_is_readable_without_pickle(video, tmp_path):
+    path, _ = video
+    res = analyze_video(path, 0.4, surface=SURF)
+    out = tmp_path / "r.npz"
+    res.save(out)
+    with np.load(out, allow_pickle=False) as z:
+        np.testing.assert_array_equal(z["flags"], res.flags)
+        np.testing.assert_allclose(z["x"], res.x, equal_nan=True)
+        assert float(z["mm_per_px"]) == res.mm_per_px
+    assert not list(tmp_path.glob("*.tmp*"))

@@ -66,3 +66,15 @@ def test_finger_over_the_bump_after_offset_removal():
     # This synthetic finger is a rigid disc cut by the bump (not volume-preserving), so
     # the centroid moves by up to ~0.12 mm while over the bump; RMS stays below 0.06 mm.
     assert np.sqrt(np.mean(err**2)) < 0.06
+
+
+def test_chord_midpoint():
+    from fingerfriction.video.tracking import chord_midpoint
+
+    c = np.arange(40, dtype=float)
+    f = 30 - 0.1 * (c - 17.3) ** 2  # parabola, apex at column 17.3
+    f[f < 0] = np.nan
+    m = chord_midpoint(np.stack([f, f + 100, np.full(40, np.nan)]), 20.0)
+    assert m[0] == pytest.approx(17.3, abs=0.05)  # linear interpolation of the crossings
+    assert np.isnan(m[1])  # the chord at row 20 is cut by the sides of the crop
+    assert np.isnan(m[2])
