@@ -69,12 +69,15 @@ def speed(study, n_frames: int) -> None:
     tr = study.trials[0]
     path = study.path(tr.video.path)
     with open_video(path) as r:
-        frames = np.concatenate([c.copy() for _, c in r.iter_chunks(128, stop=n_frames)])
+        # frames from the middle of the trial: the finger is in view and in contact there
+        mid = max((r.n_frames - n_frames) // 2, 1)
+        frame0 = r.read_frame(tr.video.calibration_frame)
+        frames = np.concatenate([c.copy() for _, c in r.iter_chunks(128, start=mid, stop=mid + n_frames)])
     surf = study.surface(tr.surface)
-    cal = calibrate(frames[0], tr.calibration["surface_height_mm"], surface=surf)
+    cal = calibrate(frame0, tr.calibration["surface_height_mm"], surface=surf)
     crops = np.ascontiguousarray(cal.crop.apply(frames))
     k = len(frames)
-    print(f"\n== speed: {k} frames of {tr.id} ({frames.shape[2]}x{frames.shape[1]}, "
+    print(f"\n== speed: {k} frames (from {mid}) of {tr.id} ({frames.shape[2]}x{frames.shape[1]}, "
           f"crop {cal.crop.width}x{cal.crop.height}), one core (cv2.setNumThreads(1))")
 
     def floor():

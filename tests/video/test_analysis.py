@@ -112,3 +112,11 @@ def test_result_save_is_readable_without_pickle(video, tmp_path):
         np.testing.assert_allclose(z["x"], res.x, equal_nan=True)
         assert float(z["mm_per_px"]) == res.mm_per_px
     assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_a_finger_wider_than_the_view_is_out_of_view_not_no_contour(tmp_path):
+    frames = [render(surface=SURF)[0], render(surface=SURF, finger=(-4.0, -0.15, 8.0))[0],
+              render(surface=SURF, finger=(-4.0, -0.05, 60.0))[0]]  # spans every column
+    p = write_video(tmp_path / "wide.mkv", np.stack(frames))
+    res = analyze_video(p, 0.4, surface=SURF)
+    assert res.flags[1] == 0 and res.flags[2] == FrameFlag.OUT_OF_VIEW

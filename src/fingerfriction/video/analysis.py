@@ -336,7 +336,7 @@ class FrameAnalyzer:
             fr = np.minimum(yb + np.clip(frac, 0.0, 1.0), sc)
             touch = (yb >= zone_last[cols]) & (g1 <= level)
             fr[touch] = sc[touch]
-            if touch.size > 0.98 * w:
+            if np.count_nonzero(touch) > 0.98 * w:
                 # Dark down to the surface in nearly every column: the threshold leaves
                 # no finger contour to speak of (frame too dark or level too high).
                 flags[t] = int(FrameFlag.NO_CONTOUR)
