@@ -116,7 +116,7 @@ def test_result_save_is_readable_without_pickle(video, tmp_path):
 
 def test_a_finger_wider_than_the_view_is_out_of_view_not_no_contour(tmp_path):
     frames = [render(surface=SURF)[0], render(surface=SURF, finger=(-4.0, -0.15, 8.0))[0],
-              render(surface=SURF, finger=(-4.0, -0.05, 60.0))[0]]  # spans every column
+              render(surface=SURF, finger=(-4.0, -0.05, 1000.0))[0]]  # flat, every column
     p = write_video(tmp_path / "wide.mkv", np.stack(frames))
     res = analyze_video(p, 0.4, surface=SURF)
     assert res.flags[1] == 0 and res.flags[2] == FrameFlag.OUT_OF_VIEW
