@@ -64,6 +64,13 @@ def pick_study(arg: str | None) -> Path:
     return best
 
 
+def _stack(regions: list[np.ndarray]) -> np.ndarray:
+    """Concatenate region arrays of different slot counts (NaN padding)."""
+    k = max(r.shape[1] for r in regions)
+    return np.concatenate([np.pad(r, ((0, 0), (0, k - r.shape[1]), (0, 0)), constant_values=np.nan)
+                           for r in regions])
+
+
 def speed(study, n_frames: int) -> None:
     cv2.setNumThreads(1)
     tr = study.trials[0]
@@ -194,8 +201,8 @@ def accuracy(study, max_trials: int | None) -> None:
                   f"{np.percentile(ep, 99):.2f} px, {np.mean(ep <= 3):.4%} within 3 px (target: all)")
         print("  blind spots per surface (all its trials), widths in mm: truth vs ours")
         for name, (T, M) in per_surface.items():
-            bt = blind_spots(np.concatenate(T))
-            bm = blind_spots(np.concatenate(M))
+            bt = blind_spots(_stack(T))
+            bm = blind_spots(_stack(M))
             wt, wm = bt.widths, bm.widths
             if len(wt) == len(wm):
                 diff = np.abs(wt - wm).max(initial=0.0)
