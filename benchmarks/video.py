@@ -153,7 +153,7 @@ def accuracy(study, max_trials: int | None) -> None:
                                 n_frames=tr.video.n_frames)
             xt = z["x_finger_video"]
             v = (res.flags == 0) & np.isfinite(xt)
-            e = res.x[v] - xt[v]
+            e = res.x_cf[v] - xt[v]
             e -= e.mean()
             ec = res.x_chord[v] - xt[v]
             okc = np.isfinite(ec)

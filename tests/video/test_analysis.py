@@ -120,3 +120,15 @@ def test_a_finger_wider_than_the_view_is_out_of_view_not_no_contour(tmp_path):
     p = write_video(tmp_path / "wide.mkv", np.stack(frames))
     res = analyze_video(p, 0.4, surface=SURF)
     assert res.flags[1] == 0 and res.flags[2] == FrameFlag.OUT_OF_VIEW
+
+
+def test_position_option_selects_the_chord_midpoint(video):
+    path, xs = video
+    cf = analyze_video(path, 0.4, surface=SURF)
+    ch = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(position="chord"))
+    np.testing.assert_array_equal(ch.x, ch.x_chord)
+    np.testing.assert_array_equal(cf.x, cf.x_cf)
+    np.testing.assert_allclose(ch.x_cf, cf.x_cf, equal_nan=True)  # C_f always computed
+    assert np.abs(ch.x[1:7] - xs).max() < 0.02
+    with pytest.raises(ValueError, match="position"):
+        AnalysisOptions(position="nose")

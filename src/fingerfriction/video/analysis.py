@@ -97,6 +97,10 @@ class AnalysisOptions:
     chord_height_mm : float
         Height above the feature's top of the chord whose midpoint gives the alternative
         position ``x_chord`` (not in the paper; 1 mm).
+    position : {'cf-centroid', 'chord'}
+        What :attr:`VideoResult.x` holds: the paper's centroid of C_f (default) or the
+        chord midpoint (frames whose chord is cut by the crop are then flagged
+        OUT_OF_VIEW). Both are always returned as ``x_cf`` and ``x_chord``.
     """
 
     crop: Crop | None = None
@@ -109,6 +113,7 @@ class AnalysisOptions:
     min_finger_points: int = 20
     n_max_regions: int = 8
     chord_height_mm: float = 1.0
+    position: str = "cf-centroid"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.contact_tol_px) and self.contact_tol_px > 0):
@@ -123,6 +128,8 @@ class AnalysisOptions:
             raise ValueError(f"calibration_frame must be >= 0, got {self.calibration_frame!r}")
         if int(self.n_max_regions) < 1:
             raise ValueError(f"n_max_regions must be >= 1, got {self.n_max_regions!r}")
+        if self.position not in ("cf-centroid", "chord"):
+            raise ValueError(f"position must be 'cf-centroid' or 'chord', got {self.position!r}")
         if not (math.isfinite(self.chord_height_mm) and self.chord_height_mm > 0):
             raise ValueError(f"chord_height_mm must be > 0 mm, got {self.chord_height_mm!r}")
         if self.level is not None and not math.isfinite(float(self.level)):
@@ -138,8 +145,10 @@ class VideoResult:
     path : str
         The video.
     x : (n_frames,) ndarray
-        Finger position x(t) in mm, surface coordinates (centroid of C_f, the paper's
-        definition); NaN where flagged.
+        Finger position x(t) in mm, surface coordinates: ``x_cf`` or ``x_chord`` as
+        chosen by ``AnalysisOptions.position``; NaN where flagged.
+    x_cf : (n_frames,) ndarray
+        Centroid of C_f in mm (the paper's definition); NaN where flagged.
     x_chord : (n_frames,) ndarray
         Alternative position (not in the paper): midpoint of the finger's chord
         ``chord_height_mm`` above the feature's top, in mm; NaN where flagged or where
@@ -173,6 +182,7 @@ class VideoResult:
 
     path: str
     x: np.ndarray = field(repr=False)
+    x_cf: np.ndarray = field(repr=False)
     x_chord: np.ndarray = field(repr=False)
     regions: np.ndarray = field(repr=False)
     flags: np.ndarray = field(repr=False)
@@ -231,7 +241,7 @@ class VideoResult:
         path = os.fspath(path)
         tmp = path + ".tmp.npz"
         cal = self.calibration
-        np.savez(tmp, x=self.x, x_chord=self.x_chord, regions=self.regions, flags=self.flags,
+        np.savez(tmp, x=self.x, x_cf=self.x_cf, x_chord=self.x_chord, regions=self.regions, flags=self.flags,
                  line_row=self.line_row,
                  area_px=self.area_px, reference_frame=self.reference_frame,
                  mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
@@ -350,7 +360,7 @@ class FrameAnalyzer:
         Returns
         -------
         dict
-            ``x`` (k,) mm, ``x_chord`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
+            ``x``, ``x_cf``, ``x_chord`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
             ``line_row`` (k,) px, ``f`` (k, width) outline rows.
         """
         opt, cal = self.opt, self.cal
@@ -390,15 +400,24 @@ class FrameAnalyzer:
                                   | (np.nan_to_num(f[:, w - 1], nan=-np.inf) > line))
             flags[cut] |= int(FrameFlag.OUT_OF_VIEW)
         good = flags == 0
-        line[~good] = np.nan
         xcol = centroid_below_line(f, np.where(good, line, np.inf))
-        x = np.where(good, cal.col_to_mm(xcol), np.nan)
+        x_cf = np.where(good, cal.col_to_mm(xcol), np.nan)
         x_chord = np.where(good, cal.col_to_mm(chord_midpoint(f, self.chord_row)), np.nan)
+        if opt.position == "chord":
+            cut = good & np.isnan(x_chord)
+            flags[cut] |= int(FrameFlag.OUT_OF_VIEW)
+            good = flags == 0
+            x_cf[~good] = np.nan
+            x = x_chord
+        else:
+            x = x_cf
+        line[~good] = np.nan
         fg = np.where(good[:, None], f, np.nan)
         d = contact_distance(fg, self.s, metric=opt.contact_metric, tol_px=opt.contact_tol_px)
         regions = contact_regions(d, opt.contact_tol_px, cal.col_to_mm, n_max=opt.n_max_regions)
         self.n_frames_seen += k
-        return {"x": x, "x_chord": x_chord, "regions": regions, "flags": flags, "line_row": line, "f": f}
+        return {"x": x, "x_cf": x_cf, "x_chord": x_chord, "regions": regions, "flags": flags,
+                "line_row": line, "f": f}
 
 
 def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = None,
@@ -462,6 +481,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         an = FrameAnalyzer(calibration, opt, reader.shape)
         m = stop - start
         x = np.full(m, np.nan)
+        x_cf = np.full(m, np.nan)
         x_chord = np.full(m, np.nan)
         line = np.full(m, np.nan)
         flags = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
@@ -474,7 +494,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
             t_dec += t1 - t0
             r = an.analyze_chunk(i0, frames)
             s = slice(i0 - start, i0 - start + frames.shape[0])
-            x[s], x_chord[s], line[s] = r["x"], r["x_chord"], r["line_row"]
+            x[s], x_cf[s], x_chord[s], line[s] = r["x"], r["x_cf"], r["x_chord"], r["line_row"]
             flags[s], regions[s] = r["flags"], r["regions"]
             t0 = time.perf_counter()
             t_an += t0 - t1
@@ -494,7 +514,8 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         msg += f"; video truncated after frame {reader.n_read - 1}: {reader.error}"
     timings = {"decode_s": t_dec, "analysis_s": t_an,
                "frames_per_s": n_an / t_an if t_an > 0 else float("nan")}
-    return VideoResult(path=reader.path, x=x, x_chord=x_chord, regions=regions, flags=flags, line_row=line,
+    return VideoResult(path=reader.path, x=x, x_cf=x_cf, x_chord=x_chord, regions=regions, flags=flags,
+                       line_row=line,
                        area_px=float(an.area) if an.area is not None else float("nan"),
                        reference_frame=an.reference_frame, calibration=calibration, fps=reader.fps,
                        contact_tol_px=opt.contact_tol_px, contact_metric=opt.contact_metric,
