@@ -132,3 +132,18 @@ def test_position_option_selects_the_chord_midpoint(video):
     assert np.abs(ch.x[1:7] - xs).max() < 0.02
     with pytest.raises(ValueError, match="position"):
         AnalysisOptions(position="nose")
+
+
+def test_sixteen_bit_cine_gives_the_same_positions(tmp_path):
+    xs = np.linspace(-6.0, -4.0, 3)
+    v8 = render_video(xs, surface=SURF, noise=1.0)
+    v16 = render_video(xs, surface=SURF, noise=1.0, dtype=np.uint16)
+    assert v16.dtype == np.uint16
+    p8 = write_video(tmp_path / "a.cine", v8)
+    p16 = write_video(tmp_path / "b.cine", v16)
+    r8 = analyze_video(p8, 0.4, surface=SURF)
+    r16 = analyze_video(p16, 0.4, surface=SURF)
+    assert r16.calibration.level > 255  # Otsu on the 16-bit scale
+    assert (r16.flags == r8.flags).all()
+    np.testing.assert_allclose(r16.x[1:], xs, atol=0.02)
+    np.testing.assert_allclose(r16.x[1:], r8.x[1:], atol=0.005)
