@@ -307,19 +307,21 @@ class FrameAnalyzer:
         w = self.width
         zr = self.zone_rows
         level = self.cal.level
-        f = np.full((k, w), np.nan)
         flags = np.zeros(k, np.uint8)
         eight = crop.dtype == np.uint8
         lvl8 = int(math.floor(level))
         # Each frame's finger zone is copied to a small contiguous buffer first: OpenCV
         # copies strided inputs internally, and the gathers below stay in cache.
         gray = np.empty((zr + 1, w), crop.dtype)
+        gflat = gray.reshape(-1)
         boolbuf = np.empty((zr, w), bool)
         b0 = self.band_start
         zone_band = self.zone[b0:]
-        s = self.s
-        zone_last = self.zone_last
         min_pts = self.opt.min_finger_points
+        env = np.full((k, w), -1, np.int64)
+        g0 = np.zeros((k, w), crop.dtype)
+        g1 = np.zeros((k, w), crop.dtype)
+        colidx = np.arange(w)
         for t in range(k):
             np.copyto(gray, crop[t, : zr + 1])
             if eight:
@@ -335,23 +337,28 @@ class FrameAnalyzer:
             if fc is None:
                 flags[t] = int(FrameFlag.FINGER_MISSING)
                 continue
-            env = lower_envelope(fc.points, w)
-            cols = np.flatnonzero(env >= 0)
-            yb = env[cols]
-            g0 = gray[yb, cols].astype(np.float32)
-            g1 = gray[yb + 1, cols].astype(np.float32)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                frac = np.where(g1 > g0, (level - g0) / (g1 - g0), 0.5)
-            sc = s[cols]
-            fr = np.minimum(yb + np.clip(frac, 0.0, 1.0), sc)
-            touch = (yb >= zone_last[cols]) & (g1 <= level)
-            fr[touch] = sc[touch]
-            if np.count_nonzero(touch) > 0.98 * w:
-                # Dark down to the surface in nearly every column: the threshold leaves
-                # no finger contour to speak of (frame too dark or level too high).
-                flags[t] = int(FrameFlag.NO_CONTOUR)
-                continue
-            f[t, cols] = fr
+            e = lower_envelope(fc.points, w)
+            env[t] = e
+            idx = np.maximum(e, 0) * w + colidx
+            np.take(gflat, idx, out=g0[t])
+            np.take(gflat, idx + w, out=g1[t])
+        # Sub-pixel outline, vectorised over the chunk: where the gray level crosses the
+        # threshold between the last finger pixel and the bright pixel below it.
+        has = env >= 0
+        a0 = g0.astype(np.float32)
+        a1 = g1.astype(np.float32)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.where(a1 > a0, (level - a0) / (a1 - a0), 0.5)
+        s = self.s[None, :]
+        f = np.minimum(env + np.clip(frac, 0.0, 1.0), s)
+        touch = has & (env >= self.zone_last[None, :]) & (a1 <= level)
+        f = np.where(touch, s, f)
+        f[~has] = np.nan
+        # Dark down to the surface in nearly every column: the threshold leaves no finger
+        # contour to speak of (frame too dark or level too high).
+        nocont = (flags == 0) & (np.count_nonzero(touch, axis=1) > 0.98 * w)
+        flags[nocont] = int(FrameFlag.NO_CONTOUR)
+        f[nocont] = np.nan
         return f, flags
 
     def analyze_chunk(self, start: int, frames: np.ndarray) -> dict:
