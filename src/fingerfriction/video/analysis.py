@@ -96,7 +96,8 @@ class AnalysisOptions:
         Most contact regions expected in a frame.
     chord_height_mm : float
         Height above the feature's top of the chord whose midpoint gives the alternative
-        position ``x_chord`` (not in the paper; 1 mm).
+        position ``x_chord`` (not in the paper; 2 mm: higher is less affected by the
+        deformation near the contact but leaves the field of view sooner).
     position : {'cf-centroid', 'chord'}
         What :attr:`VideoResult.x` holds: the paper's centroid of C_f (default) or the
         chord midpoint (frames whose chord is cut by the crop are then flagged
@@ -112,7 +113,7 @@ class AnalysisOptions:
     calibration_frame: int = 0
     min_finger_points: int = 20
     n_max_regions: int = 8
-    chord_height_mm: float = 1.0
+    chord_height_mm: float = 2.0
     position: str = "cf-centroid"
 
     def __post_init__(self) -> None:
