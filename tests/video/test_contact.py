@@ -31,32 +31,35 @@ def test_hand_made_frame_regions():
 
 
 def test_euclidean_distance_sees_the_slope():
-    s = np.arange(20, dtype=float)  # 45 degree slope, rising to the left in rows
+    s = np.arange(20, dtype=float)  # 45 degree slope: the surface falls to the right
     f = np.full((1, 20), np.nan)
-    f[0, 10] = 10.0 - 3.5  # vertical gap 3.5 px, perpendicular distance 3.5/sqrt(2)
+    f[0, 8:13] = s[8:13] - 3.5  # finger outline parallel, vertical gap 3.5 px
     dv = contact_distance(f, s, metric="vertical")[0, 10]
     de = contact_distance(f, s, metric="euclidean")[0, 10]
     assert dv == pytest.approx(3.5)
-    assert de == pytest.approx(np.sqrt(2 * 1.75**2), abs=0.6)  # sampled at columns
+    assert de == pytest.approx(3.5 / np.sqrt(2), abs=0.4)  # perpendicular, sampled at columns
     assert de <= 3.0 < dv
+    # no finger within reach: NaN, not a distance
+    assert np.isnan(contact_distance(f, s)[0, 0])
 
 
-def test_lower_outline_test_equals_brute_force_over_all_contour_points():
-    """Contact columns from the lower envelope == columns where ANY finger contour point
-    is within 3 px of ANY surface contour point (pixel centres, the paper's pairs)."""
+@pytest.mark.parametrize("fx", [-3.0, -0.9, 0.6])
+def test_outline_test_equals_brute_force_over_all_contour_points(fx):
+    """Contact columns from the outlines == columns of the surface contour points that lie
+    within 3 px of ANY finger contour point (pixel centres: the paper's pairs)."""
     surf = RaisedCosine("bump", 2.0)
-    frame, _ = render(surface=surf, finger=(-0.9, -0.12, 8.0), blur=0.0)
+    frame, _ = render(surface=surf, finger=(fx, -0.12, 8.0), blur=0.0)
     crop = frame[180:540, 10:1270]
     dark = (crop <= 125).astype(np.uint8)
     surf_dark = (render(surface=surf, blur=0.0)[0][180:540, 10:1270] <= 125)
     first = np.argmax(surf_dark, axis=0)
-    zone = np.arange(360)[:, None] < first[None, :]
+    zone = np.arange(360)[:, None] < first[None, :] - 1
     finger = (dark.astype(bool) & zone).astype(np.uint8)
     fpts = max(trace_contours(finger), key=len)
     spts = np.concatenate(trace_contours(surf_dark.astype(np.uint8)))
-    tree = cKDTree(spts.astype(float))
-    near = tree.query(fpts.astype(float), distance_upper_bound=3.0 + 1e-9)[0] <= 3.0
-    brute_cols = np.unique(fpts[near, 0])
+    tree = cKDTree(fpts.astype(float))
+    near = tree.query(spts.astype(float), distance_upper_bound=3.0 + 1e-9)[0] <= 3.0
+    brute_cols = np.unique(spts[near, 0])
     env = lower_envelope(fpts, 1260).astype(float)
     env[env < 0] = np.nan
     srow = first.astype(float)  # integer pixel-centre rows of the surface contour
