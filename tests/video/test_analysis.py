@@ -1,11 +1,12 @@
 import numpy as np
 import pytest
-from synth import render, render_video
 
 from fingerfriction.regions import as_regions
 from fingerfriction.surfaces import RaisedCosine
 from fingerfriction.video import AnalysisOptions, FrameFlag, analyze_video
 from fingerfriction.video.writers import write_video
+
+from .synth import render, render_video
 
 SURF = RaisedCosine("bump", 2.0)
 

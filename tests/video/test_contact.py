@@ -1,13 +1,14 @@
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
-from synth import render
 
 from fingerfriction.regions import as_regions
 from fingerfriction.surfaces import RaisedCosine
 from fingerfriction.video import AnalysisOptions, FrameAnalyzer, calibrate
 from fingerfriction.video.contact import contact_distance, contact_regions
 from fingerfriction.video.contours import lower_envelope, trace_contours
+
+from .synth import render
 
 
 def test_hand_made_frame_regions():

@@ -3,13 +3,14 @@ import json
 import av
 import numpy as np
 import pytest
-from synth import render_video
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
 from fingerfriction.surfaces import RaisedCosine
 from fingerfriction.video.overlay import write_overlay
 from fingerfriction.video.writers import write_video
+
+from .synth import render_video
 
 SURF = RaisedCosine("bump", 2.0)
 

@@ -3,11 +3,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
-from synth import render_video
 
 from fingerfriction.surfaces import RaisedCosine
 from fingerfriction.video import AnalysisOptions, FrameAnalyzer, calibrate
 from fingerfriction.video.tracking import area_below_line, centroid_below_line, line_for_area
+
+from .synth import render_video
 
 
 def test_hand_made_outline():
