@@ -188,6 +188,40 @@ def simulate_cmd(
 # ---------------------------------------------------------------------------------------
 
 
+@app.command("overlay")
+def overlay_cmd(
+    study: str = typer.Argument(..., help="Study folder (or its manifest.json)."),
+    trial: str = typer.Argument(..., help="Trial id, as in the manifest."),
+    out: str = typer.Option(None, "--out", help="Output .mp4 or .gif (default: <trial>-overlay.mp4)."),
+    start: int = typer.Option(0, "--start", help="First frame."),
+    stop: int = typer.Option(None, "--stop", help="Stop before this frame (default: the last)."),
+    step: int = typer.Option(1, "--step", help="Draw every STEP-th frame."),
+    fps: float = typer.Option(30.0, "--fps", help="Playback frame rate of the output (Hz)."),
+    level: float = typer.Option(None, "--level", help="Threshold gray level (default: Otsu)."),
+    scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop."),
+) -> None:
+    """Write a video of a trial's frames with the traced contours and contact regions drawn."""
+    from .study import ManifestError, load_manifest
+    from .video import AnalysisOptions
+    from .video.overlay import write_overlay
+
+    try:
+        st = load_manifest(study)
+        tr = st.trial(trial)
+        opts = AnalysisOptions(level=level, calibration_frame=tr.video.calibration_frame)
+        info = write_overlay(
+            st.path(tr.video.path), tr.calibration["surface_height_mm"], out or f"{trial}-overlay.mp4",
+            surface=st.surface(tr.surface), options=opts, start=start, stop=stop, step=step, fps=fps,
+            scale=scale,
+        )
+    except KeyError as exc:
+        fail(str(exc.args[0]) if exc.args else str(exc))
+    except (ValueError, OSError, ManifestError) as exc:
+        fail(str(exc))
+    console.print(f"[green]wrote[/] {info.path}: {info.n_frames} frames ({info.n_flagged} flagged)")
+
+
+
 # ---------------------------------------------------------------------------------------
 # forces (force processing, fingerfriction.forces)
 # ---------------------------------------------------------------------------------------
