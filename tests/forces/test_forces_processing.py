@@ -222,8 +222,15 @@ def test_compensate_highpass_inverts_the_sensor_exactly():
 def test_fit_baseline_ignores_mains():
     t = 0.37 + np.arange(1000) / FS  # 0.1 s: five 50 Hz periods
     y = 0.004 * t - 0.002 + 0.003 * np.sin(2 * np.pi * 50 * t + 1) + 0.001 * np.cos(2 * np.pi * 300 * t)
-    a, b = fit_baseline(t, y, np.ones(t.size, bool))
-    assert a == pytest.approx(0.004, abs=1e-9) and b == pytest.approx(-0.002, abs=1e-9)
+    fit = fit_baseline(t, y, np.ones(t.size, bool))
+    assert fit.slope == pytest.approx(0.004, abs=1e-9) and fit.intercept == pytest.approx(-0.002, abs=1e-9)
+    np.testing.assert_allclose(fit.amplitudes(), [0.003, 0.0, 0.001], atol=1e-9)
+    t2 = np.linspace(0, 2, 5000)  # the fitted interference extrapolates exactly (stable mains)
+    np.testing.assert_allclose(
+        fit.mains(t2),
+        0.003 * np.sin(2 * np.pi * 50 * t2 + 1) + 0.001 * np.cos(2 * np.pi * 300 * t2),
+        atol=1e-9,
+    )
     a_plain, _ = fit_linear_drift(t, y)
     assert abs(a_plain - 0.004) > 1e-3  # a plain line fit is biased by the hum
     with pytest.raises(ValueError, match="at least 16 samples in mask, got 3"):
@@ -394,28 +401,49 @@ def test_process_forces_recovers_the_profile_in_position():
     assert prof.x.size == 2601
     assert _rms_error(prof) < 0.02
     steps = [h["step"] for h in prof.history]
-    assert steps == [
-        "decompose",
-        "remove_baseline",
-        "notch",
-        "lowpass",
-        "compensate_highpass",
-        "remove_drift",
-    ]
+    assert steps == ["decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_drift"]
     assert prof.history[1]["t_s"][1] == pytest.approx(0.1, abs=0.01)  # rest until the touch
+    # mains fitted on the baseline: F_T carries (1 - 1.2) / sqrt(2) of the 3 mN hum at 50 Hz
+    assert prof.history[1]["mains_subtracted_hz"] == [50.0, 150.0, 300.0]
+    assert prof.history[1]["F_T_mains_amplitude_N"][0] == pytest.approx(0.003 * 0.2 / np.sqrt(2), rel=0.05)
     assert prof.x[np.argmax(prof.f_t)] == pytest.approx(-0.6, abs=0.03)
 
 
 def test_paper_procedure_without_highpass_compensation():
-    """sensor_highpass_hz=None is the paper's procedure: right for a sensor without high-pass,
-    badly wrong for a 5 Hz piezo chain (why the compensation is on by default)."""
-    paper = ForceProcessingParams(sensor_highpass_hz=None)
+    """sensor_highpass_hz=None, mains="notch" is the paper's procedure: right for a sensor
+    without high-pass, badly wrong for a 5 Hz piezo chain (why the compensation is on by
+    default)."""
+    paper = ForceProcessingParams(sensor_highpass_hz=None, mains="notch")
     rec, tv, xv = synthetic_trial(highpass=0)
     prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=paper)
     assert [h["step"] for h in prof.history] == ["decompose", "notch", "lowpass", "remove_drift"]
     assert _rms_error(prof) < 0.02
     rec, tv, xv = synthetic_trial(highpass=5.0)
     assert _rms_error(process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=paper)) > 0.1
+
+
+def test_mains_options():
+    rec, tv, xv = synthetic_trial()
+    for mains, steps in (
+        (
+            "notch",
+            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"],
+        ),
+        ("both", ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"]),
+    ):
+        prof = process_forces(
+            rec, tv, xv, feature_extent_mm=(-1, 1), params=ForceProcessingParams(mains=mains)
+        )
+        assert [h["step"] for h in prof.history] == steps
+        assert prof.history[1]["mains_subtracted_hz"] == ([] if mains == "notch" else [50.0, 150.0, 300.0])
+        assert _rms_error(prof) < 0.02
+    # no baseline: the fit falls back to the notch, flagged
+    p = ForceProcessingParams(baseline=None)
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1, 1), params=p)
+    assert [f.code for f in prof.flags] == ["no-baseline", "mains-notch"]
+    assert "notch" in [h["step"] for h in prof.history]
+    with pytest.raises(ValueError, match="mains must be 'fit', 'notch' or 'both', got 'hum'"):
+        ForceProcessingParams(mains="hum")
 
 
 def test_no_baseline_is_flagged():
