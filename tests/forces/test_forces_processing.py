@@ -478,6 +478,20 @@ def test_flat_segment_options():
         process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=wide)
 
 
+def test_flat_segment_from_contact_regions():
+    """Contact regions (one 16 mm contact centred on the finger): the flat frames are those whose
+    contact ends before the feature at -1 mm, i.e. x < -9 mm, inside the window from -13 mm."""
+    rec, tv, xv = synthetic_trial()
+    regions = np.stack([xv - 8.0, xv + 8.0], axis=-1)[:, None, :]
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=regions)
+    assert prof.flat_segment_mm[0] == pytest.approx(-13.0, abs=0.01)
+    assert prof.flat_segment_mm[1] == pytest.approx(-9.0, abs=0.1)
+    assert prof.history[-1]["segment"].startswith("contact regions entirely before the feature")
+    assert _rms_error(prof) < 0.02
+    with pytest.raises(ValueError, match="regions has 3 frames but t_frames has"):
+        process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=regions[:3])
+
+
 def test_profile_csv_round_trip(tmp_path):
     import pandas as pd
 
