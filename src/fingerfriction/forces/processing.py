@@ -6,8 +6,9 @@ Visell (2018):
 1. decomposition of the two +-45 degree transducer channels into normal and tangential
    force, ``F_N = (F1 + F2) / sqrt(2)`` and ``F_T = (F1 - F2) / sqrt(2)``
    (:func:`decompose`);
-2. zero-phase notch filters at 50, 150 and 300 Hz against mains interference
-   (:func:`notch_filter`);
+2. removal of the mains interference at 50, 150 and 300 Hz: the paper's zero-phase notch
+   filters (:func:`notch_filter`, ``mains="notch"``) or, by default, sinusoids fitted on
+   the unloaded rest before the touch and subtracted (:func:`fit_baseline`, see below);
 3. a zero-phase low-pass at 500 Hz (:func:`lowpass_filter`);
 4. removal of the sensor drift: the best linear fit (in time) to the force over the flat
    segment before the feature is subtracted from the whole record
@@ -18,6 +19,10 @@ Visell (2018):
    position ``x(t)`` (:func:`positions_at_times`);
 6. resampling onto positions at 0.01 mm over the 26 mm window centred on the feature
    (:func:`resample_to_positions`).
+
+Order of the steps in :func:`process_forces`: decomposition; baseline (drift line and
+mains fitted on the rest before the touch) subtracted; notch (if ``mains`` asks for it);
+low-pass; high-pass compensation; flat-segment linear fit removed; positions.
 
 The pure functions above are wrapped by :class:`ForceSignals`, a small object that
 records every step applied to its data (``history``, in the manner of MNE-Python's
@@ -71,8 +76,18 @@ drift line is therefore first estimated on the unloaded rest at the start of the
 (before the finger touches, where the true force is zero; :func:`fit_baseline`, fitted
 together with the mains sinusoids, which the notch filters only remove later) and
 subtracted, then the high-pass is inverted, then the paper's flat-segment fit is applied.
-The result depends on knowing the cut-off: a 10 % error in ``sensor_highpass_hz`` costs
-several % of the peak-to-peak force (measured in the benchmark).
+The result depends on knowing the cut-off: a 5 % error in ``sensor_highpass_hz`` costs
+up to about 5 % of the peak-to-peak force (measured in the benchmark).
+
+**Mains: fit rather than notch (beyond the paper).** A zero-phase notch removes the force's
+own content within its band and rings for ``Q / (pi f0)`` s; a step-like force change
+crossed at 80-120 mm/s has much energy near 50 Hz, and the 50 Hz notch then changes
+``F_T(x)`` by up to 13 % of its peak-to-peak (measured on simulated trials). On the
+unloaded rest the recorded signal is drift + interference + noise only, so the
+interference's amplitude and phase are fitted there (with the drift line) and the
+sinusoids subtracted from the whole record. This assumes a mains frequency stable over
+the record (about 1 s); ``mains="both"`` adds the notch after the fit, ``mains="notch"``
+is the paper's filtering.
 
 References
 ----------
