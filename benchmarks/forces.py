@@ -98,11 +98,17 @@ def rel_rms(a, ref) -> float:
     return float(np.sqrt(np.mean((a - ref) ** 2)) / np.ptp(ref))
 
 
-def video_positions(study: Path, trial: dict):
-    """x(t) per frame from the video analysis (fingerfriction.video), if it is available."""
-    from fingerfriction.video import analyze_trial_video  # type: ignore[attr-defined]
+def video_positions(study: Path, manifest: dict, trial: dict) -> np.ndarray:
+    """x(t) per frame from the video analysis (:func:`fingerfriction.video.analyze_video`)."""
+    from fingerfriction.surfaces import surface_from_spec
+    from fingerfriction.video import AnalysisOptions, analyze_video
 
-    return analyze_trial_video(study, trial).x_mm
+    v = trial["video"]
+    surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
+    H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
+    opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)))
+    res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
+    return np.asarray(res.x, dtype=float)
 
 
 def main(argv=None) -> int:
@@ -139,6 +145,8 @@ def main(argv=None) -> int:
     t_proc = t_ref = 0.0
     failures = []
     max_sync = 0.0
+    t_video = 0.0
+    video_err = []
     for tr in trials:
         tid = tr["id"]
         with np.load(study_path(study, tr["truth"], "truth"), allow_pickle=False) as z:
@@ -148,7 +156,16 @@ def main(argv=None) -> int:
         fs = float(tr["force"]["fs_hz"])
         tf = float(tr["force"].get("t0_s", 0.0)) + np.arange(truth["t_force"].size) / fs
         max_sync = max(max_sync, np.max(np.abs(tv - truth["t_video"])), np.max(np.abs(tf - truth["t_force"])))
-        x_frames = truth["x_finger_video"] if args.x_source == "truth" else video_positions(study, tr)
+        if args.x_source == "truth":
+            x_frames = truth["x_finger_video"]
+        else:
+            tv0 = time.perf_counter()
+            x_frames = video_positions(study, manifest, tr)
+            t_video += time.perf_counter() - tv0
+            xt = truth["x_finger_video"]
+            inwin = np.isfinite(x_frames) & np.isfinite(xt) & (np.abs(xt) <= 13)
+            d = x_frames[inwin] - xt[inwin]
+            video_err.append((tid, float(np.median(d)), float(np.sqrt(np.mean(d**2))), int((~inwin).sum())))
 
         t0 = time.perf_counter()
         try:
@@ -187,6 +204,15 @@ def main(argv=None) -> int:
         rows.append(row)
 
     print(f"clock check: manifest times vs truth t_force/t_video, max |diff| = {max_sync:.2e} s")
+    if video_err:
+        med = np.array([v[1] for v in video_err])
+        rms = np.array([v[2] for v in video_err])
+        print(
+            "video x(t) vs true finger centre inside the window: "
+            f"median offset {np.median(med) * 1e3:+.1f} um "
+            f"(trials from {med.min() * 1e3:+.1f} to {med.max() * 1e3:+.1f}), RMS difference up to "
+            f"{rms.max() * 1e3:.1f} um; video analysis {t_video / len(video_err):.2f} s per trial"
+        )
     if failures:
         print(f"\n{len(failures)} trial(s) refused:")
         for tid, msg in failures:

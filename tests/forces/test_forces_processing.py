@@ -5,6 +5,7 @@ resampling and every bad-input case."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ from fingerfriction.forces import (
     design_lowpass,
     design_notch,
     detect_baseline,
+    extrapolate_positions,
     find_clipping,
     fit_baseline,
     fit_linear_drift,
@@ -577,11 +579,31 @@ def test_finger_never_reaches_the_window():
     rec, tv, xv = synthetic_trial()
     short = np.where(xv > 4.0, np.nan, xv)  # the slide stops (or tracking is lost) at x = 4 mm
     with pytest.raises(
-        ForceDataError, match=r"span \[-22.000, 4.000\] mm, which does not cover the 26 mm window"
+        ForceDataError,
+        match=r"span \[-22.000, 8.000\] mm, which does not cover the 26 mm window.*extrapolate_mm=4 mm",
     ):
         process_forces(rec, tv, short, feature_extent_mm=(-1.0, 1.0))
     prof = process_forces(rec, tv, np.full_like(xv, np.nan), feature_extent_mm=(-1.0, 1.0), on_error="flag")
     assert not prof.success and prof.flags[0].code == "no-finger"
+
+
+def test_positions_extrapolated_beyond_the_tracked_frames():
+    """A video that loses the finger outside [-9.5, 9.5] mm: x(t) is extended at constant
+    speed (exact for the synthetic constant-speed slide), with a warning."""
+    rec, tv, xv = synthetic_trial()
+    lost = np.where(np.abs(xv) > 9.5, np.nan, xv)
+    prof = process_forces(rec, tv, lost, feature_extent_mm=(-1.0, 1.0))
+    assert prof.success and [f.code for f in prof.flags] == ["extrapolated"]
+    assert re.search(r"by 3.9\d mm before and 4.00 mm after", prof.flags[0].message)
+    assert _rms_error(prof) < 0.02
+    x, (before, after) = extrapolate_positions(tv, lost, max_mm=4.0)
+    ok = np.isfinite(x)
+    np.testing.assert_allclose(x[ok], xv[ok], atol=1e-9)
+    assert before == pytest.approx(4.0, abs=0.1) and after == pytest.approx(4.0, abs=0.1)
+    with pytest.raises(ForceDataError, match=r"span \[-11.\d+, 11.\d+\] mm, .*extrapolate_mm=2 mm"):
+        process_forces(
+            rec, tv, lost, feature_extent_mm=(-1, 1), params=ForceProcessingParams(extrapolate_mm=2)
+        )
 
 
 def test_reversal_and_stall_are_flagged():

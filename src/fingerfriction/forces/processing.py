@@ -129,6 +129,7 @@ __all__ = [
     "detect_baseline",
     "positions_at_times",
     "flat_segment_from_positions",
+    "extrapolate_positions",
     "flat_mask_from_regions",
     "resample_to_positions",
     "PositionResampling",
@@ -255,6 +256,12 @@ class ForceProcessingParams:
     max_fill_mm : float
         Longest run of empty position bins in mm that may be filled by interpolation
         without flagging. Default 0.1.
+    extrapolate_mm : float
+        When x(t) does not cover the window (the video loses the finger near the edges of
+        its field), extend it at constant speed by at most this much at each end
+        (:func:`extrapolate_positions`), with a warning flag. Default 4.0; 0 disables.
+    extrapolate_fit_s : float
+        Tracked duration in s used for the speed of the extension. Default 0.03.
     sensor_highpass_hz : float or None
         Cut-off in Hz of the first-order high-pass of the piezo / charge-amplifier chain,
         inverted by :func:`compensate_highpass`. Default 5.0 (Methods: "approximately
@@ -289,6 +296,8 @@ class ForceProcessingParams:
     full_scale_n: float | None = None
     max_reversal_mm: float = 0.05
     max_fill_mm: float = 0.1
+    extrapolate_mm: float = 4.0
+    extrapolate_fit_s: float = 0.03
     sensor_highpass_hz: float | None = 5.0
     baseline: str | tuple[float, float] | None = "auto"
     contact_threshold_n: float = 0.02
@@ -359,7 +368,10 @@ class ForceProcessingParams:
             if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
                 raise ValueError(f"baseline must be (t_lo, t_hi) in s with t_lo < t_hi, got {(lo, hi)!r}")
             object.__setattr__(self, "baseline", (lo, hi))
-        for name in ("contact_threshold_n", "baseline_guard_s", "min_baseline_s"):
+        if not (math.isfinite(float(self.extrapolate_mm)) and float(self.extrapolate_mm) >= 0):
+            raise ValueError(f"extrapolate_mm must be a length >= 0 in mm, got {self.extrapolate_mm!r}")
+        object.__setattr__(self, "extrapolate_mm", float(self.extrapolate_mm))
+        for name in ("contact_threshold_n", "baseline_guard_s", "min_baseline_s", "extrapolate_fit_s"):
             unit = "N" if name.endswith("_n") else "s"
             object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
 
@@ -826,6 +838,56 @@ def positions_at_times(t, t_frames, x_frames) -> np.ndarray:
     x = np.where(on_frame, xf[k], x)
     x[~inside] = np.nan
     return x
+
+
+def extrapolate_positions(
+    t_frames, x_frames, *, max_mm: float, fit_s: float = 0.03
+) -> tuple[np.ndarray, tuple[float, float]]:
+    """Extend a tracked x(t) at constant speed beyond its first and last tracked frames.
+
+    The video may lose the finger near the edges of its field of view (the finger is
+    about 16 mm wide; the field about 29 mm) while the 26 mm window needs positions up to
+    13 mm from the feature. Before the first and after the last tracked frame, the
+    position is extended along a line fitted over ``fit_s`` s of tracked frames, for as
+    long as it stays within ``max_mm`` of the tracked end. Frames in between (flagged
+    frames inside the tracked span) are left as they are.
+
+    Parameters
+    ----------
+    t_frames : (m,) array_like
+        Frame times in s.
+    x_frames : (m,) array_like
+        Finger position in mm, NaN where not tracked.
+    max_mm : float
+        Longest extension in mm at each end.
+    fit_s : float
+        Duration in s of tracked frames used for the speed at each end. Default 0.03.
+
+    Returns
+    -------
+    x : (m,) ndarray
+        Positions in mm with the extensions.
+    (before_mm, after_mm) : tuple of float
+        Length of each extension in mm (0 where nothing was added).
+    """
+    tf = np.asarray(t_frames, dtype=np.float64)
+    x = np.asarray(x_frames, dtype=np.float64).copy()
+    fin = np.flatnonzero(np.isfinite(x))
+    if fin.size < 2:
+        return x, (0.0, 0.0)
+    k0, k1 = int(fin[0]), int(fin[-1])
+    ext = [0.0, 0.0]
+    for side, k, sel in ((0, k0, fin[tf[fin] <= tf[k0] + fit_s]), (1, k1, fin[tf[fin] >= tf[k1] - fit_s])):
+        if sel.size < 2:
+            continue
+        slope, icpt = np.polyfit(tf[sel], x[sel], 1)
+        idx = np.arange(0, k0) if side == 0 else np.arange(k1 + 1, x.size)
+        xe = slope * tf[idx] + icpt
+        keep = np.abs(xe - x[k]) <= max_mm
+        x[idx[keep]] = xe[keep]
+        if keep.any():
+            ext[side] = float(np.max(np.abs(xe[keep] - x[k])))
+    return x, (ext[0], ext[1])
 
 
 def flat_segment_from_positions(
@@ -1456,19 +1518,34 @@ def process_forces(
     # --- input checks -----------------------------------------------------------------
     f1, f2 = _check_channels(record, params, flags)
     t = record.times()
-    x_at = positions_at_times(t, tf, xf)
     fin = np.isfinite(xf)
     if not fin.any():
         flags.append(Flag("no-finger", "x_frames holds no finger position (all NaN)", "error"))
         return finish_error()
     x_lo, x_hi = float(np.nanmin(xf)), float(np.nanmax(xf))
+    if params.extrapolate_mm > 0 and (x_lo > window[0] or x_hi < window[1]):
+        xf, ext = extrapolate_positions(tf, xf, max_mm=params.extrapolate_mm, fit_s=params.extrapolate_fit_s)
+        if ext[0] > 0 or ext[1] > 0:
+            flags.append(
+                Flag(
+                    "extrapolated",
+                    f"x(t) was tracked over [{x_lo:.3f}, {x_hi:.3f}] mm only; it was extended at constant "
+                    f"speed (fitted over {params.extrapolate_fit_s * 1e3:g} ms of tracked frames) by "
+                    f"{ext[0]:.2f} mm before and {ext[1]:.2f} mm after (allowed extrapolate_mm="
+                    f"{params.extrapolate_mm:g} mm)",
+                )
+            )
+        fin = np.isfinite(xf)
+        x_lo, x_hi = float(np.nanmin(xf)), float(np.nanmax(xf))
+    x_at = positions_at_times(t, tf, xf)
     if x_lo > window[0] or x_hi < window[1]:
         flags.append(
             Flag(
                 "window",
                 f"the finger positions span [{x_lo:.3f}, {x_hi:.3f}] mm, which does not cover the "
                 f"{params.window_mm:g} mm window [{window[0]:.3f}, {window[1]:.3f}] mm centred on the "
-                "feature; the finger must traverse the whole window",
+                f"feature (extrapolate_mm={params.extrapolate_mm:g} mm); the finger must traverse the "
+                "whole window",
                 "error",
             )
         )
