@@ -182,6 +182,16 @@ def main(argv=None) -> int:
         t_ref += t2 - t1
 
         ref = reference_profile(truth, prof, default, fs, notch=False)
+        if args.x_source == "video":
+            # the error a perfect force chain would make with these positions: the true F_T
+            # (same filters and flat-segment fit) mapped with the video's x(t) instead of the true x
+            t_true = np.asarray(truth["t_force"], float)
+            lo_f, hi_f = prof.flat_segment_mm
+            ft_ref = lowpass_filter(np.asarray(truth["F_T"], float), fs, default.lowpass_hz)
+            ft_ref, _ = remove_linear_drift(
+                t_true, ft_ref, (prof.x_at_samples >= lo_f) & (prof.x_at_samples <= hi_f)
+            )
+            via_video = resample_to_positions(prof.x_at_samples, ft_ref, window=prof.window_mm).values
         ref_raw = reference_profile(truth, prof, default, fs, notch=False, lowpass=False)
         row = {
             "id": tid,
@@ -192,6 +202,8 @@ def main(argv=None) -> int:
             "ptp_mN": 1e3 * float(np.ptp(ref)),
             "flags": ",".join(f.code for f in prof.flags),
         }
+        if args.x_source == "video":
+            row["pos_only"] = rel_rms(via_video, ref)
         cache = {}
         for name, (p, ref_notch) in variants.items():
             try:
@@ -251,6 +263,10 @@ def main(argv=None) -> int:
             f"{e.max():>7.2f}{mx['err_raw']:>7.2f}{mx['notch']:>7.2f}{mx['notch_ll']:>7.2f}{mx['paper']:>7.1f}"
             f"{mx['fc-5%']:>7.2f}{mx['fc+5%']:>7.2f}  {'yes' if ok else 'NO'}"
         )
+    if args.x_source == "video":
+        print("\nerror due to the positions alone (true F_T mapped with the video x(t) vs the true x):")
+        for (surf, v), rs in sorted(groups.items()):
+            print(f"  {surf:<16}{v:>6.0f}  max {100 * max(r['pos_only'] for r in rs):6.2f} %")
     worst = max(rows, key=lambda r: r["err"])
     print(
         f"\nworst case: {worst['id']} ({worst['surface']}, {worst['speed']:g} mm/s): "
