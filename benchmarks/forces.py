@@ -88,8 +88,8 @@ def reference_profile(
         ft = notch_filter(ft, fs, params.notch_hz, q=params.notch_q)
     if lowpass and params.lowpass_hz is not None:
         ft = lowpass_filter(ft, fs, params.lowpass_hz, order=params.lowpass_order)
-    lo, hi = prof.flat_segment_mm
-    mask = (x >= lo) & (x <= hi)
+    # the same force samples as the recovered profile's drift fit (same clock: checked in main)
+    mask = prof.flat_mask
     ft, _ = remove_linear_drift(t, ft, mask)
     return resample_to_positions(x, ft, window=prof.window_mm, resolution=params.resolution_mm).values
 
@@ -98,8 +98,8 @@ def rel_rms(a, ref) -> float:
     return float(np.sqrt(np.mean((a - ref) ** 2)) / np.ptp(ref))
 
 
-def video_positions(study: Path, manifest: dict, trial: dict) -> np.ndarray:
-    """x(t) per frame from the video analysis (:func:`fingerfriction.video.analyze_video`)."""
+def video_positions(study: Path, manifest: dict, trial: dict) -> tuple[np.ndarray, np.ndarray]:
+    """x(t) and contact regions per frame from the video analysis (``fingerfriction.video``)."""
     from fingerfriction.surfaces import surface_from_spec
     from fingerfriction.video import AnalysisOptions, analyze_video
 
@@ -108,7 +108,7 @@ def video_positions(study: Path, manifest: dict, trial: dict) -> np.ndarray:
     H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
     opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)))
     res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
-    return np.asarray(res.x, dtype=float)
+    return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
 
 
 def main(argv=None) -> int:
@@ -116,6 +116,11 @@ def main(argv=None) -> int:
     ap.add_argument("study", nargs="?")
     ap.add_argument("--x-source", choices=("truth", "video"), default="truth")
     ap.add_argument("--limit", type=int, default=None, help="process only the first N trials")
+    ap.add_argument(
+        "--regions",
+        action="store_true",
+        help="flat segment from contact regions (truth regions_geom, or the video's with --x-source video)",
+    )
     ap.add_argument("--notch-q", type=float, default=None, help="notch quality factor")
     args = ap.parse_args(argv)
     study = pick_study(args.study)
@@ -123,7 +128,9 @@ def main(argv=None) -> int:
     trials = manifest["trials"][: args.limit] if args.limit else manifest["trials"]
     print(f"study: {study} ({len(manifest['trials'])} trials, {len(trials)} processed)")
     source = "truth x_finger_video" if args.x_source == "truth" else "video analysis x(t)"
-    print(f"finger positions: {source}")
+    print(
+        f"finger positions: {source}; flat segment from {'contact regions' if args.regions else 'positions'}"
+    )
 
     kw = {} if args.notch_q is None else {"notch_q": args.notch_q}
     default = ForceProcessingParams(**kw)
@@ -150,17 +157,20 @@ def main(argv=None) -> int:
     for tr in trials:
         tid = tr["id"]
         with np.load(study_path(study, tr["truth"], "truth"), allow_pickle=False) as z:
-            truth = {k: z[k] for k in ("t_force", "x_finger_force", "F_T", "t_video", "x_finger_video")}
+            truth = {
+                k: z[k]
+                for k in ("t_force", "x_finger_force", "F_T", "t_video", "x_finger_video", "regions_geom")
+            }
         # the manifest's clocks must reproduce the truth's sample and frame times
         tv = frame_times(tr)
         fs = float(tr["force"]["fs_hz"])
         tf = float(tr["force"].get("t0_s", 0.0)) + np.arange(truth["t_force"].size) / fs
         max_sync = max(max_sync, np.max(np.abs(tv - truth["t_video"])), np.max(np.abs(tf - truth["t_force"])))
         if args.x_source == "truth":
-            x_frames = truth["x_finger_video"]
+            x_frames, regions = truth["x_finger_video"], truth["regions_geom"]
         else:
             tv0 = time.perf_counter()
-            x_frames = video_positions(study, manifest, tr)
+            x_frames, regions = video_positions(study, manifest, tr)
             t_video += time.perf_counter() - tv0
             xt = truth["x_finger_video"]
             inwin = np.isfinite(x_frames) & np.isfinite(xt) & (np.abs(xt) <= 13)
@@ -169,7 +179,9 @@ def main(argv=None) -> int:
 
         t0 = time.perf_counter()
         try:
-            prof = process_trial(study, manifest, tid, x_frames, params=default)
+            prof = process_trial(
+                study, manifest, tid, x_frames, params=default, regions=regions if args.regions else None
+            )
         except (ForceDataError, ValueError) as exc:
             failures.append((tid, str(exc)))
             continue
@@ -186,11 +198,8 @@ def main(argv=None) -> int:
             # the error a perfect force chain would make with these positions: the true F_T
             # (same filters and flat-segment fit) mapped with the video's x(t) instead of the true x
             t_true = np.asarray(truth["t_force"], float)
-            lo_f, hi_f = prof.flat_segment_mm
             ft_ref = lowpass_filter(np.asarray(truth["F_T"], float), fs, default.lowpass_hz)
-            ft_ref, _ = remove_linear_drift(
-                t_true, ft_ref, (prof.x_at_samples >= lo_f) & (prof.x_at_samples <= hi_f)
-            )
+            ft_ref, _ = remove_linear_drift(t_true, ft_ref, prof.flat_mask)
             via_video = resample_to_positions(prof.x_at_samples, ft_ref, window=prof.window_mm).values
         ref_raw = reference_profile(truth, prof, default, fs, notch=False, lowpass=False)
         row = {
@@ -208,7 +217,9 @@ def main(argv=None) -> int:
         for name, (p, ref_notch) in variants.items():
             try:
                 if id(p) not in cache:
-                    cache[id(p)] = process_trial(study, manifest, tid, x_frames, params=p)
+                    cache[id(p)] = process_trial(
+                        study, manifest, tid, x_frames, params=p, regions=regions if args.regions else None
+                    )
                 pv = cache[id(p)]
                 row[name] = rel_rms(pv.f_t, reference_profile(truth, pv, p, fs, notch=ref_notch))
             except (ForceDataError, ValueError):

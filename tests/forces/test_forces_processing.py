@@ -490,6 +490,16 @@ def test_flat_segment_from_contact_regions():
     assert prof.flat_segment_mm[1] == pytest.approx(-9.0, abs=0.1)
     assert prof.history[-1]["segment"].startswith("contact regions entirely before the feature")
     assert _rms_error(prof) < 0.02
+    # frames without regions (not tracked, e.g. near the edge of the field of view) fall back
+    # on the position criterion, so the segment still starts at the window's left end
+    untracked = np.where((np.abs(xv) > 9.5)[:, None, None], np.nan, regions)
+    prof2 = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=untracked)
+    assert prof2.flat_segment_mm[0] == pytest.approx(-13.0, abs=0.01)
+    assert prof2.flat_segment_mm[1] == pytest.approx(-9.0, abs=0.1)
+    # a shorter contact (6 mm half width) leaves the flat ground later: the segment follows it
+    short = np.stack([xv - 6.0, xv + 6.0], axis=-1)[:, None, :]
+    prof3 = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=short)
+    assert prof3.flat_segment_mm[1] == pytest.approx(-7.0, abs=0.1)
     with pytest.raises(ValueError, match="regions has 3 frames but t_frames has"):
         process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=regions[:3])
 

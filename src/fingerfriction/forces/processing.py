@@ -907,7 +907,7 @@ def flat_segment_from_positions(
     return float(window[0]), float(feature_start_mm) - float(contact_half_width_mm)
 
 
-def flat_mask_from_regions(t, t_frames, regions, feature_start_mm: float) -> np.ndarray:
+def flat_mask_from_regions(t, t_frames, regions, feature_start_mm: float, *, return_known: bool = False):
     """Samples whose nearest frame has contact entirely on the flat ground before the feature.
 
     Parameters
@@ -921,11 +921,16 @@ def flat_mask_from_regions(t, t_frames, regions, feature_start_mm: float) -> np.
     feature_start_mm : float
         Left end of the feature in mm.
 
+    return_known : bool
+        Also return where the nearest frame has any contact region at all.
+
     Returns
     -------
     (n,) ndarray of bool
         True where the nearest frame has at least one contact region and every region ends
         (``b_i``) before ``feature_start_mm``.
+    known : (n,) ndarray of bool
+        With ``return_known``: True where the nearest frame has contact regions.
     """
     from ..regions import as_regions
 
@@ -940,6 +945,8 @@ def flat_mask_from_regions(t, t_frames, regions, feature_start_mm: float) -> np.
     k = np.clip(np.searchsorted(tf, t), 1, tf.size - 1)
     nearest = np.where(np.abs(t - tf[k - 1]) <= np.abs(tf[k] - t), k - 1, k)
     inside = (t >= tf[0] - 0.5 * (tf[1] - tf[0])) & (t <= tf[-1] + 0.5 * (tf[-1] - tf[-2]))
+    if return_known:
+        return flat_frame[nearest] & inside, has[nearest] & inside
     return flat_frame[nearest] & inside
 
 
@@ -1263,6 +1270,8 @@ class ForceProfile:
         Finger position in mm at each force sample.
     flat_segment_mm : (float, float)
         Finger positions in mm bounding the flat segment used (regions: their extent).
+    flat_mask : (n,) ndarray of bool or None
+        The force samples of the flat segment (those the drift line was fitted on).
     window_mm : (float, float)
         First and last grid position in mm.
     flags : tuple of Flag
@@ -1283,6 +1292,7 @@ class ForceProfile:
     flat_segment_mm: tuple[float, float]
     window_mm: tuple[float, float]
     flags: tuple = ()
+    flat_mask: np.ndarray | None = None
     success: bool = True
     message: str = "ok"
     params: ForceProcessingParams = field(default_factory=ForceProcessingParams)
@@ -1605,8 +1615,16 @@ def process_forces(
 
     # --- flat segment and drift ---------------------------------------------------------
     if params.flat_segment_mm is None and regions is not None:
-        mask = flat_mask_from_regions(t, tf, regions, a) & (x_at >= window[0])
-        how = "contact regions entirely before the feature, inside the window"
+        # frames with regions decide by their contact; frames without (the video did not
+        # track the finger there, e.g. near the edge of its field) fall back on the position
+        # criterion, so the segment can still start at the window's left end
+        flat_r, known = flat_mask_from_regions(t, tf, regions, a, return_known=True)
+        by_pos = (x_at >= flat_mm[0]) & (x_at <= flat_mm[1])
+        mask = np.where(known, flat_r, by_pos) & (x_at >= window[0])
+        how = (
+            "contact regions entirely before the feature (finger centre in "
+            f"[{flat_mm[0]:.3f}, {flat_mm[1]:.3f}] mm where a frame has no regions), inside the window"
+        )
         if mask.any():
             flat_mm = (float(np.nanmin(x_at[mask])), float(np.nanmax(x_at[mask])))
     else:
@@ -1670,6 +1688,7 @@ def process_forces(
         flat_segment_mm=flat_mm,
         window_mm=window,
         flags=tuple(flags),
+        flat_mask=mask,
         success=True,
         message="ok",
         params=params,
