@@ -1676,8 +1676,8 @@ def process_forces(
                 f"{params.resolution_mm:g} mm bin (median {med:g}); the forces there were averaged",
             )
         )
-    for f in flags:
-        logger.warning("forces: %s", f.message)
+    for f in flags:  # returned in the profile's flags; logged for the record
+        logger.info("forces: %s: %s", f.code, f.message)
     return ForceProfile(
         x=res_t.x,
         f_t=res_t.values,
