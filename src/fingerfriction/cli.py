@@ -78,7 +78,7 @@ def demo(
         fail(str(exc))
     a, f = res.analysis, res.fit
     _print_failures(a.failures)
-    _print_failures(f.failures)
+    _print_failures(f.failures, "fit", limit=3)
     _print_tables(res.report)
     for subj, mu in f.mu.items():
         console.print(f"subject {subj}: mu fitted {mu:.2f} ({f.messages[subj]})", highlight=False)
@@ -335,9 +335,12 @@ def forces_cmd(
 # ---------------------------------------------------------------------------------------
 
 
-def _print_failures(failures) -> None:
-    for tid, reason in failures:
-        err_console.print(f"[red]failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
+def _print_failures(failures, what: str = "trial", limit: int | None = None) -> None:
+    failures = list(failures)
+    for tid, reason in failures[:limit]:
+        err_console.print(f"[red]{what} failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
+    if limit is not None and len(failures) > limit:
+        err_console.print(f"... and {len(failures) - limit} more {what} failures", highlight=False)
 
 
 @app.command("analyze")
@@ -384,7 +387,7 @@ def fit_cmd(
                   progress=True)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    _print_failures(res.failures)
+    _print_failures(res.failures, "fit", limit=5)
     for subj, mu in res.mu.items():
         console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
     console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {results}/fit", highlight=False)
@@ -407,8 +410,9 @@ def _print_tables(rep) -> None:
     for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):
         t.add_column(c)
     for r in rep.blindspots.itertuples(index=False):
-        t.add_row(str(r.surface), str(r.n_trials), f"{r.start_mm:.2f}", f"{r.end_mm:.2f}",
-                  f"{r.width_mm:.2f}")
+        none = r.start_mm != r.start_mm  # NaN: a surface without blind spots
+        t.add_row(str(r.surface), str(r.n_trials), "-" if none else f"{r.start_mm:.2f}",
+                  "-" if none else f"{r.end_mm:.2f}", "none" if none else f"{r.width_mm:.2f}")
     console.print(t)
     for key, df in rep.truth.items():
         t = Table(title=f"Recovered vs ground truth: {key}")
