@@ -791,7 +791,7 @@ def fit(
     ``fit/model/<trial-id>.parquet`` (layout in :mod:`fingerfriction.results`).
     """
     from . import fit as fitmod
-    from .model import FrictionModel, FrictionParams
+    from .model import FrictionModel
     from .surfaces import surface_from_spec
 
     store = ResultsStore(results)
@@ -852,11 +852,11 @@ def fit(
             if not tf.success:
                 failures.append((tid, tf.message))
             model = models.setdefault(m["surface"], FrictionModel(tr.surface))
-            try:
-                comp = model.forces(tr.regions, FrictionParams(tf.mu, max(tf.p0, 0.0), tf.p1))
-                f_int, f_def, f_tot = comp.interfacial, comp.deformation, comp.total
-            except ValueError:
-                f_int = f_def = f_tot = np.full(tr.n, np.nan)
+            # Eq. (2)-(4) with the fitted p0, p1 as they are (FrictionParams would refuse
+            # the unphysical p0 < 0 of a failed fit; its row in trials.csv says it failed).
+            B = model.basis(tr.regions, tf.mu)
+            f_int, f_def = tf.p0 * B[:, 0], tf.p1 * B[:, 1]
+            f_tot = f_int + f_def
             df = pd.DataFrame({"x_mm": tr.x, "F_T_N": tf.measured, "F_hat_N": tf.estimate,
                                "F_model_N": f_tot, "F_int_N": f_int, "F_def_N": f_def,
                                "F_T_raw_N": tr.force})

@@ -214,8 +214,8 @@ def figS1_lengths(data: ReportData) -> Figure:
                 ax.plot(x[ok], L[ok, i], ".", ms=1.0, color=_REGION_COLOURS[i % len(_REGION_COLOURS)],
                         alpha=0.5, rasterized=True)
         for i in range(max((t.regions.shape[1] for t in ts), default=0)):
-            ax.plot([], [], ".", color=_REGION_COLOURS[i % len(_REGION_COLOURS)], label=f"L{i + 1}")
-        ax.legend(fontsize=6, loc="upper right", frameon=False, markerscale=6)
+            ax.plot([], [], "o", ms=3, color=_REGION_COLOURS[i % len(_REGION_COLOURS)], label=f"L{i + 1}")
+        ax.legend(fontsize=6, loc="upper right", frameon=False)
         ax.set_title(f"{_label(data, name)} ({len(ts)} trials)", fontsize=9)
         ax.set_xlabel("finger position x (mm)")
         ax.set_ylabel("L_i (mm)")
