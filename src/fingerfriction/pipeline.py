@@ -359,6 +359,7 @@ def _one_line(exc: BaseException) -> str:
 def _run_trial(study_dir: str, trial: dict, surface_spec: dict, params: dict) -> dict:
     """Dask task: process one trial, never raise; return tables or a one-line reason."""
     t0 = time.perf_counter()
+    c0 = time.process_time()  # CPU of this worker process (all its threads)
     study = Path(study_dir)
     inputs: dict[str, dict] = {}
     try:
@@ -372,11 +373,11 @@ def _run_trial(study_dir: str, trial: dict, surface_spec: dict, params: dict) ->
                            "mtime_ns": st.st_mtime_ns}
         res = process_trial(study, trial, AnalysisParams(**params), surface_spec=surface_spec)
         return {"ok": True, "frames": res.frames, "forces": res.forces, "info": res.info,
-                "inputs": inputs, "elapsed_s": time.perf_counter() - t0}
+                "inputs": inputs, "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
     except Exception as exc:  # a failing trial is recorded, the others go on
         logger.debug("trial %s failed:\n%s", trial.get("id"), traceback.format_exc())
         return {"ok": False, "reason": _one_line(exc), "inputs": inputs,
-                "elapsed_s": time.perf_counter() - t0}
+                "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
 
 
 # --------------------------------------------------------------------------------------
@@ -618,6 +619,7 @@ def analyze(
                     fut.release()
                     status = {"params_sha256": pdigest, "inputs": res.get("inputs", {}),
                               "elapsed_s": round(float(res.get("elapsed_s", 0.0)), 4),
+                              "cpu_s": round(float(res.get("cpu_s", 0.0)), 4),
                               "finished": _now(),
                               "labels": {k: t.get(k) for k in _LABELS}}
                     if res["ok"]:
