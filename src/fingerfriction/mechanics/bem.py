@@ -343,8 +343,9 @@ class ContactSolver:
     n : int, optional
         Number of grid cells (default 2048), ``>= 64``.
     half_width : float, optional
-        Half-width of the grid in mm around the finger centre; default ``0.98 *
-        finger.half_extent`` (the circle's outline is defined for ``|u| < R``).
+        Half-width of the grid in mm around the finger centre; default
+        ``finger.default_half_width()``: where the outline has risen 2.5 mm, at most
+        ``0.98 * finger.half_extent`` (the circle's outline is defined for ``|u| < R``).
 
     Notes
     -----
@@ -358,7 +359,7 @@ class ContactSolver:
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 64:
             raise ValueError(f"n (number of grid cells) must be an integer >= 64, got {n!r}")
         n = int(n)
-        hw = 0.98 * finger.half_extent if half_width is None else float(half_width)
+        hw = finger.default_half_width() if half_width is None else float(half_width)
         if not math.isfinite(hw) or hw <= 0:
             raise ValueError(f"half_width must be a positive length in mm, got {half_width!r}")
         if hw > finger.half_extent:

@@ -229,6 +229,20 @@ class FingerParams:
         c = np.polyfit(u, self.outline(u), 2)[0]
         return float(1.0 / (2.0 * c)) if c > 0 else math.inf
 
+    def default_half_width(self, clearance: float = 2.5) -> float:
+        """Default grid half-width (mm): where the outline has risen ``clearance`` mm.
+
+        Capped at ``0.98 * half_extent``. The finger's free surface beyond that offset is
+        too high above any of the paper's reliefs (at most 0.8 mm) to touch them; a contact
+        that nevertheless reaches the grid's edge is reported by the solver
+        (``success=False``).
+        """
+        hi = 0.98 * self.half_extent
+        u = np.linspace(0.0, hi, 4001)
+        s = self.outline(u)
+        above = np.flatnonzero(s >= clearance)
+        return float(u[above[0]]) if above.size else float(hi)
+
     def outline(self, u):
         """Undeformed outline height ``s(u) >= 0`` in mm above its lowest point.
 
