@@ -35,6 +35,88 @@ def fail(message: str) -> None:
 # ---------------------------------------------------------------------------------------
 
 
+@app.callback()
+def _root() -> None:
+    """fingerfriction: finger contact, tactile blind spots and friction forces on relief surfaces."""
+    # A callback keeps typer in sub-command mode even while only one command exists.
+
+
+def demo_analysis(*, reps: int = 2, seed: int = 0, method: str = "lstsq", noise: float = 0.1,
+                  speeds=(40, 80, 120)) -> dict:
+    """Synthetic trials -> per-subject fit -> Table 1 and blind-spot tables.
+
+    The study-pipeline issue replaces the synthetic trials by simulate + analyze; the
+    returned dict (``trials``, ``truth``, ``fits``, ``table1``, ``blindspots``) is what the
+    printing and writing below consume.
+    """
+    from .fit import fit_trials
+    from .stats import blind_spot_table, correlation_table
+    from .synthetic import synthetic_trials
+
+    trials, truth = synthetic_trials(reps=reps, seed=seed, noise=noise, speeds=speeds)
+    fits = fit_trials(trials, method=method)
+    by_surface: dict[str, list] = {}
+    for t in trials:
+        by_surface.setdefault(t.surface.name, []).append(t.regions)
+    return {"trials": trials, "truth": truth, "fits": fits, "table1": correlation_table(fits),
+            "blindspots": blind_spot_table(by_surface)}
+
+
+def _rich_table(df, title: str):
+    from rich.table import Table
+
+    t = Table(title=title)
+    for c in df.columns:
+        t.add_column(str(c))
+    def cell(col, v):
+        if col == "p" and isinstance(v, float):
+            return "< 1e-300" if v == 0 else f"{v:.2g}"  # p underflows to 0 for large ensembles
+        return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+    for row in df.itertuples(index=False):
+        t.add_row(*[cell(c, v) for c, v in zip(df.columns, row, strict=True)])
+    return t
+
+
+@app.command()
+def demo(
+    out: str = typer.Option(None, "--out", help="Directory to write table1.{csv,md,tex} and "
+                            "blindspots.{csv,md,tex} into (created if missing)."),
+    reps: int = typer.Option(2, min=1, help="Repetitions per subject x surface x speed."),
+    seed: int = typer.Option(0, help="Seed of the random generator."),
+    method: str = typer.Option("lstsq", help="p0/p1 fit: 'lstsq' (closed form) or 'nelder-mead'."),
+) -> None:
+    """Fit the friction model to synthetic trials; print Table 1, blind spots and mu."""
+    import os
+
+    from .stats import write_table
+
+    try:
+        if method not in ("lstsq", "nelder-mead"):
+            raise ValueError(f"--method must be 'lstsq' or 'nelder-mead', got {method!r}")
+        if out is not None:
+            os.makedirs(out, exist_ok=True)
+        with console.status("simulating and fitting synthetic trials..."):
+            res = demo_analysis(reps=reps, seed=seed, method=method)
+        n = len(res["trials"])
+        console.print(f"{n} synthetic trials ({reps} reps x 3 speeds x 6 surfaces x 2 subjects), "
+                      f"{res['trials'][0].n} positions each, fit by {method}")
+        tab = res["table1"][["subject", "scale", "shape", "rho", "p", "n_trials"]]
+        console.print(_rich_table(tab, "Table 1: Pearson rho, measured vs model (detrended)"))
+        console.print(_rich_table(res["blindspots"], "Tactile blind spots (all trials pooled)"))
+        for s, f in res["fits"].items():
+            true_mu = res["truth"]["mu"][s]
+            status = "ok" if f.success else "[yellow]warning[/]"
+            console.print(f"{s}: mu fitted {f.mu:.2f}, true {true_mu:.2f} ({status}: {f.message})")
+        if out is not None:
+            for name in ("table1", "blindspots"):
+                for ext in ("csv", "md", "tex"):
+                    write_table(res[name], os.path.join(out, f"{name}.{ext}"))
+            console.print(f"tables written to {out}")
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+
+
 # ---------------------------------------------------------------------------------------
 # predict-contact (forward contact model, fingerfriction.mechanics)
 # ---------------------------------------------------------------------------------------
