@@ -54,7 +54,8 @@ def flat_lengths(finger: FingerParams, n: int = 1024, half_width=None) -> tuple[
             return 1000.0, 1000.0
         raise RuntimeError(sol.message)
     g = sol.geometric_regions
-    return _edge(sol.x, sol.pressure, +1) - _edge(sol.x, sol.pressure, -1), float(g[:, 1].max() - g[:, 0].min())
+    length_mech = _edge(sol.x, sol.pressure, +1) - _edge(sol.x, sol.pressure, -1)
+    return length_mech, float(g[:, 1].max() - g[:, 0].min())
 
 
 def _edge(x: np.ndarray, p: np.ndarray, side: int) -> float:
