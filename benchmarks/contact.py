@@ -115,7 +115,8 @@ def main() -> None:
             )
         if matched:
             print(
-                f"  at matched accuracy (tamaas tol {matched[0]:.0e}): ours warm is {matched[1]:.1f}x faster\n"
+                f"  at matched accuracy (tamaas tol {matched[0]:.0e}): "
+                f"ours warm is {matched[1]:.1f}x faster\n"
             )
         else:
             print("  no tamaas tolerance tried was as loose as our sweep's accuracy\n")
