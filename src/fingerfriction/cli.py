@@ -149,14 +149,14 @@ def predict_contact(
     try:
         if kind not in ("geometric", "mechanical"):
             raise ValueError(f"--kind must be 'geometric' or 'mechanical', got {kind!r}")
+        out_dir = out or "."
+        if not os.path.isdir(out_dir):
+            raise ValueError(f"--out {out_dir!r} is not an existing directory")
         surf = surface_from_spec(surface)
         finger = get_subject(subject)
         positions = default_positions(surf, step=step)
         with console.status(f"solving the contact at {positions.size} finger positions..."):
             res = sweep(surf, finger, positions, load=load)
-        out_dir = out or "."
-        if not os.path.isdir(out_dir):
-            raise ValueError(f"--out {out_dir!r} is not an existing directory")
         bs = res.blind_spots(kind)
         png = save_occupancy_figure(res, surf, os.path.join(out_dir, f"occupancy-{surf.name}-s{subject}.png"),
                                     kind=kind)
