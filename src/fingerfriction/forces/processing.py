@@ -1644,11 +1644,31 @@ def process_forces(
             )
         )
         return finish_error()
+    # the finger should be sliding over the flat segment: a touch-down or a pause there would
+    # put static forces into the drift fit
+    with np.errstate(invalid="ignore"):
+        speed = np.abs(np.gradient(x_at, t))
+    in_window = np.isfinite(speed) & (x_at >= window[0]) & (x_at <= window[1])
+    if in_window.any():
+        slow = mask & (speed < 0.1 * float(np.median(speed[in_window])))
+        if slow.sum() > 0.05 * mask.sum():
+            flags.append(
+                Flag(
+                    "flat-rest",
+                    f"{100 * slow.sum() / mask.sum():.0f} % of the flat-segment samples have the finger "
+                    "(nearly) at rest (below 10 % of its median speed in the window), e.g. a touch-down "
+                    "inside the window: the drift fit includes static forces; set flat_segment_mm",
+                )
+            )
     sig = sig.remove_drift(mask, segment=how)
 
     # --- positions --------------------------------------------------------------------
-    res_t = resample_to_positions(x_at, sig.f_t, window=window, resolution=params.resolution_mm)
-    res_n = resample_to_positions(x_at, sig.f_n, window=window, resolution=params.resolution_mm)
+    try:
+        res_t = resample_to_positions(x_at, sig.f_t, window=window, resolution=params.resolution_mm)
+        res_n = resample_to_positions(x_at, sig.f_n, window=window, resolution=params.resolution_mm)
+    except ValueError as exc:  # the force samples, not just the frames, must span the window
+        flags.append(Flag("window", f"at the force sample times, {exc}", "error"))
+        return finish_error()
     if res_t.max_reversal_mm > params.max_reversal_mm:
         flags.append(
             Flag(
