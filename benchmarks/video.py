@@ -134,12 +134,13 @@ def speed(study, n_frames: int) -> None:
             print(f"    {fmt:9s}: {c:8.0f} frames/s per core (wall {wl:5.0f}), {size:7.1f} kB/frame{note}")
 
 
-def accuracy(study, max_trials: int | None) -> None:
+def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical")) -> None:
     trials = list(study.trials)[:max_trials] if max_trials else list(study.trials)
     print(f"\n== accuracy on {len(trials)} trials of {study.root}")
-    for metric in ("euclidean", "vertical"):
-        print(f"\n-- contact metric: {metric}" + (" (the paper's)" if metric == "euclidean" else
-                                                  " (the simulator's regions_geom definition)"))
+    for metric in metrics:
+        print(f"\n-- contact metric: {metric}" + (
+            " (the paper's: distance between outline points; the simulator's regions_geom uses "
+            "the same perpendicular distance)" if metric == "euclidean" else " (vertical gap)"))
         rows = []
         per_surface: dict[str, tuple[list, list]] = {}
         all_ep, n_same, n_tot = [], 0, 0
@@ -220,6 +221,8 @@ def main() -> None:
     ap.add_argument("--speed-frames", type=int, default=256)
     ap.add_argument("--skip-speed", action="store_true")
     ap.add_argument("--skip-accuracy", action="store_true")
+    ap.add_argument("--metrics", default="euclidean,vertical",
+                    help="contact metrics to evaluate, comma-separated")
     a = ap.parse_args()
     root = pick_study(a.study)
     study = load_manifest(root)
@@ -227,7 +230,7 @@ def main() -> None:
     if not a.skip_speed:
         speed(study, a.speed_frames)
     if not a.skip_accuracy:
-        accuracy(study, a.max_trials)
+        accuracy(study, a.max_trials, tuple(a.metrics.split(",")))
 
 
 if __name__ == "__main__":

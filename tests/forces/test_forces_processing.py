@@ -616,6 +616,21 @@ def test_positions_extrapolated_beyond_the_tracked_frames():
         )
 
 
+def test_rest_inside_the_flat_segment_is_flagged():
+    """A finger that pauses for 100 ms at -11 mm, inside the flat segment."""
+    rec, tv, xv = synthetic_trial()
+    k = int(np.argmax(xv >= -11.0))
+    x = np.concatenate([xv[:k], np.full(100, xv[k]), xv[k:]])[: xv.size]
+    prof = process_forces(rec, tv, x, feature_extent_mm=(-1.0, 1.0))
+    flag = [f for f in prof.flags if f.code == "flat-rest"]
+    assert flag and "at rest" in flag[0].message
+    assert "flat-rest" not in [f.code for f in process_forces(rec, tv, xv, feature_extent_mm=(-1, 1)).flags]
+    # a longer pause: the frames reach the window's end only after the force record ends
+    x = np.concatenate([xv[:k], np.full(150, xv[k]), xv[k:]])[: xv.size]
+    with pytest.raises(ForceDataError, match=r"at the force sample times, the finger positions cover"):
+        process_forces(rec, tv, x, feature_extent_mm=(-1.0, 1.0))
+
+
 def test_reversal_and_stall_are_flagged():
     rec, tv, xv = synthetic_trial()
     x = xv.copy()
