@@ -101,3 +101,20 @@ def test_get_provider():
     assert get_provider("bridged-foundation").name == "bridged-foundation"
     with pytest.raises(ValueError, match="unknown contact model"):
         get_provider("jelly")
+
+
+def test_geometric_mask_is_euclidean_distance_to_outline():
+    """Against brute force: distance from each surface point to a densely resampled
+    finger polyline, including steep (near-vertical) outline parts."""
+    xi = np.arange(-2.0, 2.0 + 1e-9, 0.04)
+    y_f = 0.05 + 0.3 * xi**2
+    y_f[xi > 1.2] += 3.0 * (xi[xi > 1.2] - 1.2)  # a steep side
+    h = 0.02 + 0.25 * np.clip(xi + 0.3, 0, None) ** 2
+    dense = np.linspace(xi[0], xi[-1], 20001)
+    yd = np.interp(dense, xi, y_f)
+    d = np.min(np.hypot(dense[None, :] - xi[:, None], yd[None, :] - h[:, None]), axis=1)
+    for tol in (0.03, 0.069, 0.1):
+        got = geometric_mask(xi, y_f, h, tol)
+        clear = np.abs(d - tol) > 2e-4  # away from ties
+        np.testing.assert_array_equal(got[clear], (d <= tol)[clear])
+        assert got.any() and not got.all()

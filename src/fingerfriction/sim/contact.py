@@ -210,12 +210,23 @@ class BridgedFoundation:
 class MechanicsProvider:
     """Contact from :mod:`fingerfriction.mechanics` (plane-strain BEM), via its ``sweep``.
 
+    The BEM grid spans the part of the pad that can touch the paper's reliefs: out to
+    where the undeformed outline has risen ``clearance`` mm (``FingerParams.
+    default_half_width``; the reliefs are at most 0.8 mm high). Beyond it the silhouette
+    continues, for the camera only, with a tangent circular arc of radius ``side_radius``
+    that turns the outline up to 80 degrees, then the vertical sides of the finger (a
+    fingertip of finite width seen side-on, rather than the pad's large contact radius
+    continued across the whole field). The arc carries no pressure.
+
     Parameters
     ----------
     n : int
-        Grid cells of the BEM solver over the finger (default 512: cells of 0.03 mm,
-        1.3 px; measured 2 ms per position against 5 ms at 1024, with region ends
-        within 15 um of the 1024-cell solution on bump-4mm).
+        Grid cells of the BEM solver (default 512; ~0.04 mm cells for the calibrated
+        subjects).
+    clearance : float
+        Height in mm of the undeformed outline at the BEM grid's edge.
+    side_radius : float
+        Radius in mm of the arc that rounds the pad into the finger's sides.
     fingers : dict, optional
         Subject label -> ``FingerParams``; default the mechanics module's calibrated
         subjects (``mechanics.get_subject``).
@@ -223,8 +234,11 @@ class MechanicsProvider:
 
     name = "mechanics-bem"
 
-    def __init__(self, *, n: int = 512, fingers: dict | None = None):
+    def __init__(self, *, n: int = 512, clearance: float = 1.0, side_radius: float = 1.5,
+                 fingers: dict | None = None):
         self.n = int(n)
+        self.clearance = float(clearance)
+        self.side_radius = float(side_radius)
         self.fingers = fingers
         self.failures = 0
 
@@ -245,25 +259,67 @@ class MechanicsProvider:
             ) from None
 
     def finger_dict(self, subject: str) -> dict:
-        return {"model": self.name, "n": self.n, **self._finger(subject).to_dict()}
+        return {"model": self.name, "n": self.n, "clearance_mm": self.clearance,
+                "side_radius_mm": self.side_radius, **self._finger(subject).to_dict()}
 
-    def grid(self, subject: str) -> np.ndarray:
+    def _bem_grid(self, subject: str):
         from ..mechanics import ContactSolver
 
-        return ContactSolver(self._finger(subject), n=self.n).u.copy()
+        finger = self._finger(subject)
+        hw = finger.default_half_width(clearance=self.clearance)
+        u = ContactSolver(finger, n=self.n, half_width=hw).u.copy()
+        return finger, hw, u
+
+    def _arc_count(self, finger, u: np.ndarray) -> tuple[int, float]:
+        dx = float(u[1] - u[0])
+        ue = float(u[-1])
+        se = float((finger.outline(ue) - finger.outline(ue - dx)) / dx)
+        sin_e = se / math.sqrt(1 + se * se)
+        run = self.side_radius * (math.sin(math.radians(80.0)) - sin_e)
+        return max(int(math.ceil(run / dx)), 1), dx
+
+    def grid(self, subject: str) -> np.ndarray:
+        finger, _, u = self._bem_grid(subject)
+        k, dx = self._arc_count(finger, u)
+        ext = dx * np.arange(1, k + 1)
+        return np.concatenate([u[0] - ext[::-1], u, u[-1] + ext])
 
     def solve(self, surface: Surface, subject: str, x_centres: np.ndarray, load: float):
         from ..mechanics import sweep
 
-        res = sweep(surface, self._finger(subject), np.asarray(x_centres, float), load=float(load),
-                    n=self.n, keep_profiles=True)
+        finger, hw, u = self._bem_grid(subject)
+        res = sweep(surface, finger, np.asarray(x_centres, float), load=float(load),
+                    n=self.n, half_width=hw, keep_profiles=True)
         if not res.all_converged:
             bad = int((~res.success).sum())
             self.failures += bad
             log.warning("contact model did not converge at %d of %d positions (%s, subject %s, %g N): %s",
                         bad, res.positions.size, getattr(surface, "name", "surface"), subject, load,
                         res.messages[:1])
-        return res.finger_y, res.pressure
+        k, dx = self._arc_count(finger, u)
+        y = np.asarray(res.finger_y, float)
+        right = self._arc(y[:, -2], y[:, -1], dx, k)
+        left = self._arc(y[:, 1], y[:, 0], dx, k)[:, ::-1]
+        y_ext = np.concatenate([left, y, right], axis=1)
+        p = np.asarray(res.pressure, float)
+        z = np.zeros((p.shape[0], k))
+        return y_ext, np.concatenate([z, p, z], axis=1)
+
+    def _arc(self, y_prev: np.ndarray, y_end: np.ndarray, dx: float, k: int) -> np.ndarray:
+        """Heights (n, k) of the tangent arc continuing an outline outwards by k cells."""
+        rs = self.side_radius
+        s = (y_end - y_prev) / dx  # outward slope (positive: rising)
+        sin_e = s / np.sqrt(1 + s * s)
+        cos_e = 1 / np.sqrt(1 + s * s)
+        t = dx * np.arange(1, k + 1)[None, :]
+        sin_t = np.minimum(sin_e[:, None] + t / rs, math.sin(math.radians(80.0)))
+        cos_t = np.sqrt(1 - sin_t**2)
+        # circle centre at (rs sin_e inward, rs cos_e above the end point); beyond 80 deg
+        # continue along the 80 deg tangent
+        u80 = rs * (sin_t - sin_e[:, None])
+        y_arc = y_end[:, None] + rs * (cos_e[:, None] - cos_t)
+        beyond = t - u80
+        return y_arc + beyond * math.tan(math.radians(80.0))
 
 
 def default_provider():

@@ -258,14 +258,37 @@ def _feature_height(surf: Surface) -> float:
 def geometric_mask(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, tol_mm: float) -> np.ndarray:
     """Surface points within ``tol_mm`` of the finger outline (the paper's 3-px criterion).
 
-    The distance from the surface point ``(x, h(x))`` to the finger curve is the vertical
-    gap ``y_f - h`` times ``cos`` of the finger outline's slope angle (exact for a locally
-    straight outline; the outline's radius of curvature, >= several mm, is far above the
-    70 um tolerance).
+    Parameters
+    ----------
+    xi : (m,) ndarray
+        Uniform grid in mm (positions relative to the finger; the surface points are at
+        the same positions).
+    y_f, h : (m,) ndarray
+        Finger outline and surface heights in mm on that grid.
+    tol_mm : float
+
+    Returns
+    -------
+    (m,) bool ndarray
+        True where the Euclidean distance from the surface point ``(x_j, h_j)`` to the
+        finger outline (the polyline through ``(x_i, y_f_i)``) is at most ``tol_mm``.
     """
-    gap = y_f - h
-    slope = np.gradient(y_f, xi)
-    return gap / np.sqrt(1.0 + slope * slope) <= tol_mm
+    dx = float(xi[1] - xi[0])
+    m = xi.size
+    best = np.abs(y_f - h)  # vertical distance to the vertex above: an upper bound
+    K = int(math.ceil(tol_mm / dx)) + 1
+    for k in range(-K, K):
+        # segment from vertex i = j + k to i + 1, for every surface point j
+        j = np.arange(max(0, -k), min(m, m - 1 - k))
+        i = j + k
+        ax, ay = xi[i], y_f[i]
+        bx, by = xi[i + 1], y_f[i + 1]
+        px, py = xi[j], h[j]
+        vx, vy = bx - ax, by - ay
+        tpar = np.clip(((px - ax) * vx + (py - ay) * vy) / (vx * vx + vy * vy), 0.0, 1.0)
+        d = np.hypot(ax + tpar * vx - px, ay + tpar * vy - py)
+        best[j] = np.minimum(best[j], d)
+    return best <= tol_mm
 
 
 def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw,
