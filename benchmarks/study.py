@@ -147,6 +147,10 @@ def main(argv=None) -> int:
               f"2 over 1 = {w1 / w2:.2f}x (wall incl. cluster start-up); without start-up "
               f"{r1.compute_s:.1f} s vs {r2.compute_s:.1f} s = {r1.compute_s / max(r2.compute_s, 1e-9):.2f}x "
               f"(ideal 2.00x on 2 free cores); load average now {os.getloadavg()[0]:.1f}")
+        c1, c2 = _trial_cpu(tmp / "w1"), _trial_cpu(tmp / "w2")
+        print(f"cores actually obtained (worker CPU / wall without start-up): 1 worker "
+              f"{c1 / max(r1.compute_s, 1e-9):.2f}, 2 workers {c2 / max(r2.compute_s, 1e-9):.2f} "
+              f"(a shared machine gives less than 2; the speed-up follows it)")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return 0
