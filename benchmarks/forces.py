@@ -98,7 +98,9 @@ def rel_rms(a, ref) -> float:
     return float(np.sqrt(np.mean((a - ref) ** 2)) / np.ptp(ref))
 
 
-def video_positions(study: Path, manifest: dict, trial: dict) -> tuple[np.ndarray, np.ndarray]:
+def video_positions(
+    study: Path, manifest: dict, trial: dict, position: str = "cf-centroid"
+) -> tuple[np.ndarray, np.ndarray]:
     """x(t) and contact regions per frame from the video analysis (``fingerfriction.video``)."""
     from fingerfriction.surfaces import surface_from_spec
     from fingerfriction.video import AnalysisOptions, analyze_video
@@ -106,7 +108,7 @@ def video_positions(study: Path, manifest: dict, trial: dict) -> tuple[np.ndarra
     v = trial["video"]
     surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
     H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
-    opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)))
+    opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)), position=position)
     res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
     return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
 
@@ -117,6 +119,13 @@ def main(argv=None) -> int:
     ap.add_argument("--x-source", choices=("truth", "video"), default="truth")
     ap.add_argument("--limit", type=int, default=None, help="process only the first N trials")
     ap.add_argument(
+        "--position",
+        choices=("cf-centroid", "chord"),
+        default="cf-centroid",
+        help="video x(t) estimator with --x-source video (paper: cf-centroid)",
+    )
+    ap.add_argument("--surfaces", nargs="*", default=None, help="only trials on these surfaces")
+    ap.add_argument(
         "--regions",
         action="store_true",
         help="flat segment from contact regions (truth regions_geom, or the video's with --x-source video)",
@@ -125,9 +134,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     study = pick_study(args.study)
     manifest = json.loads((study / "manifest.json").read_text())
-    trials = manifest["trials"][: args.limit] if args.limit else manifest["trials"]
+    trials = manifest["trials"]
+    if args.surfaces:
+        trials = [t for t in trials if t["surface"] in args.surfaces]
+    trials = trials[: args.limit] if args.limit else trials
     print(f"study: {study} ({len(manifest['trials'])} trials, {len(trials)} processed)")
-    source = "truth x_finger_video" if args.x_source == "truth" else "video analysis x(t)"
+    source = "truth x_finger_video" if args.x_source == "truth" else f"video analysis x(t) ({args.position})"
     print(
         f"finger positions: {source}; flat segment from {'contact regions' if args.regions else 'positions'}"
     )
@@ -170,7 +182,7 @@ def main(argv=None) -> int:
             x_frames, regions = truth["x_finger_video"], truth["regions_geom"]
         else:
             tv0 = time.perf_counter()
-            x_frames, regions = video_positions(study, manifest, tr)
+            x_frames, regions = video_positions(study, manifest, tr, args.position)
             t_video += time.perf_counter() - tv0
             xt = truth["x_finger_video"]
             inwin = np.isfinite(x_frames) & np.isfinite(xt) & (np.abs(xt) <= 13)
