@@ -118,3 +118,11 @@ def test_geometric_mask_is_euclidean_distance_to_outline():
         clear = np.abs(d - tol) > 2e-4  # away from ties
         np.testing.assert_array_equal(got[clear], (d <= tol)[clear])
         assert got.any() and not got.all()
+
+
+def test_mechanics_grid_holds_the_contact_near_the_feature():
+    """The pad's edge must not reach the relief beyond the BEM grid (solver success)."""
+    prov = MechanicsProvider()
+    surf = get_surface("bump-4mm")
+    prov.solve(surf, "1", np.arange(-11.2, -9.8, 0.05), 0.42)
+    assert prov.failures == 0

@@ -11,7 +11,7 @@ Each frame is drawn column by column, with exact vertical area coverage (anti-al
 
 * the surface plate: dark below ``h(x)``;
 * the finger: dark above its lower outline, the deformed finger surface from the contact
-  table over the table's relative grid (for the BEM provider: the pad out to 1 mm above
+  table over the table's relative grid (for the BEM provider: the pad out to 1.5 mm above
   its lowest point, rounded into the finger's sides); beyond the grid's ends the sides
   are vertical and leave the frame at the top (a fingertip seen side-on).
 

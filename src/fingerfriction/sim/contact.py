@@ -212,7 +212,9 @@ class MechanicsProvider:
 
     The BEM grid spans the part of the pad that can touch the paper's reliefs: out to
     where the undeformed outline has risen ``clearance`` mm (``FingerParams.
-    default_half_width``; the reliefs are at most 0.8 mm high). Beyond it the silhouette
+    default_half_width``; the reliefs are at most 0.8 mm high, the pad's approach adds
+    ~0.3 mm: at 1.0 mm the bump-4mm reached the grid's edge at 0.38-0.45 N for subject 1,
+    at 1.5 mm no position of the six surfaces did, up to 0.45 N). Beyond it the silhouette
     continues, for the camera only, with a tangent circular arc of radius ``side_radius``
     that turns the outline up to 80 degrees, then the vertical sides of the finger (a
     fingertip of finite width seen side-on, rather than the pad's large contact radius
@@ -224,7 +226,7 @@ class MechanicsProvider:
         Grid cells of the BEM solver (default 512; ~0.04 mm cells for the calibrated
         subjects).
     clearance : float
-        Height in mm of the undeformed outline at the BEM grid's edge.
+        Height in mm of the undeformed outline at the BEM grid's edge (default 1.5).
     side_radius : float
         Radius in mm of the arc that rounds the pad into the finger's sides.
     fingers : dict, optional
@@ -234,7 +236,7 @@ class MechanicsProvider:
 
     name = "mechanics-bem"
 
-    def __init__(self, *, n: int = 512, clearance: float = 1.0, side_radius: float = 1.5,
+    def __init__(self, *, n: int = 512, clearance: float = 1.5, side_radius: float = 1.5,
                  fingers: dict | None = None):
         self.n = int(n)
         self.clearance = float(clearance)
