@@ -30,7 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from fingerfriction.pipeline import DEMO_WINDOW_MM, AnalysisParams, analyze
+from fingerfriction.pipeline import SIM_PARAMS, AnalysisParams, analyze
 
 PAPER_TRIALS = 180
 
@@ -98,17 +98,22 @@ def main(argv=None) -> int:
     ap.add_argument("--speedup-trials", type=int, default=24)
     ap.add_argument("--out", default=str(Path(__file__).parent / "out"))
     ap.add_argument("--window-mm", type=float, default=None,
-                    help="force window (default: 18 mm on simulated studies, see DEMO_WINDOW_MM; else 26)")
+                    help="force window (default: SIM_PARAMS on simulated studies, else the paper's 26 mm)")
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     study, origin = find_study(args.study, out)
     n = _n_trials(study)
-    window = args.window_mm or (DEMO_WINDOW_MM if (study / "truth").is_dir() else 26.0)
-    params = AnalysisParams(forces={"window_mm": window})
+    simulated = (study / "truth").is_dir()
+    opts = {k: dict(v) for k, v in SIM_PARAMS.items()} if simulated else {"video": {}, "forces": {}}
+    if args.window_mm:
+        opts["forces"]["window_mm"] = args.window_mm
+    params = AnalysisParams(**opts)
+    window = params.resolved()["forces"]["window_mm"]
     load = os.getloadavg()[0]
     print(f"study: {study} ({n} trials; {origin}); machine: {os.cpu_count()} cores, "
-          f"load average {load:.1f} at start; force window {window:g} mm")
+          f"load average {load:.1f} at start; force window {window:g} mm"
+          f"{' (simulated-study options SIM_PARAMS)' if simulated else ''}")
 
     tmp = Path(tempfile.mkdtemp(prefix="ff-bench-", dir=out))
     try:

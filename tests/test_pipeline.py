@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fingerfriction.pipeline import DEMO_WINDOW_MM, AnalysisParams, analyze, fit, regions_on_grid
+from fingerfriction.pipeline import SIM_PARAMS, AnalysisParams, analyze, fit, regions_on_grid
 from fingerfriction.results import (
     ResultsStore,
     atomic_write_parquet,
@@ -30,9 +30,8 @@ from fingerfriction.results import (
 )
 
 SRC = Path(__file__).resolve().parents[1] / "src"
-# The simulated camera tracks x(t) over about +-9.3 mm only: an 18 mm force window (see
-# fingerfriction.pipeline.DEMO_WINDOW_MM) instead of the paper's 26 mm.
-SIM = AnalysisParams(forces={"window_mm": DEMO_WINDOW_MM})
+# The options of simulated studies (see fingerfriction.pipeline.SIM_PARAMS).
+SIM = AnalysisParams(**SIM_PARAMS)
 
 
 # --------------------------------------------------------------------------------------

@@ -414,12 +414,17 @@ def analyze_cmd(
     force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
     window_mm: float = typer.Option(None, "--window-mm", help="Force position window in mm, centred on the "
                                     "feature (default: the paper's 26 mm)."),
+    simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
+                                   "experiment (narrower window, x(t) extended; see README)."),
 ) -> None:
     """Every trial through video analysis and force processing, in parallel (resumable)."""
-    from .pipeline import AnalysisParams, analyze
+    from .pipeline import SIM_PARAMS, AnalysisParams, analyze
 
     try:
-        params = AnalysisParams(forces={} if window_mm is None else {"window_mm": window_mm})
+        opts = {k: dict(v) for k, v in SIM_PARAMS.items()} if simulated else {"video": {}, "forces": {}}
+        if window_mm is not None:
+            opts["forces"]["window_mm"] = window_mm
+        params = AnalysisParams(**opts)
         res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True,
                       params=params)
     except (ValueError, OSError) as exc:
