@@ -111,8 +111,12 @@ def test_trial_ids_cannot_escape_the_results_folder(tmp_path, bad):
 def test_regions_on_grid_picks_the_frame_at_each_position():
     x = np.array([np.nan, 0.0, 1.0, 2.0, 3.0])
     reg = np.arange(5 * 1 * 2, dtype=float).reshape(5, 1, 2)
-    got = regions_on_grid(x, reg, np.array([-0.5, 0.4, 0.6, 2.9, 10.0]))
-    np.testing.assert_array_equal(got[:, 0, 0], reg[[1, 1, 2, 4, 4], 0, 0])
+    got, moved = regions_on_grid(x, reg, np.array([-0.5, 0.4, 0.6, 2.9, 10.0]), return_translated=True)
+    # inside the tracked span: the nearest frame's regions; outside: the end frame's,
+    # translated with the finger
+    np.testing.assert_array_equal(got[:, 0, 0], reg[[1, 1, 2, 4, 4], 0, 0] + [-0.5, 0, 0, 0, 7.0])
+    np.testing.assert_array_equal(got[:, 0, 1] - got[:, 0, 0], 1.0)
+    assert moved.tolist() == [True, False, False, False, True]
     with pytest.raises(ValueError, match="at least two frames"):
         regions_on_grid(np.array([np.nan, 1.0]), reg[:2], np.zeros(3))
 

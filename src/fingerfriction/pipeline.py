@@ -695,7 +695,8 @@ def _previous_runs(store: ResultsStore) -> list:
 # --------------------------------------------------------------------------------------
 
 
-def regions_on_grid(x_frames: np.ndarray, regions: np.ndarray, x_grid: np.ndarray) -> np.ndarray:
+def regions_on_grid(x_frames: np.ndarray, regions: np.ndarray, x_grid: np.ndarray, *,
+                    return_translated: bool = False):
     """Contact regions at each grid position: those of the frame where the finger was there.
 
     Parameters
@@ -706,17 +707,30 @@ def regions_on_grid(x_frames: np.ndarray, regions: np.ndarray, x_grid: np.ndarra
         Contact regions of each frame in mm.
     x_grid : (n,) ndarray
         Positions in mm (the force grid).
+    return_translated : bool
+        Also return which positions got translated regions (see Notes).
 
     Returns
     -------
     (n, n_max, 2) ndarray
-        For each grid position, the regions of the frame whose x(t) is nearest to it
-        (frames are first sorted by x, as the finger slides left to right).
+        For each grid position inside the tracked span, the regions of the frame whose
+        x(t) is nearest to it (frames sorted by x, as the finger slides left to right).
+    translated : (n,) bool ndarray
+        Only with ``return_translated``.
 
     Raises
     ------
     ValueError
         If fewer than two frames have a finger position.
+
+    Notes
+    -----
+    A grid position outside the span of tracked frames (the force stage may extend x(t)
+    beyond it, see ``extrapolate_mm`` of :class:`fingerfriction.forces.ForceProcessingParams`)
+    gets the regions of the nearest tracked end frame *translated with the finger*
+    (``+ x_grid - x_end``). On flat ground, far from the feature, the contact moves
+    rigidly with the finger and this is exact; nearer the feature it is an approximation,
+    which is why those positions are reported (``translated``).
     """
     x = np.asarray(x_frames, dtype=float)
     reg = np.asarray(regions, dtype=float)
@@ -730,7 +744,11 @@ def regions_on_grid(x_frames: np.ndarray, regions: np.ndarray, x_grid: np.ndarra
     j = np.clip(np.searchsorted(xs, g), 1, xs.size - 1)
     nearer_left = (g - xs[j - 1]) <= (xs[j] - g)
     pick = np.where(nearer_left, j - 1, j)
-    return reg[order[pick]]
+    out = reg[order[pick]].copy()
+    translated = (g < xs[0]) | (g > xs[-1])
+    shift = np.where(g < xs[0], g - xs[0], np.where(g > xs[-1], g - xs[-1], 0.0))
+    out += shift[:, None, None]  # NaN slots stay NaN
+    return (out, translated) if return_translated else out
 
 
 @dataclass(frozen=True)
@@ -809,7 +827,7 @@ def fit(
     if not ok_ids:
         raise ValueError(f"{str(store.root)!r} has no successfully analysed trial to fit")
     bar = _Progress(progress, len(ok_ids) + 1, "fit")
-    grids: dict[str, np.ndarray] = {}
+    grids: dict[str, np.ndarray] = {}  # per trial: positions with translated regions
     try:
         for tid in ok_ids:
             m = meta[tid]
@@ -819,13 +837,20 @@ def fit(
                 x = fo["x_mm"].to_numpy(float)
                 F = fo["F_T_N"].to_numpy(float)
                 good = np.isfinite(F)
-                reg = regions_on_grid(fr["x_mm"].to_numpy(float), regions_from_table(fr), x)
+                reg, moved = regions_on_grid(fr["x_mm"].to_numpy(float), regions_from_table(fr), x,
+                                             return_translated=True)
                 surf = surfaces[m["surface"]]
+                n_flat = int(np.count_nonzero(fitmod.flat_segment_mask(reg[good], surf,
+                                                                       margin=options.flat_margin)))
+                if n_flat < 2:  # the fit detrends over this segment; one such trial must not stop the others
+                    raise ValueError(
+                        f"no flat segment: {n_flat} positions where all contact lies before the feature "
+                        f"(x(t) tracked over [{np.nanmin(fr['x_mm']):.2f}, {np.nanmax(fr['x_mm']):.2f}] mm)")
                 trials.append(fitmod.Trial(
                     x=x[good], force=F[good], regions=reg[good], surface=surf, subject=str(m["subject"]),
                     labels={"trial": tid, "surface": m["surface"], "speed_mm_s": f"{m['speed_mm_s']:g}"}))
                 tids.append(tid)
-                grids[tid] = x[good]
+                grids[tid] = moved[good]
             except (ValueError, KeyError, OSError) as exc:
                 failures.append((tid, _one_line(exc)))
             bar.advance(tid)
@@ -861,7 +886,7 @@ def fit(
             f_tot = f_int + f_def
             df = pd.DataFrame({"x_mm": tr.x, "F_T_N": tf.measured, "F_hat_N": tf.estimate,
                                "F_model_N": f_tot, "F_int_N": f_int, "F_def_N": f_def,
-                               "F_T_raw_N": tr.force})
+                               "F_T_raw_N": tr.force, "regions_translated": grids[tid]})
             atomic_write_parquet(store.fit_dir / "model" / f"{tid}.parquet", df)
     trials_df = pd.DataFrame(rows)
     subj_df = pd.DataFrame(subj_rows)
