@@ -235,9 +235,11 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
         assert run["inputs"][tid]["force"]["sha256"] == _digest(tiny_study / t["force"]["path"])
         fr, fo = store.read_frames(tid), store.read_forces(tid)
         assert len(fr) == t["video"]["n_frames"]
-        assert np.isfinite(fr["x_mm"]).sum() > 100  # tracked frames (the rest are flagged, with reasons)
-        assert (fr["flag"] == "").sum() == np.isfinite(fr["x_mm"]).sum()
-        assert (fr["n_regions"] > 0).sum() > 100
+        tracked = np.isfinite(fr["x_mm"])  # the other frames are flagged, with their reasons
+        assert (fr["flag"] == "").sum() == tracked.sum() > 50
+        assert fr["x_mm"].min() < -2 and fr["x_mm"].max() > 2  # across the feature
+        assert (fr["n_regions"][tracked] > 0).all()
+        assert fr["flag"][~tracked].str.len().min() > 0
         assert np.diff(fo["x_mm"]).min() > 0 and np.isfinite(fo["F_T_N"]).all()
     # the fit and the report on top
     summary = fit(out, progress=False)
