@@ -78,6 +78,7 @@ def cg_step(  # pragma: no cover - compiled
     ``w = K p_new`` by FFT.
     """
     n = r.size
+    c0 = (kfull.size - 1) // 2  # kfull[c0 + d] = K(|d|); n may be a window of the grid
     p = work[ip]
     pn = work[inew]
     t = work[T]
@@ -132,13 +133,13 @@ def cg_step(  # pragma: no cover - compiled
         for c in range(ncorr):  # clipped cells: from trial to 0
             j = idx[c]
             a = trial[j]
-            o = n - 1 - j
+            o = c0 - j
             for i in range(n):
                 w[i] -= a * kfull[o + i]
         for c in range(nol):  # overlap cells: from 0 (after clipping) to their pressure
             j = idx[m + c]
             a = pn[j]
-            o = n - 1 - j
+            o = c0 - j
             for i in range(n):
                 w[i] += a * kfull[o + i]
         for i in range(n):

@@ -93,13 +93,14 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-try:  # pocketfft's packed real FFT without the public wrapper (see ContactSolver._conv)
+try:  # pocketfft's packed real FFT without the public wrapper (see _Convolver)
     from scipy.fft._pocketfft.pypocketfft import r2r_fftpack as _r2r
 except ImportError:  # pragma: no cover - private scipy API moved
     _r2r = None
 _AXES = (0,)
 
 _SPARSE = 24  # up to this many corrected cells, update K p column by column (cheaper than FFT)
+_MARGIN = 32  # cells beyond a warm start's contact in the CG window (ContactSolver._pk)
 
 #: The paper's contact criterion: contour points within 3 px (about 70 um) are in contact.
 GEOMETRIC_TOL = 0.070
@@ -337,6 +338,50 @@ def _check_load(load) -> float:
     return F
 
 
+class _Convolver:
+    """Linear convolution with the kernel of a pressure on ``m`` consecutive cells.
+
+    Zero padding to ``2m`` and pocketfft's packed real FFT. The kernel is even, so its
+    spectrum is real: fftpack's packed format ([r0, r1, i1, r2, i2, ...]) then needs
+    only an elementwise product with the spectrum repeated per (r, i) pair (measured
+    faster than scipy.fft's complex rfft path at these sizes). Work arrays are kept
+    between calls (the solver is not thread-safe).
+
+    Calling it returns ``K f`` on the ``m`` cells for ``f = fin[:m]``, a view into a
+    buffer overwritten by the next call.
+    """
+
+    def __init__(self, kj: np.ndarray, m: int):
+        kk = np.zeros(2 * m)
+        kk[: m + 1] = kj[: m + 1]
+        kk[m + 1 :] = kj[1:m][::-1]
+        spec = sfft.rfft(kk).real
+        packed = np.empty(2 * m)
+        packed[0] = spec[0]
+        packed[1:-1:2] = spec[1:m]
+        packed[2:-1:2] = spec[1:m]
+        packed[-1] = spec[m]
+        self.m = m
+        self.kspec = packed
+        self.fin = np.zeros(2 * m)  # FFT input: the upper half stays zero (padding)
+        self.spec = np.empty(2 * m)
+        self.fout = np.empty(2 * m)
+        self.work = np.zeros((7, m))  # CG work rows, see _cgkernels
+
+    def __call__(self) -> np.ndarray:
+        if _r2r is None:
+            f = fftpack.rfft(self.fin)
+            f *= self.kspec
+            self.fout[:] = fftpack.irfft(f, overwrite_x=True)
+        else:
+            # pocketfft without the public wrapper, whose argument handling cost ~4 us of
+            # ~12 us per transform pair at n = 1024.
+            _r2r(self.fin, _AXES, True, True, 0, self.spec, 1)
+            self.spec *= self.kspec
+            _r2r(self.spec, _AXES, False, False, 2, self.fout, 1)
+        return self.fout[: self.m]
+
+
 class ContactSolver:
     """A contact solver for one finger on one grid (kernel spectrum precomputed).
 
@@ -390,50 +435,19 @@ class ContactSolver:
             kj = halfspace_kernel(j, self.dx, finger.modulus, finger.radius)
         else:
             kj = _layer_kernel(j, self.dx, finger.modulus, finger.layer_thickness, finger.poisson)
-        kk = np.empty(2 * n)
-        kk[: n + 1] = kj
-        kk[n + 1 :] = kj[1:n][::-1]
-        # The kernel is even, so its spectrum is real. scipy.fftpack's packed real FFT
-        # ([r0, r1, i1, r2, i2, ...]) then needs only an elementwise product with the
-        # spectrum repeated per (r, i) pair; its per-call overhead is ~25 % lower than
-        # scipy.fft's dispatch at these sizes (measured 16 vs 21 us per pair at 2n = 2048).
-        spec = sfft.rfft(kk).real
-        packed = np.empty(2 * n)
-        packed[0] = spec[0]
-        packed[1:-1:2] = spec[1:n]
-        packed[2:-1:2] = spec[1:n]
-        packed[-1] = spec[n]
-        self._kspec = packed
+        self._kj = kj
+        self._full = _Convolver(kj, n)
+        self._windows: dict[int, _Convolver] = {}
         # Symmetric kernel K(|i - j|) as one array: column j is kfull[n-1-j : 2n-1-j].
         self._kfull = np.concatenate([kj[1:n][::-1], kj[:n]])
-        self._fin = np.zeros(2 * n)  # FFT input: the upper half stays zero (padding)
-        self._spec = np.empty(2 * n)
-        self._fout = np.empty(2 * n)
-        self._work = np.zeros((7, n))  # CG work rows, see _cgkernels
         self._idx = np.empty(2 * _SPARSE, dtype=np.int64)
         self.kernel0 = float(kj[0])
 
     # ------------------------------------------------------------------ helpers
     def displacement(self, p: np.ndarray) -> np.ndarray:
         """Elastic displacement ``w = K p`` (mm, into the finger) of the pressure ``p`` (n,)."""
-        self._fin[: self.n] = p
-        return self._conv().copy()
-
-    def _conv(self) -> np.ndarray:
-        """``K f`` for ``f = self._fin[:n]`` (``_fin[n:]`` is zero): a view of ``(n,)``.
-
-        Calls pocketfft's packed real transform directly when available: the public
-        wrappers' argument handling cost ~4 us of ~12 us per transform pair at n = 1024.
-        """
-        if _r2r is None:
-            f = fftpack.rfft(self._fin)
-            f *= self._kspec
-            self._fout[:] = fftpack.irfft(f, overwrite_x=True)
-        else:
-            _r2r(self._fin, _AXES, True, True, 0, self._spec, 1)
-            self._spec *= self._kspec
-            _r2r(self._spec, _AXES, False, False, 2, self._fout, 1)
-        return self._fout[: self.n]
+        self._full.fin[: self.n] = p
+        return self._full().copy()
 
     def grid(self, x_finger: float) -> np.ndarray:
         """Cell centres in mm (surface coordinates) for a finger at ``x_finger``."""
@@ -525,16 +539,19 @@ class ContactSolver:
     def _pk(self, hs: np.ndarray, P: float, p0, tol: float, max_iter: int):
         """Polonsky-Keer constrained CG, load controlled. ``hs = h - s`` (mm).
 
-        Returns ``(p, w, z, iterations, residual, converged)``. The displacement ``w = K p``
-        is updated incrementally: ``p`` changes by ``-tau t`` (whose image ``K t`` the CG
-        step computes anyway) plus a few clipped/overlap cells, added column by column
-        when there are at most ``_SPARSE`` of them, else ``K p`` is recomputed by FFT.
-        This halves the FFTs per iteration (measured: 1.7x faster sweeps at n = 1024).
-        The vector work of each iteration runs in two compiled passes
-        (:mod:`._cgkernels`), the convolution in scipy's FFT.
+        Returns ``(p, w, z, iterations, residual, converged)``.
+
+        With a warm start the CG runs on a window of cells around the start's contact
+        (``_MARGIN`` cells beyond it on each side, rounded up to a power of two): the
+        pressure is zero outside it, so the convolutions of the iteration shrink to the
+        window. The result is then checked on the full grid: if any cell outside the
+        window penetrates the surface, the window solution is not the full problem's
+        and the CG continues from it on the full grid. When there is no penetration
+        outside, the window solution satisfies all the full problem's conditions
+        (``p >= 0``, ``g >= 0``, ``p g = 0``, load), so it is that (unique) solution.
         """
         n, dx = self.n, self.dx
-        work = self._work
+        hs = np.ascontiguousarray(hs, dtype=float)
         if p0 is None:
             # Start from a patch around the highest points of h - s.
             top = hs.max()
@@ -543,13 +560,49 @@ class ContactSolver:
         else:
             p = np.clip(p0, 0.0, None)
         p *= P / (p.sum() * dx)
+        it_used = 0
+        if p0 is not None:
+            nz = np.flatnonzero(p > 0)
+            m = 1 << int(math.ceil(math.log2(nz[-1] - nz[0] + 1 + 2 * _MARGIN)))
+            if m < n:
+                i0 = min(max((nz[0] + nz[-1] + 1 - m) // 2, 0), n - m)
+                conv = self._windows.get(m)
+                if conv is None:
+                    conv = self._windows[m] = _Convolver(self._kj, m)
+                pw, _, it_used, err = self._cg(conv, hs[i0 : i0 + m], P, p[i0 : i0 + m], tol, max_iter)
+                p = np.zeros(n)
+                p[i0 : i0 + m] = pw
+                w = self.displacement(p)
+                g = w - hs
+                S = p > 0
+                z = -float(g[S].mean())
+                g += z
+                if g[:i0].min(initial=0.0) >= 0.0 and g[i0 + m :].min(initial=0.0) >= 0.0:
+                    return p, w, z, it_used, err, err < tol
+                log.debug("window [%d, %d) penetrated outside: continuing on the full grid", i0, i0 + m)
+        p, w, it, err = self._cg(self._full, hs, P, p, tol, max(max_iter - it_used, 1))
+        g = w - hs
+        S = p > 0
+        z = -float(g[S].mean()) if S.any() else -float(g.min())
+        return p, w, z, it + it_used, err, err < tol
+
+    def _cg(self, conv: _Convolver, hs: np.ndarray, P: float, p: np.ndarray, tol: float, max_iter: int):
+        """The CG iterations on the ``m`` cells of ``conv`` from the pressure ``p`` (m,).
+
+        Returns ``(p, w, iterations, residual)``. The displacement ``w = K p`` is updated
+        incrementally: ``p`` changes by ``-tau t`` (whose image ``K t`` the CG step
+        computes anyway) plus a few clipped/overlap cells, added column by column when
+        there are at most ``_SPARSE`` of them, else ``K p`` is recomputed by FFT. This
+        halves the FFTs per iteration (measured: 1.7x faster sweeps at n = 1024). The
+        vector work of each iteration runs in two compiled passes (:mod:`._cgkernels`).
+        """
+        m, dx = conv.m, self.dx
+        work, fin = conv.work, conv.fin
         ip, inew = 4, 5
         work[ip] = p
         work[_cg.T] = 0.0
-        fin = self._fin
-        fin[:n] = p
-        work[_cg.W] = self._conv()
-        hs = np.ascontiguousarray(hs, dtype=float)
+        fin[:m] = p
+        work[_cg.W] = conv()
         kfull, idx = self._kfull, self._idx
         sparse_max = min(_SPARSE, idx.size // 2)
         delta = 0.0
@@ -565,7 +618,7 @@ class ContactSolver:
                 err = 0.0
                 break
             G_old = G
-            r = self._conv()
+            r = conv()
             status, new_delta, e, refresh, since_refresh = step(
                 work, ip, inew, r, kfull, idx, nS, P, dx, since_refresh, sparse_max, 50
             )
@@ -573,8 +626,8 @@ class ContactSolver:
                 # Lost conjugacy (round-off on ill-conditioned kernels): restart from the
                 # steepest-descent direction rather than stopping.
                 work[_cg.T] = work[_cg.GS]
-                fin[:n] = work[_cg.GS]
-                r = self._conv()
+                fin[:m] = work[_cg.GS]
+                r = conv()
                 status, new_delta, e, refresh, since_refresh = step(
                     work, ip, inew, r, kfull, idx, nS, P, dx, since_refresh, sparse_max, 50
                 )
@@ -583,18 +636,16 @@ class ContactSolver:
             delta = new_delta
             err = e
             if refresh:
-                fin[:n] = work[inew]
-                work[_cg.W] = self._conv()
+                fin[:m] = work[inew]
+                work[_cg.W] = conv()
                 since_refresh = 0
             ip, inew = inew, ip
             if err < tol:
                 break
+        # The incrementally updated w drifts by round-off only; recompute it once.
         p = work[ip].copy()
-        w = self.displacement(p)
-        g = w - hs
-        S = p > 0
-        z = -float(g[S].mean()) if S.any() else -float(g.min())
-        return p, w, z, it, err, err < tol
+        fin[:m] = p
+        return p, conv().copy(), it, err
 
     def _finish(self, x, h, p, w, z, it, err, conv, F, P, gap_tol, x_finger, max_iter) -> ContactSolution:
         yf = z + self.outline + w
