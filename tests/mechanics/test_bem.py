@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
@@ -131,3 +132,44 @@ def test_non_convergence_is_reported():
     sol = ContactSolver(finger, n=1024).solve(get_surface("bump-4mm"), -2.0, max_iter=3)
     assert not sol.success
     assert "did not converge" in sol.message
+
+
+def test_warm_start_on_a_window_matches_cold_solve():
+    # A warm start runs the CG on a window around its contact (smaller FFTs); the result
+    # must be the full problem's solution.
+    finger = FingerParams(radius=8.0, modulus=0.1, width=10.0)
+    surf = get_surface("bump-4mm")
+    solver = ContactSolver(finger, n=1024)
+    prev = solver.solve(surf, -3.0, tol=1e-10)
+    warm = solver.solve(surf, -2.9, x0=prev, tol=1e-10)
+    cold = solver.solve(surf, -2.9, tol=1e-10)
+    assert warm.success and cold.success
+    assert solver._windows, "the warm start should have used a window"
+    assert np.max(np.abs(warm.pressure - cold.pressure)) < 1e-6 * cold.pressure.max()
+    np.testing.assert_allclose(warm.finger_y, cold.finger_y, atol=1e-7)
+    np.testing.assert_array_equal(warm.mechanical_regions, cold.mechanical_regions)
+
+
+def test_warm_start_misses_a_new_contact_outside_its_window(caplog):
+    # The warm start's contact is the flat-ground patch in the middle of the grid; the
+    # relief has a tall narrow bump near the grid's edge that the finger must touch. The
+    # window cannot see it: the full-grid penetration check must catch it and continue
+    # on the full grid, giving the cold solution.
+    finger = FingerParams(radius=8.0, modulus=0.1, width=10.0)
+    solver = ContactSolver(finger, n=1024)
+    flat = solver.solve(_flat, 0.0, tol=1e-10)
+    xb = 0.6 * solver.half_width
+    Hb = float(finger.outline(np.array([xb]))[0]) + 0.05
+
+    def bumpy(x):
+        return Hb * np.exp(-(((x - xb) / 0.4) ** 2))
+
+    with caplog.at_level(logging.DEBUG, logger="fingerfriction.mechanics.bem"):
+        warm = solver.solve(bumpy, 0.0, x0=flat, tol=1e-10)
+    assert "penetrated outside" in caplog.text
+    cold = solver.solve(bumpy, 0.0, tol=1e-10)
+    assert warm.success and cold.success
+    assert cold.mechanical_regions.shape[0] == 2
+    assert np.max(np.abs(warm.pressure - cold.pressure)) < 1e-6 * cold.pressure.max()
+    np.testing.assert_array_equal(warm.mechanical_regions, cold.mechanical_regions)
+    assert warm.max_penetration < 1e-6
