@@ -173,3 +173,30 @@ def test_warm_start_misses_a_new_contact_outside_its_window(caplog):
     assert np.max(np.abs(warm.pressure - cold.pressure)) < 1e-6 * cold.pressure.max()
     np.testing.assert_array_equal(warm.mechanical_regions, cold.mechanical_regions)
     assert warm.max_penetration < 1e-6
+
+
+def test_region_extraction_matches_the_regions_module():
+    # bem extracts the regions of every sweep position with its own vectorised code; it
+    # must give exactly what fingerfriction.regions.regions_from_mask gives.
+    from fingerfriction.mechanics.bem import _geometric_regions, _mechanical_regions
+    from fingerfriction.regions import regions_from_mask
+
+    rng = np.random.default_rng(3)
+    x = -1.5 + 0.01 * np.arange(300) + 0.005
+    for k in range(200):
+        p = np.where(rng.random(300) < 0.5, rng.random(300), 0.0)
+        p[[0, -1]] = [k % 2, k % 3 == 0]
+        if k == 0:
+            p[:] = 0.0
+        ref = regions_from_mask(x, p > 0)[0]
+        np.testing.assert_array_equal(_mechanical_regions(x, p), ref[~np.isnan(ref[:, 0])])
+        gap = np.where(p > 0, 0.0, rng.random(300) * 0.14)
+        g = _geometric_regions(x, gap, 0.07)
+        inside = gap <= 0.07
+        ref = regions_from_mask(x, inside)[0]
+        ref = ref[~np.isnan(ref[:, 0])]
+        assert g.shape == ref.shape
+        # Interpolated ends lie within half a cell outside the cell-edge intervals' centres.
+        assert np.all(np.abs(g - ref) <= 0.01 + 1e-12)
+        for a, b in g:
+            assert np.all(gap[(x > a) & (x < b)] <= 0.07)

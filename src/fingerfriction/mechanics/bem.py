@@ -76,7 +76,6 @@ import numpy as np
 import scipy.fft as sfft
 from scipy import fftpack
 
-from ..regions import regions_from_mask
 from ..surfaces import Surface
 from . import _cgkernels as _cg
 from .finger import FingerParams
@@ -300,32 +299,42 @@ class ContactSolution:
         return float(self.pressure.sum() * self.dx * self.finger.width)
 
 
+def _runs(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and last indices of the runs of True in the boolean ``m`` (n,)."""
+    d = np.diff(m.view(np.int8))
+    starts = np.flatnonzero(d == 1) + 1
+    ends = np.flatnonzero(d == -1)
+    if m[0]:
+        starts = np.concatenate(([0], starts))
+    if m[-1]:
+        ends = np.concatenate((ends, [m.size - 1]))
+    return starts, ends
+
+
 def _geometric_regions(x: np.ndarray, gap: np.ndarray, tol: float) -> np.ndarray:
     """Intervals where ``gap <= tol``, ends linearly interpolated at ``gap = tol``."""
-    m = gap <= tol
-    if not m.any():
-        return np.empty((0, 2))
-    d = np.diff(np.concatenate([[False], m, [False]]).astype(np.int8))
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1) - 1
-    out = np.empty((starts.size, 2))
-    for r, (i0, i1) in enumerate(zip(starts, ends, strict=True)):
-        if i0 > 0:
-            g0, g1 = gap[i0 - 1], gap[i0]
-            out[r, 0] = x[i0 - 1] + (x[i0] - x[i0 - 1]) * (g0 - tol) / (g0 - g1)
-        else:
-            out[r, 0] = x[0]
-        if i1 < x.size - 1:
-            g0, g1 = gap[i1], gap[i1 + 1]
-            out[r, 1] = x[i1] + (x[i1 + 1] - x[i1]) * (tol - g0) / (g1 - g0)
-        else:
-            out[r, 1] = x[-1]
+    i0, i1 = _runs(gap <= tol)
+    out = np.empty((i0.size, 2))
+    if i0.size == 0:
+        return out
+    n = x.size
+    # Vectorised over the runs (this is per sweep position: a Python loop cost ~15 % of
+    # a warm-started sweep); the same arithmetic as interpolating run by run.
+    a = np.maximum(i0 - 1, 0)
+    g0, g1 = gap[a], gap[i0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out[:, 0] = np.where(i0 > 0, x[a] + (x[i0] - x[a]) * (g0 - tol) / (g0 - g1), x[0])
+        b = np.minimum(i1 + 1, n - 1)
+        g0, g1 = gap[i1], gap[b]
+        out[:, 1] = np.where(i1 < n - 1, x[i1] + (x[b] - x[i1]) * (tol - g0) / (g1 - g0), x[-1])
     return out
 
 
 def _mechanical_regions(x: np.ndarray, p: np.ndarray) -> np.ndarray:
-    r = regions_from_mask(x, p > 0)[0]
-    return r[~np.isnan(r[:, 0])]
+    """Runs of ``p > 0`` as cell-edge intervals (as :func:`~fingerfriction.regions.regions_from_mask`)."""
+    i0, i1 = _runs(p > 0)
+    dx = float(x[1] - x[0])
+    return np.column_stack([x[i0] - dx / 2, x[i1] + dx / 2])
 
 
 # ------------------------------------------------------------------------------ solver
