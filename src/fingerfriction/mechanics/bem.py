@@ -314,19 +314,26 @@ def _runs(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _geometric_regions(x: np.ndarray, gap: np.ndarray, tol: float) -> np.ndarray:
     """Intervals where ``gap <= tol``, ends linearly interpolated at ``gap = tol``."""
     i0, i1 = _runs(gap <= tol)
-    out = np.empty((i0.size, 2))
-    if i0.size == 0:
+    k = i0.size
+    out = np.empty((k, 2))
+    if k == 0:
         return out
-    n = x.size
-    # Vectorised over the runs (this is per sweep position: a Python loop cost ~15 % of
-    # a warm-started sweep); the same arithmetic as interpolating run by run.
-    a = np.maximum(i0 - 1, 0)
-    g0, g1 = gap[a], gap[i0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out[:, 0] = np.where(i0 > 0, x[a] + (x[i0] - x[a]) * (g0 - tol) / (g0 - g1), x[0])
-        b = np.minimum(i1 + 1, n - 1)
-        g0, g1 = gap[i1], gap[b]
-        out[:, 1] = np.where(i1 < n - 1, x[i1] + (x[b] - x[i1]) * (tol - g0) / (g1 - g0), x[-1])
+    # Vectorised over the runs (this runs once per sweep position, where a Python loop
+    # over runs was ~15 % of a warm-started sweep); the same arithmetic as interpolating
+    # run by run. Only the first run can start at cell 0, only the last end at n - 1:
+    # those ends are the grid's ends.
+    f = 1 if i0[0] == 0 else 0
+    i = i0[f:]
+    g0, g1 = gap[i - 1], gap[i]
+    out[f:, 0] = x[i - 1] + (x[i] - x[i - 1]) * (g0 - tol) / (g0 - g1)
+    if f:
+        out[0, 0] = x[0]
+    e = k - 1 if i1[-1] == x.size - 1 else k
+    j = i1[:e]
+    g0, g1 = gap[j], gap[j + 1]
+    out[:e, 1] = x[j] + (x[j + 1] - x[j]) * (tol - g0) / (g1 - g0)
+    if e < k:
+        out[-1, 1] = x[-1]
     return out
 
 
@@ -581,7 +588,9 @@ class ContactSolver:
                 conv = self._windows.get(m)
                 if conv is None:
                     conv = self._windows[m] = _Convolver(self._kj, m)
-                pw, _, it_used, err = self._cg(conv, hs[i0 : i0 + m], P, p[i0 : i0 + m], tol, max_iter)
+                pw, _, it_used, err = self._cg(
+                    conv, hs[i0 : i0 + m], P, p[i0 : i0 + m], tol, max_iter, final_w=False
+                )
                 p = np.zeros(n)
                 p[i0 : i0 + m] = pw
                 w = self.displacement(p)
@@ -598,10 +607,14 @@ class ContactSolver:
         z = -float(g[S].mean()) if S.any() else -float(g.min())
         return p, w, z, it + it_used, err, err < tol
 
-    def _cg(self, conv: _Convolver, hs: np.ndarray, P: float, p: np.ndarray, tol: float, max_iter: int):
+    def _cg(
+        self, conv: _Convolver, hs: np.ndarray, P: float, p: np.ndarray, tol: float, max_iter: int,
+        final_w: bool = True,
+    ):
         """The CG iterations on the ``m`` cells of ``conv`` from the pressure ``p`` (m,).
 
-        Returns ``(p, w, iterations, residual)``. The displacement ``w = K p`` is updated
+        Returns ``(p, w, iterations, residual)``; ``w`` is None unless ``final_w``.
+        The displacement ``w = K p`` is updated
         incrementally: ``p`` changes by ``-tau t`` (whose image ``K t`` the CG step
         computes anyway) plus a few clipped/overlap cells, added column by column when
         there are at most ``_SPARSE`` of them, else ``K p`` is recomputed by FFT. This
@@ -654,8 +667,10 @@ class ContactSolver:
             ip, inew = inew, ip
             if err < tol:
                 break
-        # The incrementally updated w drifts by round-off only; recompute it once.
         p = work[ip].copy()
+        if not final_w:
+            return p, None, it, err
+        # The incrementally updated w drifts by round-off only; recompute it once.
         fin[:m] = p
         return p, conv().copy(), it, err
 
