@@ -14,6 +14,11 @@ This is solved with the constrained conjugate gradient of Polonsky & Keer (1999)
 load-controlled; the convolution ``K p`` is a linear (non-periodic) convolution evaluated
 with zero padding to ``2n`` and real FFTs against a precomputed kernel spectrum.
 
+Speed (for sweeps, see ``benchmarks/contact.py``): the vector work of each CG iteration is
+fused into two compiled (numba) passes (:mod:`._cgkernels`); a warm-started solve iterates
+on a window of cells around the start's contact (smaller FFTs) and checks the result on
+the full grid, continuing there if a cell outside the window penetrates the surface.
+
 Influence coefficients (piecewise-constant pressure on cells of width ``dx``, displacement
 at cell centres; Johnson 1985, Eq. 2.25b)
 --------------------------------------------------------------------------------------------
