@@ -178,6 +178,7 @@ def test_warm_start_misses_a_new_contact_outside_its_window(caplog):
 def test_region_extraction_matches_the_regions_module():
     # bem extracts the regions of every sweep position with its own vectorised code; it
     # must give exactly what fingerfriction.regions.regions_from_mask gives.
+    from fingerfriction.mechanics._cgkernels import contact_regions
     from fingerfriction.mechanics.bem import _geometric_regions, _mechanical_regions
     from fingerfriction.regions import regions_from_mask
 
@@ -200,3 +201,8 @@ def test_region_extraction_matches_the_regions_module():
         assert np.all(np.abs(g - ref) <= 0.01 + 1e-12)
         for a, b in g:
             assert np.all(gap[(x > a) & (x < b)] <= 0.07)
+        # The compiled pass used per solve gives exactly the same rows.
+        rm, rg = np.empty((151, 2)), np.empty((151, 2))
+        km, kg = contact_regions(x, p, gap, 0.07, rm, rg)
+        np.testing.assert_array_equal(rm[:km], _mechanical_regions(x, p))
+        np.testing.assert_array_equal(rg[:kg], g)

@@ -150,3 +150,50 @@ def cg_step(  # pragma: no cover - compiled
         pn[i] = v
         err += abs(v - p[i])
     return 0, delta, err * dx / P, refresh, since_refresh
+
+
+@njit(cache=True, nogil=True)
+def contact_regions(x, p, gap, tol, mech, geom):  # pragma: no cover - compiled
+    """Mechanical (``p > 0``) and geometric (``gap <= tol``) regions of one solution.
+
+    The same arithmetic as :func:`.bem._mechanical_regions` and
+    :func:`.bem._geometric_regions` (cell-edge intervals; ends of the geometric ones
+    interpolated linearly at ``gap = tol``), written into ``mech`` and ``geom``
+    (``(n // 2 + 1, 2)`` each); returns their numbers of rows. One compiled pass instead
+    of ~20 numpy calls per sweep position (measured ~25 us of ~160 us per position).
+    """
+    n = x.size
+    dx = x[1] - x[0]
+    km = 0
+    kg = 0
+    inm = False
+    ing = False
+    for i in range(n):
+        pm = p[i] > 0.0
+        if pm and not inm:
+            mech[km, 0] = x[i] - dx / 2
+        elif inm and not pm:
+            mech[km, 1] = x[i - 1] + dx / 2
+            km += 1
+        inm = pm
+        pg = gap[i] <= tol
+        if pg and not ing:
+            if i > 0:
+                g0 = gap[i - 1]
+                g1 = gap[i]
+                geom[kg, 0] = x[i - 1] + (x[i] - x[i - 1]) * (g0 - tol) / (g0 - g1)
+            else:
+                geom[kg, 0] = x[0]
+        elif ing and not pg:
+            g0 = gap[i - 1]
+            g1 = gap[i]
+            geom[kg, 1] = x[i - 1] + (x[i] - x[i - 1]) * (tol - g0) / (g1 - g0)
+            kg += 1
+        ing = pg
+    if inm:
+        mech[km, 1] = x[n - 1] + dx / 2
+        km += 1
+    if ing:
+        geom[kg, 1] = x[n - 1]
+        kg += 1
+    return km, kg

@@ -462,6 +462,7 @@ class ContactSolver:
         # Symmetric kernel K(|i - j|) as one array: column j is kfull[n-1-j : 2n-1-j].
         self._kfull = np.concatenate([kj[1:n][::-1], kj[:n]])
         self._idx = np.empty(2 * _SPARSE, dtype=np.int64)
+        self._rbuf = (np.empty((n // 2 + 1, 2)), np.empty((n // 2 + 1, 2)))  # region rows
         self.kernel0 = float(kj[0])
 
     # ------------------------------------------------------------------ helpers
@@ -686,8 +687,10 @@ class ContactSolver:
         pen = float(max(0.0, -gap_c.min()))
         load_error = abs(p.sum() * self.dx - P) / P
         approach = float(np.max(h - self.outline)) - z
-        mech = _mechanical_regions(x, p)
-        geom = _geometric_regions(x, np.maximum(gap_c, 0.0), gap_tol)
+        # Compiled equivalent of _mechanical_regions and _geometric_regions (tested equal).
+        rm, rg = self._rbuf
+        km, kg = _cg.contact_regions(x, p, np.maximum(gap_c, 0.0), float(gap_tol), rm, rg)
+        mech, geom = rm[:km].copy(), rg[:kg].copy()
         success = bool(conv)
         if conv:
             msg = f"converged in {it} iterations (residual {err:.2e})"
