@@ -604,9 +604,12 @@ class ContactSolver:
                 S = p > 0
                 z = -float(g[S].mean())
                 g += z
-                if g[:i0].min(initial=0.0) >= 0.0 and g[i0 + m :].min(initial=0.0) >= 0.0:
-                    return p, w, z, it_used, err, err < tol
-                log.debug("window [%d, %d) penetrated outside: continuing on the full grid", i0, i0 + m)
+                if err >= tol:
+                    log.debug("window [%d, %d) did not converge: continuing on the full grid", i0, i0 + m)
+                elif g[:i0].min(initial=0.0) >= 0.0 and g[i0 + m :].min(initial=0.0) >= 0.0:
+                    return p, w, z, it_used, err, True
+                else:
+                    log.debug("window [%d, %d) penetrated outside: continuing on the full grid", i0, i0 + m)
         p, w, it, err = self._cg(self._full, hs, P, p, tol, max(max_iter - it_used, 1))
         g = w - hs
         S = p > 0
