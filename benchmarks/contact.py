@@ -8,8 +8,8 @@ For grids of 1024 and 4096 cells (finger: SUBJECTS[1]; surface: Bump 4 mm; 0.3 N
   accuracy: the largest pressure error over 101 of the positions (every 26th) against our
   own tightly converged cold solve (tol 1e-12), relative to the peak pressure;
 * tamaas (AGPL peer, imported here only) solving the same 101 positions from scratch, at
-  several of its tolerances (its ``PolonskyKeerRey`` default is 1e-12 in the examples;
-  we try 1e-4 to 1e-10); each tamaas accuracy is measured against its own 1e-12
+  several of its tolerances (``PolonskyKeerRey`` has no default tolerance: it is a
+  required argument; we try 1e-4 to 1e-10); each tamaas accuracy is measured against its own 1e-12
   solution, so both solvers are judged on how well they solve *their* discretised
   problem. tamaas gets the same composite profile ``h - s`` on the same cells in a period
   of twice the grid (the same FFT size as our zero-padded convolution). Only its
