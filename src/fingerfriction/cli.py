@@ -188,14 +188,224 @@ def predict_contact(
 # ---------------------------------------------------------------------------------------
 
 
+def _split_list(values: list[str] | None) -> list[str] | None:
+    """Accept both ``--surfaces a b`` style repeats and comma lists ``--surfaces a,b``."""
+    if not values:
+        return None
+    out: list[str] = []
+    for v in values:
+        out.extend(p.strip() for p in v.split(",") if p.strip())
+    return out
+
+
+@app.command("simulate")
+def simulate_cmd(
+    out: str = typer.Option(..., "--out", help="Output study folder (new, empty, or the same study to resume)."),
+    reps: int = typer.Option(5, "--reps", help="Repetitions per condition (the paper: 5)."),
+    seed: int = typer.Option(0, "--seed", help="Study seed: the same seed gives byte-identical studies."),
+    surfaces: list[str] = typer.Option(None, "--surfaces", help="Surface names, e.g. bump-2mm,step-up-4mm."),
+    subjects: list[str] = typer.Option(None, "--subjects", help="Subjects: 1, 2."),
+    speeds: list[str] = typer.Option(None, "--speeds", help="Nominal speeds in mm/s, e.g. 40,80,120."),
+    workers: int = typer.Option(0, "--workers", help="Worker processes (0: all cores)."),
+    video_format: str = typer.Option("ffv1-mkv", "--video-format", help="ffv1-mkv or tiff."),
+) -> None:
+    """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
+    import time
+
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .sim import SimOptions, simulate_study
+    from .study import ManifestError
+
+    kw: dict = {"reps": reps, "seed": seed, "video_format": video_format}
+    if _split_list(surfaces):
+        kw["surfaces"] = tuple(_split_list(surfaces))
+    if _split_list(subjects):
+        kw["subjects"] = tuple(_split_list(subjects))
+    if _split_list(speeds):
+        sp = []
+        for v in _split_list(speeds):
+            try:
+                sp.append(float(v))
+            except ValueError:
+                fail(f"--speeds: {v!r} is not a number (mm/s)")
+        kw["speeds"] = tuple(sp)
+    if workers < 0:
+        fail(f"--workers must be >= 0 (0: all cores), got {workers}")
+    try:
+        opts = SimOptions(**kw)
+    except ValueError as exc:
+        fail(str(exc))
+    t0 = time.perf_counter()
+    with Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        TextColumn("{task.fields[label]}"), console=console, transient=False,
+    ) as prog:
+        tasks: dict = {}
+
+        def report(stage: str, done: int, total: int, label: str) -> None:
+            if stage not in tasks:
+                name = "contact tables" if stage == "tables" else "trials"
+                tasks[stage] = prog.add_task(name, total=total, label="")
+            prog.update(tasks[stage], completed=done, label=label)
+
+        try:
+            study = simulate_study(out, opts, workers=workers or None, progress=report)
+        except (ValueError, OSError, ManifestError) as exc:
+            prog.stop()
+            fail(str(exc))
+    dt = time.perf_counter() - t0
+    console.print(
+        f"[green]wrote[/] {len(study.trials)} trials to {out}/manifest.json in {dt:.1f} s "
+        f"(ground truth in {out}/truth/)"
+    )
+
+
 # ---------------------------------------------------------------------------------------
 # overlay (video analysis, fingerfriction.video)
 # ---------------------------------------------------------------------------------------
 
 
+@app.command("overlay")
+def overlay_cmd(
+    study: str = typer.Argument(..., help="Study folder (or its manifest.json)."),
+    trial: str = typer.Argument(..., help="Trial id, as in the manifest."),
+    out: str = typer.Option(None, "--out", help="Output .mp4 or .gif (default: <trial>-overlay.mp4)."),
+    start: int = typer.Option(0, "--start", help="First frame."),
+    stop: int = typer.Option(None, "--stop", help="Stop before this frame (default: the last)."),
+    step: int = typer.Option(1, "--step", help="Draw every STEP-th frame."),
+    fps: float = typer.Option(30.0, "--fps", help="Playback frame rate of the output (Hz)."),
+    level: float = typer.Option(None, "--level", help="Threshold gray level (default: Otsu)."),
+    scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop."),
+) -> None:
+    """Write a video of a trial's frames with the traced contours and contact regions drawn."""
+    from .study import ManifestError, load_manifest
+    from .video import AnalysisOptions
+    from .video.overlay import write_overlay
+
+    try:
+        st = load_manifest(study)
+        tr = st.trial(trial)
+        opts = AnalysisOptions(level=level, calibration_frame=tr.video.calibration_frame)
+        info = write_overlay(
+            st.path(tr.video.path), tr.calibration["surface_height_mm"], out or f"{trial}-overlay.mp4",
+            surface=st.surface(tr.surface), options=opts, start=start, stop=stop, step=step, fps=fps,
+            scale=scale,
+        )
+    except KeyError as exc:
+        fail(str(exc.args[0]) if exc.args else str(exc))
+    except (ValueError, OSError, ManifestError) as exc:
+        fail(str(exc))
+    console.print(f"[green]wrote[/] {info.path}: {info.n_frames} frames ({info.n_flagged} flagged)")
+
+
+
 # ---------------------------------------------------------------------------------------
 # forces (force processing, fingerfriction.forces)
 # ---------------------------------------------------------------------------------------
+
+
+def _frame_positions(study: str, manifest: dict, trial: dict, positions: str | None, from_truth: bool,
+                     from_video: bool):
+    """Per-frame finger positions (mm) and contact regions (or None) for the forces command:
+    a file, the video analysis, or the study's truth."""
+    import numpy as np
+
+    from .forces.readers import study_path
+
+    if sum((positions is not None, from_truth, from_video)) > 1:
+        raise ValueError("give only one of --positions, --from-video, --from-truth")
+    if from_video:
+        from .surfaces import surface_from_spec
+        from .video import AnalysisOptions, analyze_video
+
+        v = trial["video"]
+        surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
+        H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
+        opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)))
+        res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
+        return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
+    return _positions_only(study, trial, positions, from_truth), None
+
+
+def _positions_only(study: str, trial: dict, positions: str | None, from_truth: bool):
+    import numpy as np
+
+    from .forces.readers import study_path
+
+    if positions is not None:
+        if positions.endswith(".npy"):
+            return np.load(positions, allow_pickle=False)
+        import pandas as pd
+
+        df = pd.read_csv(positions)
+        if "x_mm" not in df.columns:
+            raise ValueError(f"{positions!r} has no column 'x_mm' (columns: {list(df.columns)})")
+        return df["x_mm"].to_numpy(dtype=float)
+    if from_truth:
+        if not trial.get("truth"):
+            raise ValueError(f"trial {trial.get('id')!r} has no 'truth' file (not a simulated study)")
+        path = study_path(study, trial["truth"], f"trial {trial.get('id')!r}: truth")
+        with np.load(path, allow_pickle=False) as z:
+            return np.asarray(z["x_finger_video"], dtype=float)
+    raise ValueError(
+        "finger positions are needed: --from-video (run the video analysis), --positions FILE "
+        "(x_mm per video frame; .csv with column x_mm or .npy) or --from-truth (simulated studies)"
+    )
+
+
+@app.command("forces")
+def forces_cmd(
+    study: str = typer.Argument(..., help="study folder (with manifest.json)"),
+    trial: str = typer.Argument(..., help="trial id"),
+    out: str = typer.Option(None, "--out", help="write F_T(x) to this CSV (x_mm, F_T_N, F_N_N, n_samples)"),
+    positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
+    from_video: bool = typer.Option(False, "--from-video", help="x(t) and contact regions from the video"),
+    from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
+    highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none"),
+    notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches"),
+) -> None:
+    """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+
+    from .forces import ForceProcessingParams, process_trial
+
+    try:
+        manifest = json.loads((Path(study) / "manifest.json").read_text())
+        rec = next((t for t in manifest.get("trials", []) if t.get("id") == trial), None)
+        if rec is None:
+            raise ValueError(f"no trial {trial!r} in {study}/manifest.json")
+        x, regions = _frame_positions(study, manifest, rec, positions, from_truth, from_video)
+        params = ForceProcessingParams(sensor_highpass_hz=highpass_hz or None, notch_q=notch_q)
+        prof = process_trial(study, manifest, trial, x, params=params, regions=regions, on_error="flag")
+        if out is not None:
+            prof.write_csv(out)
+    except (ValueError, OSError, KeyError) as exc:
+        fail(str(exc).strip("'\""))
+        return
+    from rich.markup import escape
+
+    for f in prof.flags:
+        colour = "red" if f.severity == "error" else "yellow"
+        tag = escape(f"[{f.code}]")
+        console.print(f"[{colour}]{f.severity}[/] {tag} {escape(f.message)}", highlight=False)
+    if not prof.success:
+        fail(prof.message)
+    ok = np.isfinite(prof.f_t)
+    console.print(
+        f"trial {trial}: F_T(x) on {prof.x.size} positions "
+        f"[{prof.window_mm[0]:g}, {prof.window_mm[1]:g}] mm, "
+        f"flat segment [{prof.flat_segment_mm[0]:.2f}, {prof.flat_segment_mm[1]:.2f}] mm; "
+        f"F_T from {np.min(prof.f_t[ok]) * 1e3:.1f} to {np.max(prof.f_t[ok]) * 1e3:.1f} mN "
+        f"(peak at x = {prof.x[np.argmax(prof.f_t)]:.2f} mm)",
+        highlight=False,
+    )
+    console.print("steps: " + ", ".join(h["step"] for h in prof.history), highlight=False)
+    if out is not None:
+        console.print(f"wrote {out}", highlight=False)
 
 
 # ---------------------------------------------------------------------------------------
