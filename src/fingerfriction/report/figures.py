@@ -60,6 +60,14 @@ def _label(data: ReportData, surface: str) -> str:
     return getattr(s, "name", None) or surface
 
 
+def _legend(ax) -> None:
+    """A legend if anything was drawn (a panel may be empty: every trial failed)."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=6, loc="upper left", frameon=False)
+    else:
+        ax.text(0.5, 0.5, "no trial", transform=ax.transAxes, ha="center", va="center", color="0.5")
+
+
 def pooled_regions(trials: list[TrialData]) -> np.ndarray:
     """Concatenate the regions of several trials into one ``(n, n_max, 2)`` array."""
     if not trials:
@@ -163,7 +171,7 @@ def fig4_forces(data: ReportData) -> Figure:
             ax.set_title(f"{_label(data, name)}, subject {subj}", fontsize=9)
             if j == 0:
                 ax.set_ylabel("F_T (mN)")
-            ax.legend(fontsize=6, loc="upper left", frameon=False)
+            _legend(ax)
     for ax in axes[-1]:
         ax.set_xlabel("finger position x (mm)")
     fig.suptitle("Measured F_T(x): mean +- 1 SD per speed (speeds offset by 25 mN)", fontsize=10)
@@ -188,7 +196,7 @@ def fig6_model(data: ReportData) -> Figure:
             ax.set_title(f"{_label(data, name)}, subject {subj}", fontsize=9)
             if j == 0:
                 ax.set_ylabel("F_T (mN)")
-            ax.legend(fontsize=6, loc="upper left", frameon=False)
+            _legend(ax)
     for ax in axes[-1]:
         ax.set_xlabel("finger position x (mm)")
     fig.suptitle("Measured (black) and model (blue) F_T(x), mean +- 1 SD, detrended over the flat segment",
@@ -241,7 +249,7 @@ def figS3_components(data: ReportData) -> Figure:
             x, m, s, n = ms
             ax.fill_between(x, 1e3 * (m - s), 1e3 * (m + s), color=c, alpha=0.2, lw=0)
             ax.plot(x, 1e3 * m, color=c, lw=1, label=lab)
-        ax.legend(fontsize=6, loc="upper left", frameon=False)
+        _legend(ax)
         ax.set_title(f"{_label(data, name)} ({len(ts)} trials)", fontsize=9)
         ax.set_xlabel("finger position x (mm)")
         ax.set_ylabel("force (mN)")
