@@ -912,7 +912,7 @@ def fit(
 #: Repetitions per condition of the demo: 1 by default (2 subjects x 6 surfaces x 3 speeds
 #: = 36 trials, every cell of Table 1 filled and every speed in Fig. 4), 5 with ``full``
 #: (the paper's 180 trials). Measured on this project's 2-core machine while shared (load
-#: average about 4.5): 243 s in all (simulate 185 s, analyze 48 s, fit 1 s, report 9 s).
+#: average about 6): 253 s in all (simulate 198 s, analyze 48 s, fit 0 s, report 6 s).
 DEMO_REPS = 1
 FULL_REPS = 5
 
