@@ -397,3 +397,38 @@ def test_run_on_a_separate_dask_scheduler_and_worker(tiny_study, clean_results, 
                 p.wait()
         for f in logs:
             f.close()
+
+
+@pytest.mark.slow
+def test_analyze_command_interrupted_by_ctrl_c_then_resumed(tiny_study, tmp_path):
+    """A real interruption: SIGINT to `fingerfriction analyze` once a trial is finished."""
+    import signal
+
+    out = tmp_path / "results"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
+    cmd = [sys.executable, "-m", "fingerfriction.cli", "analyze", str(tiny_study), "--out", str(out),
+           "--workers", "1", "--simulated"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline and proc.poll() is None:
+            done = [p.parent.name for p in out.glob("trials/*/status.json")]
+            if done:
+                break
+            time.sleep(0.05)
+        assert proc.poll() is None, "analyze finished before it could be interrupted"
+        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C in the terminal
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    store = ResultsStore(out)
+    finished = [t for t in _trial_ids(tiny_study) if (store.status(t) or {}).get("status") == "ok"]
+    assert 1 <= len(finished) < 4
+    before = {tid: _fingerprint(out, tid) for tid in finished}
+    res = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM)
+    assert res.n_skipped == len(finished) and res.n_computed == 4 - len(finished) and res.n_failed == 0
+    for tid in finished:
+        assert _fingerprint(out, tid) == before[tid]
