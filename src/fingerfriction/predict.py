@@ -1,0 +1,732 @@
+"""Predict friction on a surface that was never recorded, and validate it out of sample.
+
+The paper's model, Eq. (4) of Janko, Wiertlewski & Visell 2018, needs the contact regions
+``C_i`` of every frame, which the paper measured from video. Here the regions come from
+the forward finger-contact model (:mod:`fingerfriction.mechanics`) swept across the
+surface, so a relief that exists only as a spec or a CSV profile gets a predicted lateral
+force ``F_T(x)``, its interfacial and deformation parts (Eq. 2 and 3), the contact
+occupancy (Fig. 3) and the tactile blind spots.
+
+Which contact definition
+------------------------
+By default the prediction uses the forward model's **geometric** contact: the parts of the
+surface within 70 um of the deformed finger (the paper's 3-pixel criterion, Methods
+"Image analysis"). That is the definition under which the paper measured ``C_i`` and
+fitted ``(mu, p0, p1)``, and under which it reported its blind spots; feeding Eq. (4) the
+narrower mechanical contact (pressure > 0) would apply fitted parameters to regions of a
+different kind. ``contact='mechanical'`` is available for comparison.
+
+Default parameters
+------------------
+When no fitted parameters are given, :func:`default_params` documents its provenance:
+
+* ``mu`` = 0.55 (subject 1) and 0.60 (subject 2): the paper's grid-search values
+  (Methods "Estimating model parameters").
+* ``p0`` = ``F_N / L_flat``: the constant pressure (times ``D``) for which the model's
+  normal force on flat ground, ``p0 * L_flat``, equals the prescribed 0.3 N
+  (``L_flat``: the forward model's geometric flat-ground contact length at that load).
+  Eq. (4) on flat ground is then Amontons' law ``F = mu F_N`` (0.165 N and 0.18 N).
+* ``p1``: chosen so that the deformation force ``F_def`` alone peaks, on average over
+  the paper's four raised surfaces (Bump and Step Up, 2 and 4 mm), at 50 mN: the paper
+  reports forces "rising on the order of 50 mN within about 1 mm" at raised features
+  (Results) and attributes that rise to ``F_def`` (Discussion, Fig. S3). ``F_def`` is
+  linear in ``p1``, so this is closed-form on the forward-model sweeps.
+
+Measured consequence (noted, not hidden): with ``p0 = F_N / L_flat`` the interfacial
+term alone already varies by tens of mN over a relief (the contact length, hence the
+model's normal force ``p0 L``, changes as the finger bridges the feature), so the total
+predicted rise is larger than 50 mN and ``F_def`` does not dominate as in the paper's
+Fig. S3. The paper's fits were made against drift-corrected forces (zero on flat
+ground), which favours a small ``p0``; a flat-friction-consistent ``p0`` is kept here
+because rendering on a display needs the model's flat-ground level to be ``mu F_N``.
+
+These are anchored on figures the paper reports, not fitted to data: fitted parameters
+(``--params``) should be preferred whenever a study is available.
+
+Validity
+--------
+:func:`check_profile` refuses reliefs steeper than :data:`MAX_SLOPE_ANGLE`; see its notes
+for where that limit comes from.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import logging
+import math
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .blindspots import BlindSpots, Occupancy, blind_spots, occupancy
+from .model import FrictionModel, FrictionParams
+from .regions import as_regions, n_regions
+from .surfaces import SURFACE_NAMES, Surface, get_surface, surface_from_spec
+
+__all__ = [
+    "GEOM_TOL_MM",
+    "DEFAULT_LOAD_N",
+    "PAPER_MU",
+    "MAX_SLOPE_ANGLE",
+    "ProfileTooSteepError",
+    "check_profile",
+    "sweep_window",
+    "default_params",
+    "flat_contact_length",
+    "forward_regions",
+    "load_params",
+    "Prediction",
+    "predict",
+    "predict_from_regions",
+]
+
+log = logging.getLogger(__name__)
+
+#: The paper's contact criterion (3 px at about 23 um/px), in mm.
+GEOM_TOL_MM = 0.070
+#: The prescribed normal force of the study, in N (Methods "Procedure").
+DEFAULT_LOAD_N = 0.3
+#: Per-subject coefficients of friction found by the paper's grid search.
+PAPER_MU = {1: 0.55, 2: 0.60}
+#: Rise of F_T at first contact with a raised feature reported by the paper, in N.
+PAPER_FORCE_RISE_N = 0.050
+#: The raised surfaces over which the default p1 is calibrated.
+_P1_CALIBRATION_SURFACES = ("bump-2mm", "bump-4mm", "step-up-2mm", "step-up-4mm")
+#: Half-length in mm of the paper's analysis window (26 mm centred on the feature).
+_HALF_WINDOW_MM = 13.0
+
+#: Largest surface slope angle (rad) the prediction accepts: acos(3/4) = 0.723 rad
+#: (41.4 degrees, dh/dx = 0.882). See :func:`check_profile` for its derivation.
+MAX_SLOPE_ANGLE = math.acos(0.75)
+
+
+class ProfileTooSteepError(ValueError):
+    """A relief is steeper than the contact model and Eq. (4) support."""
+
+
+def check_profile(surface: Surface, *, max_slope_angle: float = MAX_SLOPE_ANGLE) -> float:
+    """Check that a relief is within the model's slope limit; return its max angle (rad).
+
+    Parameters
+    ----------
+    surface : Surface
+        The relief.
+    max_slope_angle : float, optional
+        Limit in rad (default :data:`MAX_SLOPE_ANGLE`, 0.723 rad = 41.4 degrees).
+
+    Returns
+    -------
+    float
+        The largest ``|alpha(x)|`` of the relief in rad.
+
+    Raises
+    ------
+    ProfileTooSteepError
+        Naming the steepest position, its angle and the limit.
+
+    Notes
+    -----
+    The limit comes from the geometric contact definition that the prediction feeds into
+    Eq. (4). The forward model (a plane-strain half-space, a small-slope theory) measures
+    the gap between finger and surface vertically, while the paper's 3-pixel criterion is
+    a distance between contour points, i.e. along the surface normal: a vertical gap
+    ``g`` over a surface inclined at ``alpha`` is a normal distance ``g cos(alpha)``. The
+    70 um (3 px) criterion applied to the vertical gap therefore admits points up to
+    ``70 / cos(alpha)`` um away along the normal. At ``cos(alpha) = 3/4`` that is 93 um,
+    i.e. 4 px instead of 3: the regions are no longer of the kind the parameters were
+    fitted on, so predictions there are refused rather than silently biased. The paper's
+    steepest surfaces (the bumps, 0.56 rad) stay inside the limit (``cos = 0.85``: 82 um,
+    half a pixel off). The same ``cos(alpha)`` factor measures how far the half-space's
+    flat-boundary assumption is from the real inclined boundary.
+
+    A CSV profile with a vertical or overhanging wall has an unbounded slope and is
+    refused here.
+    """
+    if not isinstance(surface, Surface):
+        raise TypeError(f"surface must be a fingerfriction Surface, got {type(surface).__name__}")
+    a, b = surface.feature_extent
+    if b <= a:
+        return 0.0
+    # Sample finely enough to see any feature of a sampled profile (>= 20 points per sample).
+    n = 20001
+    if hasattr(surface, "x"):
+        n = max(n, 20 * int(np.asarray(surface.x).size))
+    xs = np.linspace(a, b, n)
+    s = np.abs(np.asarray(surface.dhdx(xs), dtype=float))
+    if not np.all(np.isfinite(s)):
+        i = int(np.flatnonzero(~np.isfinite(s))[0])
+        raise ProfileTooSteepError(
+            f"surface {surface.name!r} has an undefined slope at x = {xs[i]:.3f} mm"
+        )
+    i = int(np.argmax(s))
+    ang = float(np.arctan(s[i]))
+    if ang > max_slope_angle:
+        raise ProfileTooSteepError(
+            f"surface {surface.name!r} has a slope angle of {ang:.3f} rad ({math.degrees(ang):.1f} deg, "
+            f"dh/dx = {s[i]:.3g}) at x = {xs[i]:.3f} mm; the contact model and Eq. (4) support at most "
+            f"{max_slope_angle:.3f} rad ({math.degrees(max_slope_angle):.1f} deg, dh/dx = "
+            f"{math.tan(max_slope_angle):.3g}): beyond it the vertical 70 um gap criterion departs from "
+            f"the paper's normal-distance criterion by more than a pixel. Smooth or scale down the profile."
+        )
+    return ang
+
+
+def sweep_window(surface: Surface) -> tuple[float, float]:
+    """Finger positions (mm) swept for a prediction: the paper's 26 mm window, widened.
+
+    ``(-13, 13)`` for the paper's surfaces (the analysis window of Methods "Force data
+    processing"); for a wider relief, 11 mm beyond each end of the feature so the finger
+    starts and ends on flat ground.
+    """
+    a, b = surface.feature_extent
+    return (min(-_HALF_WINDOW_MM, a - 11.0), max(_HALF_WINDOW_MM, b + 11.0))
+
+
+# ---------------------------------------------------------------------------- contact
+def _resolve_finger(subject):
+    """``(label, FingerParams)`` for a subject number or a FingerParams."""
+    from .mechanics import SUBJECTS, FingerParams
+
+    if isinstance(subject, FingerParams):
+        return (subject.name or "custom"), subject
+    try:
+        key = int(subject)
+    except (TypeError, ValueError):
+        key = None
+    if key is None or key not in SUBJECTS or isinstance(subject, bool):
+        raise ValueError(
+            f"unknown subject {subject!r}; known subjects: {sorted(SUBJECTS)} (or a FingerParams)"
+        )
+    return key, SUBJECTS[key]
+
+
+def forward_regions(surface: Surface, finger, positions, *, load: float = DEFAULT_LOAD_N,
+                    contact: str = "geometric") -> np.ndarray:
+    """Contact regions of the forward model at each finger position.
+
+    Parameters
+    ----------
+    surface : Surface
+        The relief.
+    finger : FingerParams
+        The finger (:mod:`fingerfriction.mechanics`).
+    positions : (n,) array_like
+        Finger-centre positions in mm, increasing (the sweep warm-starts each from the
+        previous one).
+    load : float
+        Normal force in N.
+    contact : {'geometric', 'mechanical'}
+        Geometric: within :data:`GEOM_TOL_MM` of the deformed finger (the paper's
+        definition); mechanical: pressure > 0.
+
+    Returns
+    -------
+    (n, n_max, 2) ndarray
+        Regions in mm (:mod:`fingerfriction.regions` format).
+
+    Raises
+    ------
+    RuntimeError
+        When the contact solver did not converge at some position (named).
+    """
+    if contact not in ("geometric", "mechanical"):
+        raise ValueError(f"contact must be 'geometric' or 'mechanical', got {contact!r}")
+    from .mechanics import sweep
+
+    res = sweep(surface, finger, np.asarray(positions, dtype=float), load=load)
+    return _sweep_regions(res, contact)
+
+
+def _sweep_regions(res, contact: str) -> np.ndarray:
+    """Extract the regions array of one kind from a mechanics SweepResult."""
+    ok = np.asarray(res.success, dtype=bool)
+    if not ok.all():
+        bad = np.flatnonzero(~ok)
+        first = res.messages[0] if res.messages else ""
+        raise RuntimeError(
+            f"the contact solver failed at {bad.size} of {ok.size} finger positions, first at "
+            f"x = {float(res.positions[bad[0]]):.3f} mm ({first}); no prediction is made from a "
+            "partly failed sweep"
+        )
+    return as_regions(res.regions(contact), name=f"{contact} regions")
+
+
+# ---------------------------------------------------------------------------- params
+@functools.lru_cache(maxsize=8)
+def _flat_length(finger, load: float) -> float:
+    """Geometric contact length (mm) of the finger on flat ground at ``load`` (N)."""
+    flat = _flat_surface()
+    r = forward_regions(flat, finger, np.array([0.0]), load=load)
+    from .regions import region_lengths
+
+    L = float(np.nansum(region_lengths(r)))
+    if not L > 0:
+        raise RuntimeError(f"the forward model gave no contact on flat ground at {load} N")
+    return L
+
+
+def _flat_surface() -> Surface:
+    from .surfaces import SampledProfile
+
+    x = np.linspace(-40.0, 40.0, 9)
+    return SampledProfile(x, np.zeros_like(x), name="flat")
+
+
+def flat_contact_length(subject, *, load: float = DEFAULT_LOAD_N) -> float:
+    """The forward model's geometric contact length on flat ground, in mm.
+
+    Parameters
+    ----------
+    subject : int or FingerParams
+    load : float
+        Normal force in N.
+    """
+    _, finger = _resolve_finger(subject)
+    return _flat_length(finger, float(load))
+
+
+def _rise_basis(surface: Surface, finger, load: float, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-position Eq. (4) basis (p0, p1 columns) on a surface, minus its flat level."""
+    lo, hi = sweep_window(surface)
+    x = np.arange(lo, hi + 0.5 * step, step)
+    regions = forward_regions(surface, finger, x, load=load)
+    return x, regions
+
+
+@functools.lru_cache(maxsize=8)
+def _default_params_cached(key, finger, load: float, step: float) -> FrictionParams:
+    mu = PAPER_MU[key]
+    L = _flat_length(finger, load)
+    p0 = load / L
+    peaks = []
+    for name in _P1_CALIBRATION_SURFACES:
+        s = get_surface(name)
+        x, regions = _rise_basis(s, finger, load, step)
+        peaks.append(float(np.max(FrictionModel(s).basis(regions, mu)[:, 1])))
+    m = float(np.mean(peaks))
+    if not m > 0:
+        raise RuntimeError("could not calibrate the default p1: the deformation basis is zero")
+    # F_def = p1 * basis: linear, so the calibration is closed-form.
+    return FrictionParams(mu, p0, PAPER_FORCE_RISE_N / m)
+
+
+def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> FrictionParams:
+    """Documented default Eq. (4) parameters of subject 1 or 2 (see the module notes).
+
+    ``mu`` from the paper; ``p0 = F_N / L_flat`` (flat-ground friction ``mu F_N``);
+    ``p1`` such that the mean peak of ``F_def`` over the paper's four raised surfaces is
+    50 mN. Computed from forward-model sweeps at ``step`` mm (cached per finger).
+
+    Parameters
+    ----------
+    subject : int
+        1 or 2 (a custom FingerParams has no paper mu: give parameters instead).
+    load : float
+        Normal force in N (default 0.3).
+    step : float
+        Finger step in mm of the calibration sweeps (default 0.05).
+    """
+    key, finger = _resolve_finger(subject)
+    if key not in PAPER_MU:
+        raise ValueError(
+            f"no default friction parameters for subject {subject!r}: give params "
+            f"(FrictionParams or a JSON file); defaults exist for subjects {sorted(PAPER_MU)}"
+        )
+    return _default_params_cached(key, finger, float(load), float(step))
+
+
+def _params_from_mapping(d: dict, subject, where: str) -> FrictionParams:
+    """FrictionParams from a JSON object (see :func:`load_params` for the accepted forms)."""
+    if {"mu", "p0", "p1"} <= set(d):
+        return FrictionParams(mu=d["mu"], p0=d["p0"], p1=d["p1"])
+    subjects = d.get("subjects", d)
+    if not isinstance(subjects, dict):
+        raise ValueError(f"{where}: 'subjects' must be an object keyed by subject")
+    entry = subjects.get(str(subject), subjects.get(subject) if not isinstance(subject, str) else None)
+    if entry is None:
+        raise ValueError(
+            f"{where}: no parameters for subject {subject!r}; the file has {sorted(map(str, subjects))}. "
+            "Expected {'mu','p0','p1'} or {'subjects': {'<subject>': {...}}}"
+        )
+    if not isinstance(entry, dict) or "mu" not in entry:
+        raise ValueError(f"{where}: subject {subject!r} entry must be an object with 'mu'")
+    if "p0" in entry and "p1" in entry:
+        return FrictionParams(mu=entry["mu"], p0=entry["p0"], p1=entry["p1"])
+    trials = entry.get("trials")
+    if isinstance(trials, list) and trials:
+        try:
+            p0 = float(np.median([float(t["p0"]) for t in trials]))
+            p1 = float(np.median([float(t["p1"]) for t in trials]))
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(
+                f"{where}: subject {subject!r} trials must each have numbers p0 and p1"
+            ) from None
+        return FrictionParams(mu=entry["mu"], p0=p0, p1=p1)
+    raise ValueError(f"{where}: subject {subject!r} entry needs 'p0' and 'p1' or a non-empty 'trials' list")
+
+
+def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
+    """Read Eq. (4) parameters from a JSON file.
+
+    Accepted forms: ``FrictionParams.to_json()`` (``{"mu", "p0", "p1"}``); a per-subject
+    object ``{"subjects": {"1": {"mu", "p0", "p1"}}}`` (or without the ``subjects``
+    level); or a fit output with per-trial values ``{"subjects": {"1": {"mu": ...,
+    "trials": [{"p0": ..., "p1": ...}, ...]}}}``, whose subject-level ``p0, p1`` are the
+    medians over trials (a prediction has no trial of its own to fit).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and what is missing or malformed.
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            d = json.load(fh)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read parameters ({exc.strerror})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc})") from None
+    if not isinstance(d, dict):
+        raise ValueError(f"{path}: expected a JSON object, got {type(d).__name__}")
+    try:
+        return _params_from_mapping(d, subject, path)
+    except (TypeError, KeyError) as exc:
+        raise ValueError(f"{path}: malformed parameters ({exc})") from None
+
+
+def _resolve_params(params, subject, load: float) -> tuple[FrictionParams, str]:
+    if params is None:
+        return default_params(subject, load=load), "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)"
+    if isinstance(params, FrictionParams):
+        return params, "given"
+    if isinstance(params, (str, os.PathLike)):
+        return load_params(params, subject), f"file {os.fspath(params)}"
+    raise TypeError(f"params must be None, FrictionParams or a JSON path, got {type(params).__name__}")
+
+
+# ---------------------------------------------------------------------------- prediction
+@dataclass(frozen=True)
+class Prediction:
+    """A predicted sweep of a finger over a relief.
+
+    Attributes
+    ----------
+    surface : Surface
+    subject : int or str
+        Subject label.
+    params : FrictionParams
+        Eq. (4) parameters used.
+    params_source : str
+        Where they came from.
+    load : float
+        Normal force in N.
+    contact : str
+        'geometric' (70 um, default) or 'mechanical'.
+    positions : (n,) ndarray
+        Finger-centre positions in mm.
+    regions : (n, n_max, 2) ndarray
+        Contact regions in mm at each position.
+    F_T, F_int, F_def : (n,) ndarray
+        Eq. (4), (2), (3) in N.
+    occupancy : Occupancy
+        Contact occupancy over the sweep (Fig. 3).
+    blind_spots : BlindSpots
+        Never-contacted intervals.
+    """
+
+    surface: Surface
+    subject: object
+    params: FrictionParams
+    params_source: str
+    load: float
+    contact: str
+    positions: np.ndarray
+    regions: np.ndarray
+    F_T: np.ndarray
+    F_int: np.ndarray
+    F_def: np.ndarray
+    occupancy: Occupancy = field(repr=False)
+    blind_spots: BlindSpots = field(repr=False)
+    finger: object = field(default=None, repr=False)
+
+    @property
+    def max_contacts(self) -> int:
+        """Largest number of simultaneous contact regions over the sweep."""
+        return int(n_regions(self.regions).max(initial=0))
+
+    @property
+    def flat_level(self) -> float:
+        """F_T (N) at the first position (finger on flat ground before the feature)."""
+        return float(self.F_T[0])
+
+    def summary(self) -> dict:
+        """JSON-serialisable summary: parameters, blind spots, force extremes."""
+        return {
+            "surface": self.surface.name,
+            "surface_spec": _surface_dict(self.surface),
+            "subject": str(self.subject),
+            "params": {"mu": self.params.mu, "p0": self.params.p0, "p1": self.params.p1},
+            "params_source": self.params_source,
+            "load_N": self.load,
+            "contact": self.contact,
+            "geom_tol_mm": GEOM_TOL_MM if self.contact == "geometric" else None,
+            "n_positions": int(self.positions.size),
+            "step_mm": float(np.median(np.diff(self.positions))) if self.positions.size > 1 else None,
+            "max_slope_angle_rad": self.surface.max_slope_angle(),
+            "max_contacts": self.max_contacts,
+            "blind_spots": self.blind_spots.as_table(),
+            "F_T_flat_N": self.flat_level,
+            "F_T_max_N": float(np.max(self.F_T)),
+            "F_T_min_N": float(np.min(self.F_T)),
+        }
+
+    def table(self):
+        """Per-position table (pandas DataFrame): x_mm, F_T_N, F_int_N, F_def_N, n_contacts,
+        contact_length_mm."""
+        import pandas as pd
+
+        from .regions import region_lengths
+
+        return pd.DataFrame(
+            {
+                "x_mm": self.positions,
+                "F_T_N": self.F_T,
+                "F_int_N": self.F_int,
+                "F_def_N": self.F_def,
+                "n_contacts": n_regions(self.regions),
+                "contact_length_mm": np.nansum(region_lengths(self.regions), axis=1),
+            }
+        )
+
+    def write(self, out_dir: str | os.PathLike, *, figures: bool = True) -> dict[str, str]:
+        """Write CSV tables, a JSON summary and (optionally) PNG figures into ``out_dir``.
+
+        Files: ``forces.csv`` (per position), ``regions.csv`` (one row per region:
+        x_mm, a_mm, b_mm), ``occupancy.csv`` (bin centre, fraction, normalised),
+        ``blind_spots.csv``, ``prediction.json``; figures ``forces.png``,
+        ``occupancy.png``. Every write is atomic.
+
+        Returns
+        -------
+        dict
+            File kind -> path.
+        """
+        import pandas as pd
+
+        out = os.fspath(out_dir)
+        os.makedirs(out, exist_ok=True)
+        paths: dict[str, str] = {}
+
+        def put(kind: str, name: str, writer: Callable[[str], None]) -> None:
+            p = os.path.join(out, name)
+            _atomic_write(p, writer)
+            paths[kind] = p
+
+        put("forces", "forces.csv", lambda tmp: self.table().to_csv(tmp, index=False, float_format="%.9g"))
+        valid = ~np.isnan(self.regions[..., 0])
+        t_idx, _ = np.nonzero(valid)
+        reg = pd.DataFrame(
+            {
+                "x_mm": self.positions[t_idx],
+                "a_mm": self.regions[..., 0][valid],
+                "b_mm": self.regions[..., 1][valid],
+            }
+        )
+        put("regions", "regions.csv", lambda tmp: reg.to_csv(tmp, index=False, float_format="%.6f"))
+        occ = pd.DataFrame(
+            {
+                "x_mm": self.occupancy.centers,
+                "fraction": self.occupancy.fraction,
+                "normalized": self.occupancy.normalized,
+            }
+        )
+        put("occupancy", "occupancy.csv", lambda tmp: occ.to_csv(tmp, index=False, float_format="%.6g"))
+        bs = pd.DataFrame(self.blind_spots.as_table(), columns=["start_mm", "end_mm", "width_mm"])
+        put("blind_spots", "blind_spots.csv", lambda tmp: bs.to_csv(tmp, index=False, float_format="%.4f"))
+
+        def wjson(tmp: str) -> None:
+            with open(tmp, "w", encoding="utf-8") as fh:
+                json.dump(self.summary(), fh, indent=2)
+
+        put("summary", "prediction.json", wjson)
+        if figures:
+            put("forces_png", "forces.png", self._plot_forces)
+            put("occupancy_png", "occupancy.png", self._plot_occupancy)
+        return paths
+
+    def _plot_forces(self, path: str) -> None:
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        fig, (ax0, ax1) = plt.subplots(2, 1, figsize=(7, 5), sharex=True, height_ratios=[3, 1])
+        x = self.positions
+        ax0.plot(x, 1e3 * self.F_T, "k", lw=1.5, label="$F_T$ (Eq. 4)")
+        ax0.plot(x, 1e3 * self.F_int, "C0", lw=1, label="$F_{int}$ (Eq. 2)")
+        ax0.plot(x, 1e3 * self.F_def, "C3", lw=1, label="$F_{def}$ (Eq. 3)")
+        ax0.set_ylabel("force (mN)")
+        ax0.legend(loc="upper right", fontsize=8)
+        p = self.params
+        ax0.set_title(
+            f"{self.surface.name}, subject {self.subject}: mu={p.mu:.3g}, p0={p.p0:.3g} N/mm, "
+            f"p1={p.p1:.3g} N/mm", fontsize=9,
+        )
+        xs = np.linspace(x[0], x[-1], 2000)
+        ax1.fill_between(xs, 0, self.surface.h(xs), color="0.6")
+        for a, b in self.blind_spots.intervals:
+            ax1.axvspan(a, b, color="k", alpha=0.8, lw=0)
+        ax1.set_xlabel("finger position x (mm)  /  surface position (mm)")
+        ax1.set_ylabel("h (mm)")
+        fig.tight_layout()
+        fig.savefig(path, format="png", dpi=120)
+        plt.close(fig)
+
+    def _plot_occupancy(self, path: str) -> None:
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        occ = self.occupancy
+        fig, ax = plt.subplots(figsize=(7, 2.8))
+        xs = occ.centers
+        h = self.surface.h(xs)
+        ax.fill_between(xs, h.min() - 0.2, h, color="0.85")
+        sc = ax.scatter(xs, h, c=occ.normalized, cmap="gray", s=4, vmin=0, vmax=1)
+        for a, b in self.blind_spots.intervals:
+            ax.axvspan(a, b, color="r", alpha=0.15, lw=0)
+        fig.colorbar(sc, ax=ax, label="normalised contact time")
+        ax.set_xlabel("surface position (mm)")
+        ax.set_ylabel("h (mm)")
+        widths = ", ".join(f"{w:.2f}" for w in self.blind_spots.widths) or "none"
+        ax.set_title(f"{self.surface.name}, subject {self.subject}: blind spots (mm): {widths}", fontsize=9)
+        fig.tight_layout()
+        fig.savefig(path, format="png", dpi=120)
+        plt.close(fig)
+
+
+def _surface_dict(surface: Surface):
+    to_dict = getattr(surface, "to_dict", None)
+    return to_dict() if callable(to_dict) else {"name": surface.name}
+
+
+def _atomic_write(path: str, writer: Callable[[str], None]) -> None:
+    """Write through ``writer(tmp_path)`` to a temp file in the same folder, then rename."""
+    d = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=d)
+    os.close(fd)
+    try:
+        writer(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def predict_from_regions(surface: Surface, positions, regions, params: FrictionParams, *,
+                         subject="?", params_source: str = "given", load: float = DEFAULT_LOAD_N,
+                         contact: str = "geometric", finger=None) -> Prediction:
+    """Eq. (4) and the blind spots for given contact regions along a sweep.
+
+    Parameters
+    ----------
+    surface : Surface
+    positions : (n,) array_like
+        Finger positions in mm.
+    regions : (n, n_max, 2) array_like
+        Contact regions in mm at each position.
+    params : FrictionParams
+    """
+    if not isinstance(params, FrictionParams):
+        raise TypeError(f"params must be FrictionParams, got {type(params).__name__}")
+    x = np.asarray(positions, dtype=float)
+    reg = as_regions(regions)
+    if x.ndim != 1 or x.size != reg.shape[0]:
+        raise ValueError(
+            f"positions must be 1-D with one entry per frame of regions; got {x.shape} "
+            f"and {reg.shape[0]} frames"
+        )
+    if not np.all(np.isfinite(x)):
+        raise ValueError("positions must be finite (mm)")
+    f = FrictionModel(surface).forces(reg, params)
+    occ = occupancy(reg)
+    bs = blind_spots(reg)
+    return Prediction(
+        surface=surface, subject=subject, params=params, params_source=params_source, load=float(load),
+        contact=contact, positions=x, regions=reg, F_T=f.total, F_int=f.interfacial, F_def=f.deformation,
+        occupancy=occ, blind_spots=bs, finger=finger,
+    )
+
+
+def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N, step: float = 0.01,
+            contact: str = "geometric", window: Sequence[float] | None = None,
+            max_slope_angle: float = MAX_SLOPE_ANGLE) -> Prediction:
+    """Predict F_T(x), F_int, F_def, occupancy and blind spots on any relief.
+
+    The forward contact model (:mod:`fingerfriction.mechanics`) is swept over the surface
+    at ``step`` mm; its contact regions (geometric, 70 um, by default: see the module
+    notes) go into Eq. (4) of Janko et al. 2018 with ``params``.
+
+    Parameters
+    ----------
+    surface_spec : str, path or Surface
+        A paper surface name (``'bump-4mm'``), a parametric spec (``'bump:W=3,H=0.5'``),
+        a CSV profile of x, h in mm, or a Surface (:func:`surface_from_spec`).
+    subject : int or FingerParams
+        Subject 1 or 2 (the calibrated fingers of :mod:`fingerfriction.mechanics`), or a
+        custom finger (then ``params`` is required).
+    params : None, FrictionParams or path, optional
+        Eq. (4) parameters; ``None`` uses :func:`default_params`; a path is read by
+        :func:`load_params`.
+    load : float, optional
+        Normal force in N (default 0.3, the paper's).
+    step : float, optional
+        Finger step in mm (default 0.01, the paper's spatial resolution).
+    contact : {'geometric', 'mechanical'}, optional
+    window : (float, float), optional
+        First and last finger positions in mm (default :func:`sweep_window`).
+    max_slope_angle : float, optional
+        Slope limit in rad (:func:`check_profile`).
+
+    Returns
+    -------
+    Prediction
+
+    Raises
+    ------
+    ValueError
+        Unknown surface, malformed CSV, unknown subject, bad parameters file;
+        :class:`ProfileTooSteepError` for a relief beyond the slope limit.
+    RuntimeError
+        If the contact solver fails at some position.
+    """
+    surface = surface_from_spec(surface_spec)
+    check_profile(surface, max_slope_angle=max_slope_angle)
+    if not (isinstance(step, (int, float)) and math.isfinite(step) and 0 < step <= 1.0):
+        raise ValueError(f"step must be a finger step in mm in (0, 1], got {step!r}")
+    if not (isinstance(load, (int, float)) and math.isfinite(load) and load > 0):
+        raise ValueError(f"load must be a positive normal force in N, got {load!r}")
+    label, finger = _resolve_finger(subject)
+    p, source = _resolve_params(params, label, float(load))
+    lo, hi = sweep_window(surface) if window is None else (float(window[0]), float(window[1]))
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ValueError(
+            f"window must be (first, last) finger positions in mm with first < last, got {window!r}"
+        )
+    x = lo + step * np.arange(int(math.floor((hi - lo) / step + 1e-9)) + 1)
+    log.info("predict: %s, subject %s, %d positions, %s contact", surface.name, label, x.size, contact)
+    reg = forward_regions(surface, finger, x, load=load, contact=contact)
+    return predict_from_regions(surface, x, reg, p, subject=label, params_source=source, load=load,
+                                contact=contact, finger=finger)
+
+
+def known_surface_names() -> tuple[str, ...]:
+    """The paper's surface names (for error messages and the CLI)."""
+    return SURFACE_NAMES
