@@ -1,0 +1,195 @@
+"""Tests of fingerfriction.predict: prediction on unrecorded surfaces, validity, params."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fingerfriction.blindspots import blind_spots
+from fingerfriction.mechanics import SUBJECTS, solve_contact, sweep
+from fingerfriction.model import FrictionParams
+from fingerfriction.predict import (
+    MAX_SLOPE_ANGLE,
+    PAPER_MU,
+    ProfileTooSteepError,
+    check_profile,
+    default_params,
+    flat_contact_length,
+    load_params,
+    predict,
+)
+from fingerfriction.surfaces import RaisedCosine, SampledProfile, get_surface
+
+STEP = 0.05  # mm: coarse finger step keeps these tests fast (the default is 0.01)
+PARAMS = FrictionParams(mu=0.55, p0=0.065, p1=0.1)
+
+
+@pytest.fixture(scope="module")
+def bump3():
+    """A prediction on a surface outside the paper's six: 3 mm bump, H = 0.5 mm."""
+    return predict("bump:W=3,H=0.5", 1, PARAMS, step=STEP)
+
+
+def test_unrecorded_surface_end_to_end(bump3, tmp_path):
+    p = bump3
+    assert p.surface.width == 3.0 and p.surface.height == 0.5
+    x = p.positions
+    assert x[0] == pytest.approx(-13.0) and x[-1] == pytest.approx(13.0)
+    np.testing.assert_allclose(p.F_T, p.F_int + p.F_def, rtol=0, atol=1e-15)
+    # Finger on flat ground at both ends: only the interfacial term, p0 mu L.
+    assert p.F_def[0] == 0.0 and p.F_def[-1] == 0.0
+    assert p.F_T.max() > p.F_T[0] + 0.01  # the bump raises the force
+    paths = p.write(tmp_path)
+    forces = pd.read_csv(paths["forces"])
+    assert list(forces.columns[:4]) == ["x_mm", "F_T_N", "F_int_N", "F_def_N"]
+    np.testing.assert_allclose(forces["F_T_N"], p.F_T, rtol=1e-8)
+    summary = json.loads(open(paths["summary"]).read())
+    assert summary["contact"] == "geometric" and summary["geom_tol_mm"] == 0.07
+    for k in ("forces_png", "occupancy_png"):
+        with open(paths[k], "rb") as fh:
+            assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+    bs = pd.read_csv(paths["blind_spots"])
+    assert len(bs) == len(p.blind_spots)
+
+
+def test_blind_spots_consistent_with_contact_sweep(bump3):
+    """The prediction's blind spots are the gaps of the forward model's own sweep: never
+    inside any geometric region, bounded by contacted points, and contained in the
+    (wider) gaps of the mechanical contact of the same sweep."""
+    p = bump3
+    res = sweep(p.surface, SUBJECTS[1], p.positions, load=0.3)
+    assert res.all_converged
+    np.testing.assert_array_equal(p.regions, res.geometric_regions)
+    ref = res.blind_spots("geometric")
+    np.testing.assert_allclose(p.blind_spots.intervals, ref.intervals)
+    iv = res.geometric_regions.reshape(-1, 2)
+    iv = iv[~np.isnan(iv[:, 0])]
+    mech = blind_spots(res.mechanical_regions)
+    for a, b in p.blind_spots.intervals:
+        # never contacted: no region overlaps (a, b)
+        assert not np.any((iv[:, 0] < b - 1e-12) & (iv[:, 1] > a + 1e-12))
+        # maximal: both ends are reached by some region
+        assert np.any(np.isclose(iv[:, 1], a)) and np.any(np.isclose(iv[:, 0], b))
+        # mechanical contact is narrower, so its blind spot around this one is wider
+        assert any(ma <= a + 1e-9 and mb >= b - 1e-9 for ma, mb in mech.intervals)
+    assert p.max_contacts == res.max_contacts("geometric")
+
+
+def test_flat_ground_is_amontons_with_flat_consistent_p0():
+    L = flat_contact_length(1)
+    # An independent single solve of the flat contact gives the same length.
+    flat = SampledProfile(np.linspace(-30, 30, 7), np.zeros(7))
+    sol = solve_contact(flat, SUBJECTS[1], 0.0, n=1024)
+    assert L == pytest.approx(float(np.sum(np.diff(sol.geometric_regions, axis=1))), rel=1e-9)
+    assert 2.0 < L < 10.0  # mm: a fingertip's contact at 0.3 N
+    p = predict("step-up-2mm", 1, FrictionParams(0.55, 0.3 / L, 0.2), step=0.5)
+    assert p.F_T[0] == pytest.approx(0.55 * 0.3, rel=1e-6)
+
+
+def test_mechanical_contact_option():
+    g = predict("bump-2mm", 2, PARAMS, step=0.2)
+    m = predict("bump-2mm", 2, PARAMS, step=0.2, contact="mechanical")
+    # mechanical contact is narrower than geometric contact at every position
+    from fingerfriction.regions import region_lengths
+
+    lg = np.nansum(region_lengths(g.regions), axis=1)
+    lm = np.nansum(region_lengths(m.regions), axis=1)
+    assert np.all(lm <= lg + 1e-12) and lm.sum() < 0.9 * lg.sum()
+
+
+@pytest.mark.slow
+def test_default_params_provenance():
+    for subject in (1, 2):
+        p = default_params(subject)
+        assert p.mu == PAPER_MU[subject]
+        # p0 * L_flat = F_N: flat friction mu * 0.3 N
+        assert p.p0 * flat_contact_length(subject) == pytest.approx(0.3, rel=1e-12)
+    # p1: mean peak F_def over the four raised surfaces is 50 mN; checked through predict()
+    # on a different finger step than the calibration's (0.05 mm).
+    peaks = [
+        predict(name, 1, None, step=0.04).F_def.max()
+        for name in ("bump-2mm", "bump-4mm", "step-up-2mm", "step-up-4mm")
+    ]
+    assert np.mean(peaks) == pytest.approx(0.050, rel=0.03)
+
+
+# ------------------------------------------------------------------ validity and bad input
+def _bump_with_angle(angle):
+    return RaisedCosine("bump", 3.0, math.tan(angle) * 3.0 / math.pi)
+
+
+def test_slope_limit_boundary():
+    assert MAX_SLOPE_ANGLE == pytest.approx(math.acos(0.75))
+    ok = check_profile(_bump_with_angle(MAX_SLOPE_ANGLE - 0.005))
+    assert ok == pytest.approx(MAX_SLOPE_ANGLE - 0.005, abs=1e-6)
+    with pytest.raises(ProfileTooSteepError, match=r"0\.728 rad .* at most 0\.723 rad \(41\.4 deg"):
+        check_profile(_bump_with_angle(MAX_SLOPE_ANGLE + 0.005))
+    # the paper's steepest surfaces are inside the limit
+    for name in ("bump-2mm", "bump-4mm"):
+        assert check_profile(get_surface(name)) == pytest.approx(0.5610, abs=1e-3)
+
+
+def test_too_steep_profile_refused_by_predict():
+    with pytest.raises(ProfileTooSteepError, match=r"bump-1mm.*slope angle of 1\.004 rad.*x = -0\.250 mm"):
+        predict("bump:W=1,H=0.5", 1, PARAMS)
+
+
+def test_vertical_wall_csv_refused(tmp_path):
+    f = tmp_path / "wall.csv"
+    f.write_text("x,h\n-5,0\n-1,0\n-0.999,0\n-0.001,0\n0.0,0.5\n0.001,0.5\n1,0.5\n5,0.5\n")
+    with pytest.raises(ProfileTooSteepError, match="wall"):
+        predict(str(f), 1, PARAMS)
+
+
+def test_unknown_surface_name():
+    with pytest.raises(ValueError, match=r"unknown surface 'bmp-4mm'.*bump-2mm"):
+        predict("bmp-4mm", 1, PARAMS)
+
+
+def test_malformed_csv(tmp_path):
+    f = tmp_path / "bad.csv"
+    f.write_text("x,h\n0,0\n1,abc\n")
+    with pytest.raises(ValueError, match=r"bad\.csv, line 3: x and h must be numbers"):
+        predict(str(f), 1, PARAMS)
+    g = tmp_path / "nonmono.csv"
+    g.write_text("0,0\n1,0.1\n0.5,0.2\n2,0\n")
+    with pytest.raises(ValueError, match="strictly increasing"):
+        predict(str(g), 1, PARAMS)
+
+
+def test_unknown_subject_and_bad_step():
+    with pytest.raises(ValueError, match=r"unknown subject 3; known subjects: \[1, 2\]"):
+        predict("bump-2mm", 3, PARAMS)
+    with pytest.raises(ValueError, match="step must be"):
+        predict("bump-2mm", 1, PARAMS, step=0.0)
+
+
+# ------------------------------------------------------------------ parameter files
+def test_load_params_forms(tmp_path):
+    a = tmp_path / "a.json"
+    a.write_text(PARAMS.to_json())
+    assert load_params(a) == PARAMS
+    b = tmp_path / "b.json"
+    subjects = {"1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}, "2": {"mu": 0.6, "p0": 1, "p1": 2}}
+    b.write_text(json.dumps({"subjects": subjects}))
+    assert load_params(b, 2) == FrictionParams(0.6, 1.0, 2.0)
+    c = tmp_path / "c.json"
+    trials = [{"p0": v, "p1": 10 * v} for v in (0.1, 0.3, 0.2)]
+    c.write_text(json.dumps({"subjects": {"1": {"mu": 0.55, "trials": trials}}}))
+    assert load_params(c, 1) == FrictionParams(0.55, 0.2, 2.0)
+    with pytest.raises(ValueError, match=r"c\.json: no parameters for subject 2"):
+        load_params(c, 2)
+    d = tmp_path / "d.json"
+    d.write_text("{not json")
+    with pytest.raises(ValueError, match=r"d\.json: not valid JSON"):
+        load_params(d)
+    with pytest.raises(ValueError, match="cannot read parameters"):
+        load_params(tmp_path / "missing.json")
+    e = tmp_path / "e.json"
+    e.write_text(json.dumps({"mu": 9, "p0": 0.1, "p1": 0.1}))
+    with pytest.raises(ValueError, match=r"mu must be in \[0, 5\]"):
+        load_params(e)
