@@ -54,17 +54,17 @@ def as_regions(regions, *, name: str = "regions", allow_touching: bool = True) -
     if np.any(nan_a != nan_b):
         t, i = np.argwhere(nan_a != nan_b)[0]
         raise ValueError(
-            f"{name}: frame {t}, region {i} has one NaN end point {tuple(arr[t, i])}; "
+            f"{name}: frame {t}, region {i} has one NaN end point {_pair_repr(arr[t, i])}; "
             "both ends must be numbers (mm) or both NaN (unused slot)"
         )
     valid = ~nan_a
     if np.any(np.isinf(arr[valid])):
         t, i = np.argwhere(valid & np.isinf(arr).any(-1))[0]
-        raise ValueError(f"{name}: frame {t}, region {i} has an infinite end point {tuple(arr[t, i])}")
+        raise ValueError(f"{name}: frame {t}, region {i} has an infinite end point {_pair_repr(arr[t, i])}")
     inverted = valid & (arr[..., 0] > arr[..., 1])
     if inverted.any():
         t, i = np.argwhere(inverted)[0]
-        a, b = arr[t, i]
+        a, b = (float(v) for v in arr[t, i])
         raise ValueError(
             f"{name}: frame {t}, region {i} is inverted: [a, b] = [{a!r}, {b!r}] mm; "
             "each region must have a <= b"
@@ -82,10 +82,15 @@ def as_regions(regions, *, name: str = "regions", allow_touching: bool = True) -
         if bad.any():
             t, i = np.argwhere(bad)[0]
             raise ValueError(
-                f"{name}: frame {t}, regions {i} {tuple(arr[t, i])} and {i + 1} "
-                f"{tuple(arr[t, i + 1])} overlap or are not sorted by position"
+                f"{name}: frame {t}, regions {i} {_pair_repr(arr[t, i])} and {i + 1} "
+                f"{_pair_repr(arr[t, i + 1])} overlap or are not sorted by position"
             )
     return arr
+
+
+def _pair_repr(pair) -> str:
+    """``(a, b)`` with plain floats (numpy 2 would print ``np.float64(...)``)."""
+    return repr(tuple(float(v) for v in pair))
 
 
 def _to_array(regions, name: str) -> np.ndarray:

@@ -233,14 +233,14 @@ class SampledProfile(Surface):
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise ValueError(
-                f"profile has a non-finite value at sample {i} (x={x[i]!r}, h={h[i]!r})"
+                f"profile has a non-finite value at sample {i} (x={float(x[i])!r}, h={float(h[i])!r})"
             )
         dx = np.diff(x)
         if np.any(dx <= 0):
             i = int(np.flatnonzero(dx <= 0)[0])
             raise ValueError(
-                f"profile x must be strictly increasing; x[{i}]={x[i]!r} "
-                f"is followed by x[{i + 1}]={x[i + 1]!r}"
+                f"profile x must be strictly increasing; x[{i}]={float(x[i])!r} "
+                f"is followed by x[{i + 1}]={float(x[i + 1])!r}"
             )
         lam = float(self.smoothing)
         if not math.isfinite(lam) or lam < 0:

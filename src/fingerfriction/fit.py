@@ -1,0 +1,798 @@
+"""Fitting the friction model to trials: Eq. (5) NMSE, p0/p1 per trial, mu per subject.
+
+Janko, Wiertlewski & Visell 2018, Methods "Estimating model parameters": per trial, the
+parameters ``p0, p1`` of Eq. (4) minimise a normalised mean square error between the
+measured force ``F_T`` and the median-filtered model estimate ``F_hat_T`` (Nelder-Mead);
+per subject, ``mu`` comes from a grid search over all that subject's trials.
+
+How measurement and model are compared (the choices this module makes)
+----------------------------------------------------------------------
+1. **Same footing (detrend).** The measured ``F_T`` is drift-corrected: the best line over
+   the flat segment before the feature is subtracted, so it is near zero there, while
+   Eq. (4) has a positive flat level ``p0 mu L``. We apply *the same* operator to the model:
+   the best line over the same flat segment is subtracted from ``F_hat`` (and, to make the
+   two series exactly comparable, from the measurement too, which changes a correctly
+   drift-corrected measurement by at most its residual line). The operator is linear, so
+   the model stays linear in ``(p0, p1)``. The flat segment is derived from the contact
+   regions themselves (:func:`flat_segment_mask`): the positions where every contact
+   region lies entirely left of the feature, i.e. the finger touches only flat ground.
+   Because the finger pad is ~16 mm long, contact reaches the feature several mm before
+   the finger centre does, so a segment defined from the finger centre would be wrong.
+2. **Median filter.** The paper filters the force estimate to remove quantisation artefacts
+   of the tracked contours. Those artefacts enter the model only through the per-frame
+   integrals of Eq. (4), ``S = sum int sin(alpha)``, ``K = sum int cos(alpha)`` and
+   ``Q = sum int s sin(alpha)`` (``F = p0 (S + mu K) + p1 (Q + mu S)``, see
+   :mod:`fingerfriction.model`). ``median_on='basis'`` (default) filters these three
+   mu-independent series once per trial; the model then stays exactly linear in
+   ``(p0, p1)`` for every ``mu``, so least squares is exact and Nelder-Mead and least
+   squares minimise the same function. ``median_on='estimate'`` is the literal reading:
+   filter ``F_hat`` after combining; it is nonlinear in ``(p0, p1)``, Nelder-Mead handles
+   it exactly and least squares uses the filtered-basis fit as its (approximate) solution.
+   A window of 1 switches the filter off.
+3. **Objective.** :func:`nmse` (conventional, default) and :func:`nmse_eq5` (Eq. 5 as
+   printed); see their docstrings for why the conventional one is the default.
+4. **mu grid.** For each ``mu`` of the grid every trial is refitted; the subject's curve is
+   the sum over its trials of the per-trial minimal objective (each trial normalised by
+   its own variance, so trials weigh equally); ``mu`` is the grid point of the minimum.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage, optimize
+
+from .model import FrictionModel, FrictionParams
+from .regions import as_regions
+from .surfaces import RaisedCosine, Surface, surface_from_spec
+
+__all__ = [
+    "nmse",
+    "nmse_eq5",
+    "Trial",
+    "FitOptions",
+    "TrialFit",
+    "SubjectFit",
+    "flat_segment_mask",
+    "flat_detrend",
+    "median_filter",
+    "fit_trial",
+    "fit_subject",
+    "fit_trials",
+    "mu_grid",
+]
+
+log = logging.getLogger(__name__)
+
+OBJECTIVES = ("nmse", "nmse_eq5")
+METHODS = ("lstsq", "nelder-mead")
+
+
+# ------------------------------------------------------------------------ objectives
+
+
+def _pair(measured, estimate) -> tuple[np.ndarray, np.ndarray]:
+    f = np.asarray(measured, dtype=float)
+    g = np.asarray(estimate, dtype=float)
+    if f.ndim != 1 or g.ndim != 1:
+        raise ValueError(f"measured and estimate must be 1-D, got shapes {f.shape} and {g.shape}")
+    if f.shape != g.shape:
+        raise ValueError(
+            f"measured and estimate must have the same length, got {f.size} and {g.size}"
+        )
+    for name, v in (("measured", f), ("estimate", g)):
+        if not np.all(np.isfinite(v)):
+            i = int(np.flatnonzero(~np.isfinite(v))[0])
+            raise ValueError(f"{name} has a non-finite value {float(v[i])!r} at index {i}")
+    return f, g
+
+
+def nmse(measured, estimate) -> float:
+    """Conventional normalised mean square error (the default fit objective).
+
+    ``||F_hat - F||^2 / ||F - mean(F)||^2``: the residual energy relative to the
+    measurement's variance (0 = perfect, 1 = no better than the measurement's mean).
+
+    Parameters
+    ----------
+    measured : (n,) array_like
+        Measured force ``F_T`` in N.
+    estimate : (n,) array_like
+        Model estimate ``F_hat_T`` in N.
+
+    Returns
+    -------
+    float
+        Dimensionless; ``inf`` if the measurement is constant.
+
+    Notes
+    -----
+    Why this is the default rather than :func:`nmse_eq5`: the denominator does not depend
+    on the parameters, so minimising it is ordinary least squares (consistent, closed form,
+    unbiased under additive noise) and every trial is normalised by its own measurement.
+    Eq. (5) divides by the *model's* variance instead, which rewards inflating the model
+    (see :func:`nmse_eq5`).
+    """
+    f, g = _pair(measured, estimate)
+    den = float(np.sum((f - f.mean()) ** 2))
+    num = float(np.sum((g - f) ** 2))
+    return num / den if den > 0 else math.inf
+
+
+def nmse_eq5(measured, estimate) -> float:
+    """NMSE exactly as Eq. (5) of Janko et al. 2018 is printed.
+
+    ``eps = ||F_hat - F|| / ||F_hat - mean(F_hat)||``: a ratio of (unsquared) Euclidean
+    norms, normalised by the spread of the *model estimate*.
+
+    Parameters
+    ----------
+    measured : (n,) array_like
+        Measured force ``F_T`` in N.
+    estimate : (n,) array_like
+        Model estimate ``F_hat_T`` in N.
+
+    Returns
+    -------
+    float
+        Dimensionless; ``inf`` when the estimate is constant (denominator 0).
+
+    Notes
+    -----
+    The squared form ``eps^2 = ||F_hat - F||^2 / ||F_hat - mean(F_hat)||^2`` has the same
+    minimiser (``sqrt`` is monotonic), so fits with either agree; only reported values
+    differ. Because the denominator is the model's own variance, the minimiser is biased
+    towards a *larger* model: for a model ``c G`` with a free scale ``c`` and centred
+    signals, Eq. (5) is minimised at ``c = ||F||^2 / <G, F>`` whereas least squares gives
+    ``c = <G, F> / ||G||^2``; their ratio is ``1 / r^2`` (``r`` the correlation of ``G``
+    and ``F``), so noise in ``F`` inflates Eq. (5)'s parameters (by ~1 % at 10 % noise,
+    measured in ``tests/test_fit.py``). It is undefined (``inf``) for a flat model, e.g.
+    a trial whose contact never reaches the feature after detrending.
+    """
+    f, g = _pair(measured, estimate)
+    den = float(np.sqrt(np.sum((g - g.mean()) ** 2)))
+    num = float(np.sqrt(np.sum((g - f) ** 2)))
+    return num / den if den > 0 else math.inf
+
+
+# ------------------------------------------------------------------------ trial container
+
+
+_SHAPE_LABELS = {"bump": "Bump", "step-up": "Step Up", "step-down": "Step Down"}
+
+
+def _surface_labels(surface: Surface) -> tuple[str, str]:
+    if isinstance(surface, RaisedCosine):
+        return _SHAPE_LABELS[surface.shape], f"{surface.width:g} mm"
+    return surface.name, ""
+
+
+def _fit_labels(trial: Trial) -> dict:
+    """Labels carried by a TrialFit: the trial's, plus surface, shape and scale."""
+    return {**trial.labels, "surface": trial.surface.name, "shape": trial.shape, "scale": trial.scale}
+
+
+@dataclass(frozen=True, eq=False)
+class Trial:
+    """One trial on the position grid (the input of every fit).
+
+    Parameters
+    ----------
+    x : (n,) ndarray
+        Finger positions in mm, strictly increasing (paper: 0.01 mm steps over 26 mm).
+    force : (n,) ndarray
+        Measured tangential force ``F_T`` in N at each position, drift-corrected.
+    regions : (n, n_max, 2) ndarray
+        Contact regions ``C_i`` in mm at each position (:mod:`fingerfriction.regions`).
+    surface : Surface or str
+        The relief (a name such as ``'bump-2mm'``, a spec, or a Surface).
+    subject : str
+        Subject label (``mu`` is fitted per subject).
+    labels : dict of str to str
+        Further condition labels (speed, repetition, ...).
+
+    Raises
+    ------
+    ValueError
+        NaN/inf forces, mismatched lengths, non-increasing positions, invalid regions
+        (inverted, half-NaN, ...), a trial with no contact at all, an unknown surface.
+    """
+
+    x: np.ndarray
+    force: np.ndarray
+    regions: np.ndarray
+    surface: Surface
+    subject: str = "S1"
+    labels: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        x = np.asarray(self.x, dtype=float)
+        f = np.asarray(self.force, dtype=float)
+        if x.ndim != 1 or x.size < 3:
+            raise ValueError(f"Trial.x must be a 1-D array of >= 3 positions (mm), got shape {x.shape}")
+        if not np.all(np.isfinite(x)):
+            i = int(np.flatnonzero(~np.isfinite(x))[0])
+            raise ValueError(f"Trial.x has a non-finite value {float(x[i])!r} at index {i}")
+        if np.any(np.diff(x) <= 0):
+            i = int(np.flatnonzero(np.diff(x) <= 0)[0])
+            raise ValueError(
+                f"Trial.x must be strictly increasing; x[{i}]={float(x[i])!r} is followed by "
+                f"x[{i + 1}]={float(x[i + 1])!r}"
+            )
+        if f.shape != x.shape:
+            raise ValueError(
+                f"Trial.force must have one value per position: got shape {f.shape} for {x.size} positions"
+            )
+        if not np.all(np.isfinite(f)):
+            i = int(np.flatnonzero(~np.isfinite(f))[0])
+            raise ValueError(
+                f"Trial.force has a non-finite value {float(f[i])!r} at index {i} (x={x[i]:g} mm); "
+                "interpolate or drop such samples before fitting"
+            )
+        r = as_regions(self.regions, name="Trial.regions")
+        if r.shape[0] != x.size:
+            raise ValueError(
+                f"Trial.regions must have one frame per position: got {r.shape[0]} frames "
+                f"for {x.size} positions"
+            )
+        if not np.any(~np.isnan(r[..., 0])):
+            raise ValueError("Trial.regions is empty: no frame has any contact region")
+        surf = surface_from_spec(self.surface)
+        if not isinstance(self.subject, str) or not self.subject:
+            raise ValueError(f"Trial.subject must be a non-empty string, got {self.subject!r}")
+        object.__setattr__(self, "x", x)
+        object.__setattr__(self, "force", f)
+        object.__setattr__(self, "regions", r)
+        object.__setattr__(self, "surface", surf)
+        object.__setattr__(self, "labels", {str(k): str(v) for k, v in dict(self.labels).items()})
+
+    @property
+    def n(self) -> int:
+        """Number of positions."""
+        return int(self.x.size)
+
+    @property
+    def shape(self) -> str:
+        """Feature shape as in Table 1 ('Bump', 'Step Up', 'Step Down') or the profile's name."""
+        return _surface_labels(self.surface)[0]
+
+    @property
+    def scale(self) -> str:
+        """Feature width as a label, e.g. ``'2 mm'`` ('' for sampled profiles)."""
+        return _surface_labels(self.surface)[1]
+
+
+# ------------------------------------------------------------------------ preprocessing
+
+
+def flat_segment_mask(regions, surface: Surface, *, margin: float = 0.0) -> np.ndarray:
+    """Positions where the finger touches only the flat ground before the feature.
+
+    Parameters
+    ----------
+    regions : (n, n_max, 2) array_like
+        Contact regions in mm.
+    surface : Surface
+        The relief; its ``feature_extent[0]`` is where the feature starts (mm).
+    margin : float
+        Extra clearance in mm: every region must end at or before
+        ``feature_start - margin``.
+
+    Returns
+    -------
+    (n,) bool ndarray
+        True where the frame has contact and every region lies left of the feature.
+    """
+    r = as_regions(regions)
+    if not (math.isfinite(margin) and margin >= 0):
+        raise ValueError(f"margin must be >= 0 mm, got {margin!r}")
+    start = float(surface.feature_extent[0]) - float(margin)
+    valid = ~np.isnan(r[..., 0])
+    right = np.where(valid, r[..., 1], -np.inf).max(axis=1)
+    return valid.any(axis=1) & (right <= start)
+
+
+def flat_detrend(x, y, mask) -> np.ndarray:
+    """Subtract the best line (least squares over ``x[mask]``) from ``y`` everywhere.
+
+    This is the paper's drift correction ("Force data processing"); it is linear in
+    ``y``. ``y`` may be ``(n,)`` or ``(n, m)`` (each column detrended).
+
+    Raises
+    ------
+    ValueError
+        If fewer than 2 distinct positions are selected by ``mask``.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    m = np.asarray(mask, dtype=bool)
+    if m.shape != x.shape or y.shape[0] != x.size:
+        raise ValueError(f"x {x.shape}, y {y.shape} and mask {m.shape} must have matching length")
+    if np.count_nonzero(m) < 2:
+        raise ValueError(
+            f"the flat segment has {int(np.count_nonzero(m))} positions; at least 2 are needed "
+            "for the linear detrend (does the contact start on flat ground before the feature?)"
+        )
+    A = np.column_stack([np.ones(int(m.sum())), x[m] - x[m].mean()])
+    coef, *_ = np.linalg.lstsq(A, y[m], rcond=None)
+    full = np.column_stack([np.ones(x.size), x - x[m].mean()])
+    return y - full @ coef
+
+
+def median_filter(y, kernel: int) -> np.ndarray:
+    """Running median along axis 0 with an odd window of ``kernel`` samples.
+
+    Uses ``scipy.ndimage.median_filter`` with ``mode='nearest'`` (ends padded with the end
+    values, so the ends are not pulled towards zero as with ``scipy.signal.medfilt``'s
+    zero padding). ``kernel=1`` returns a copy.
+    """
+    k = _check_kernel(kernel)
+    y = np.asarray(y, dtype=float)
+    if k == 1:
+        return y.copy()
+    size = (k,) + (1,) * (y.ndim - 1)
+    return ndimage.median_filter(y, size=size, mode="nearest")
+
+
+def _check_kernel(kernel) -> int:
+    if isinstance(kernel, bool) or not isinstance(kernel, (int, np.integer)) or kernel < 1 or kernel % 2 == 0:
+        raise ValueError(f"median kernel must be an odd positive integer (samples), got {kernel!r}")
+    return int(kernel)
+
+
+# ------------------------------------------------------------------------ options & results
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """How measurement and model are compared (see the module docstring).
+
+    Parameters
+    ----------
+    objective : {'nmse', 'nmse_eq5'}
+        Conventional NMSE (default) or Eq. (5) as printed.
+    median_kernel : int
+        Median filter window in samples (odd; 1 = off). Default 11 (0.11 mm on the
+        paper's 0.01 mm grid).
+    median_on : {'basis', 'estimate'}
+        Filter the per-frame integrals (default; keeps the model linear) or the combined
+        estimate (the literal reading of Methods; nonlinear).
+    flat_margin : float
+        Clearance in mm between the flat segment and the feature start (default 0).
+    xatol, fatol : float
+        Nelder-Mead tolerances on the *relative* parameters and on the objective.
+    maxiter : int
+        Nelder-Mead iteration limit.
+    """
+
+    objective: str = "nmse"
+    median_kernel: int = 11
+    median_on: str = "basis"
+    flat_margin: float = 0.0
+    xatol: float = 1e-7
+    fatol: float = 1e-12
+    maxiter: int = 2000
+
+    def __post_init__(self) -> None:
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
+        _check_kernel(self.median_kernel)
+        if self.median_on not in ("basis", "estimate"):
+            raise ValueError(f"median_on must be 'basis' or 'estimate', got {self.median_on!r}")
+        if not (math.isfinite(self.flat_margin) and self.flat_margin >= 0):
+            raise ValueError(f"flat_margin must be >= 0 mm, got {self.flat_margin!r}")
+        for name in ("xatol", "fatol"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        if int(self.maxiter) < 1:
+            raise ValueError(f"maxiter must be >= 1, got {self.maxiter!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class TrialFit:
+    """Result of fitting ``p0, p1`` to one trial at a given ``mu``.
+
+    Attributes
+    ----------
+    mu : float
+        Friction coefficient used (fixed during the fit).
+    p0, p1 : float
+        Fitted parameters in N/mm (D absorbed; Eq. 4).
+    objective : float
+        Value of the objective (``objective_name``) at the solution, on the exact
+        compared series (detrended measurement vs detrended, median-filtered model).
+    objective_name : str
+    method : str
+        'lstsq' or 'nelder-mead'.
+    success : bool
+    message : str
+        Why the fit failed, or a short description of what converged.
+    n_iter, n_fev : int
+        Iterations and objective evaluations (0 for the closed form).
+    measured : (n,) ndarray
+        Measurement as compared (N): drift-corrected again over the flat segment.
+    estimate : (n,) ndarray
+        Model as compared (N): Eq. (4), median-filtered, detrended over the flat segment.
+    subject : str
+    labels : dict
+    """
+
+    mu: float
+    p0: float
+    p1: float
+    objective: float
+    objective_name: str
+    method: str
+    success: bool
+    message: str
+    n_iter: int
+    n_fev: int
+    measured: np.ndarray
+    estimate: np.ndarray
+    subject: str = ""
+    labels: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def params(self) -> FrictionParams:
+        """The fitted parameters (raises ``ValueError`` if they are unphysical, p0 < 0)."""
+        return FrictionParams(mu=self.mu, p0=self.p0, p1=self.p1)
+
+
+@dataclass(frozen=True, eq=False)
+class SubjectFit:
+    """Result of the per-subject grid search for ``mu``.
+
+    Attributes
+    ----------
+    subject : str
+    mu : float
+        Grid value minimising the summed objective.
+    grid : (m,) ndarray
+        The ``mu`` values tried.
+    curve : (m,) ndarray
+        Sum over the subject's trials of each trial's minimal objective at each ``mu``.
+    trials : tuple of TrialFit
+        Per-trial fits at the selected ``mu`` (same order as the input trials).
+    success : bool
+        False if any trial fit failed or the minimum is at an end of the grid (the true
+        optimum may lie outside it).
+    message : str
+    method : str
+    """
+
+    subject: str
+    mu: float
+    grid: np.ndarray
+    curve: np.ndarray
+    trials: tuple[TrialFit, ...]
+    success: bool
+    message: str
+    method: str
+
+
+def mu_grid(start: float = 0.30, stop: float = 0.90, step: float = 0.01) -> np.ndarray:
+    """Inclusive grid of ``mu`` values (default 0.30..0.90 by 0.01: 61 values)."""
+    for name, v in (("start", start), ("stop", stop), ("step", step)):
+        if not math.isfinite(v):
+            raise ValueError(f"mu grid {name} must be finite, got {v!r}")
+    if step <= 0 or start < 0 or stop < start or stop > 5:
+        raise ValueError(
+            f"mu grid needs 0 <= start <= stop <= 5 and step > 0, got start={start!r}, "
+            f"stop={stop!r}, step={step!r}"
+        )
+    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    return np.round(start + step * np.arange(n), 12)
+
+
+# ------------------------------------------------------------------------ per-trial design
+
+
+class _Design:
+    """Precomputed, mu-independent pieces of one trial's fit.
+
+    ``P`` holds the three per-frame integrals ``[S, K, Q]`` (mm) of Eq. (4) after the
+    processing that is linear or mu-independent (median filter in 'basis' mode, flat
+    detrend); for any ``mu`` the two basis columns are ``P @ T(mu)`` with
+    ``T = [[1, mu], [mu, 0], [0, 1]]``.
+    """
+
+    def __init__(self, trial: Trial, options: FitOptions, model: FrictionModel | None = None):
+        model = model if model is not None else FrictionModel(trial.surface)
+        # basis() is affine in mu by construction (model.py), so two calls give S, K, Q exactly.
+        b0 = model.basis(trial.regions, 0.0)
+        b1 = model.basis(trial.regions, 1.0)
+        raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q
+        self.mask = flat_segment_mask(trial.regions, trial.surface, margin=options.flat_margin)
+        if np.count_nonzero(self.mask) < 2:
+            raise ValueError(
+                f"trial ({trial.subject}, {trial.surface.name}, {trial.labels}): flat segment has "
+                f"{int(np.count_nonzero(self.mask))} positions where all contact lies left of the "
+                f"feature start {trial.surface.feature_extent[0]:g} mm - margin {options.flat_margin:g} mm; "
+                "at least 2 are needed"
+            )
+        self.x = trial.x
+        self.k = options.median_kernel
+        self.median_on = options.median_on
+        self.raw = raw
+        filt = median_filter(raw, self.k) if self.median_on == "basis" else raw
+        self.P = flat_detrend(self.x, filt, self.mask)
+        self.F = flat_detrend(self.x, trial.force, self.mask)
+        self.n = trial.n
+        self.A = self.P.T @ self.P
+        self.b = self.P.T @ self.F
+        self.c = float(self.F @ self.F)
+        pm = self.P.mean(axis=0)
+        self.Ac = self.A - self.n * np.outer(pm, pm)  # Gram of the centred columns
+        self.sst = float(np.sum((self.F - self.F.mean()) ** 2))
+
+    @staticmethod
+    def T(mu) -> np.ndarray:
+        mu = np.asarray(mu, dtype=float)
+        T = np.zeros(mu.shape + (3, 2))
+        T[..., 0, 0] = 1.0
+        T[..., 1, 0] = mu
+        T[..., 0, 1] = mu
+        T[..., 2, 1] = 1.0
+        return T
+
+    def estimate(self, mu: float, p: np.ndarray) -> np.ndarray:
+        """Model as compared: detrended (and filtered) Eq. (4) estimate in N."""
+        if self.median_on == "basis":
+            return self.P @ (self.T(mu) @ p)
+        f = self.raw @ (self.T(mu) @ p)
+        return flat_detrend(self.x, median_filter(f, self.k), self.mask)
+
+    def lstsq_curve(self, mus: np.ndarray):
+        """Closed-form p and conventional NMSE for every mu (vectorised)."""
+        T = self.T(mus)  # (m, 3, 2)
+        G = np.einsum("mij,jk,mkl->mil", T.transpose(0, 2, 1), self.A, T)
+        g = np.einsum("mji,j->mi", T, self.b)
+        det = G[:, 0, 0] * G[:, 1, 1] - G[:, 0, 1] * G[:, 1, 0]
+        scale = G[:, 0, 0] * G[:, 1, 1]
+        ok = np.abs(det) > 1e-12 * np.maximum(scale, 1e-300)
+        inv = np.empty_like(G)
+        inv[:, 0, 0] = G[:, 1, 1]
+        inv[:, 1, 1] = G[:, 0, 0]
+        inv[:, 0, 1] = -G[:, 0, 1]
+        inv[:, 1, 0] = -G[:, 1, 0]
+        inv /= np.where(ok, det, 1.0)[:, None, None]
+        p = np.einsum("mij,mj->mi", inv, g)
+        sse = self.c - np.einsum("mi,mi->m", p, g)  # at the optimum: c - p'g
+        sse = np.maximum(sse, 0.0)
+        obj = sse / self.sst if self.sst > 0 else np.full(sse.shape, np.inf)
+        return p, np.where(ok, obj, np.inf), ok
+
+    def quad_objective(self, mu: float, name: str):
+        """Objective as a function of p using the Gram matrices (exact when linear)."""
+        T = self.T(mu)
+        G = T.T @ self.A @ T
+        g = T.T @ self.b
+        H = T.T @ self.Ac @ T
+        c, sst = self.c, self.sst
+
+        if name == "nmse":
+            def f(p):
+                return max(p @ G @ p - 2.0 * p @ g + c, 0.0) / sst
+        else:
+            def f(p):
+                den = p @ H @ p
+                if den <= 0:
+                    return math.inf
+                return math.sqrt(max(p @ G @ p - 2.0 * p @ g + c, 0.0) / den)
+        return f
+
+    def exact_objective(self, mu: float, name: str):
+        fn = nmse if name == "nmse" else nmse_eq5
+        if self.median_on == "basis":
+            return self.quad_objective(mu, name)
+        return lambda p: fn(self.F, self.estimate(mu, p))
+
+
+def _fit_one(d: _Design, mu: float, method: str, options: FitOptions, subject: str, labels) -> TrialFit:
+    name = options.objective
+    if method == "lstsq":
+        if name != "nmse":
+            raise ValueError(
+                "method='lstsq' minimises the conventional NMSE (least squares); "
+                f"objective={name!r} has no closed form: use method='nelder-mead'"
+            )
+        p_all, _, ok = d.lstsq_curve(np.array([mu]))
+        p = p_all[0]
+        if not ok[0]:
+            msg = ("singular design: p0 and p1 are not separately identifiable (does the "
+                   "contact reach the sloped part of the feature?)")
+            success = False
+        else:
+            success, msg = True, "closed-form least squares"
+            if d.median_on == "estimate" and d.k > 1:
+                msg += " (median filter applied to the basis, an approximation in 'estimate' mode)"
+        n_iter = n_fev = 0
+    else:
+        f = d.exact_objective(mu, name)
+        # Start from a crude common scale, not from the closed form, so the comparison
+        # between the two methods is meaningful; optimise relative parameters q = p / s.
+        col = d.P @ (d.T(mu) @ np.ones(2))
+        s = float(np.linalg.norm(d.F) / max(np.linalg.norm(col), 1e-300))
+        s = s if math.isfinite(s) and s > 0 else 1.0
+        res = optimize.minimize(
+            lambda q: f(s * q), np.ones(2), method="Nelder-Mead",
+            options={"xatol": options.xatol, "fatol": options.fatol, "maxiter": options.maxiter,
+                     "maxfev": 4 * options.maxiter},
+        )
+        p = s * res.x
+        success, msg = bool(res.success), str(res.message)
+        n_iter, n_fev = int(res.nit), int(res.nfev)
+        if not np.all(np.isfinite(p)) or not math.isfinite(float(res.fun)):
+            success, msg = False, f"Nelder-Mead ended at a non-finite point/objective: {msg}"
+    p = np.asarray(p, dtype=float)
+    if success and p[0] < 0:
+        success = False
+        msg = f"p0 = {p[0]:.4g} N/mm < 0 is unphysical (fit of {method}); {msg}"
+    est = d.estimate(mu, p) if np.all(np.isfinite(p)) else np.full(d.n, np.nan)
+    if np.all(np.isfinite(est)):
+        obj = (nmse if name == "nmse" else nmse_eq5)(d.F, est)
+    else:
+        obj = math.inf
+    if not success:
+        log.warning("fit failed (subject %s, %s, mu=%g): %s", subject, labels, mu, msg)
+    return TrialFit(mu=float(mu), p0=float(p[0]), p1=float(p[1]), objective=float(obj),
+                    objective_name=name, method=method, success=success, message=msg,
+                    n_iter=n_iter, n_fev=n_fev, measured=d.F, estimate=est,
+                    subject=subject, labels=dict(labels))
+
+
+def _check_method(method: str) -> str:
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    return method
+
+
+def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
+              options: FitOptions | None = None) -> TrialFit:
+    """Fit ``p0, p1`` of Eq. (4) to one trial at a fixed ``mu``.
+
+    Parameters
+    ----------
+    trial : Trial
+    mu : float
+        Coefficient of friction (dimensionless).
+    method : {'lstsq', 'nelder-mead'}
+        Closed-form least squares (conventional NMSE only) or Nelder-Mead on the chosen
+        objective (as the paper does).
+    options : FitOptions, optional
+
+    Returns
+    -------
+    TrialFit
+        ``success`` is False (with a message) for a singular design, a non-converged
+        simplex or an unphysical ``p0 < 0``; never a silent number.
+
+    Examples
+    --------
+    >>> from fingerfriction.synthetic import synthetic_trial
+    >>> import numpy as np
+    >>> t = synthetic_trial("bump-2mm", mu=0.55, p0=0.1, p1=0.3, rng=np.random.default_rng(0))
+    >>> r = fit_trial(t, 0.55, options=FitOptions(median_kernel=1))
+    >>> bool(r.success), round(r.p0, 2), round(r.p1, 1)
+    (True, 0.1, 0.3)
+    """
+    if not isinstance(trial, Trial):
+        raise TypeError(f"trial must be a fingerfriction.fit.Trial, got {type(trial).__name__}")
+    options = options or FitOptions()
+    _check_method(method)
+    FrictionParams(mu=mu, p0=0.0, p1=0.0)  # validates mu
+    return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, _fit_labels(trial))
+
+
+def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
+                options: FitOptions | None = None, refine: bool = False) -> SubjectFit:
+    """Per-subject ``mu`` by grid search, refitting ``p0, p1`` per trial at each ``mu``.
+
+    Parameters
+    ----------
+    trials : sequence of Trial
+        All trials of one subject (any surfaces).
+    grid : (m,) array_like, optional
+        ``mu`` values to try; default :func:`mu_grid` (0.30..0.90 by 0.01, 61 values).
+    method : {'lstsq', 'nelder-mead'}
+        How ``p0, p1`` are fitted at every grid point. The closed form is vectorised over
+        the grid (two :meth:`FrictionModel.basis` calls per trial, exact because the basis
+        is affine in ``mu``); Nelder-Mead runs once per trial per grid point.
+    options : FitOptions, optional
+    refine : bool
+        If True, refine ``mu`` below the grid step by the vertex of the parabola through
+        the minimum and its two neighbours (then refit every trial at that ``mu``). The
+        paper reports the grid value (False, the default).
+
+    Returns
+    -------
+    SubjectFit
+    """
+    options = options or FitOptions()
+    _check_method(method)
+    trials = list(trials)
+    if not trials:
+        raise ValueError("trials is empty: need at least one Trial to fit a subject's mu")
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+    subjects = sorted({t.subject for t in trials})
+    if len(subjects) != 1:
+        raise ValueError(f"fit_subject needs trials of one subject, got subjects {subjects}; use fit_trials")
+    mus = mu_grid() if grid is None else np.asarray(grid, dtype=float).reshape(-1)
+    if mus.size == 0 or not np.all(np.isfinite(mus)) or np.any(mus < 0) or np.any(mus > 5):
+        raise ValueError(f"grid must be non-empty finite mu values in [0, 5], got {mus!r}")
+    if method == "lstsq" and options.objective != "nmse":
+        raise ValueError(
+            f"method='lstsq' minimises the conventional NMSE; objective={options.objective!r} "
+            "needs method='nelder-mead'"
+        )
+    models: dict[Surface, FrictionModel] = {}
+    designs = []
+    for t in trials:
+        if t.surface not in models:  # RaisedCosine hashes by value, SampledProfile by identity
+            models[t.surface] = FrictionModel(t.surface)
+        designs.append(_Design(t, options, models[t.surface]))
+    curve = np.zeros(mus.size)
+    for d in designs:
+        if method == "lstsq":
+            _, obj, _ = d.lstsq_curve(mus)
+        else:
+            obj = np.array([_fit_one(d, m, method, options, "", {}).objective for m in mus])
+        curve += obj
+    if not np.any(np.isfinite(curve)):
+        j = 0
+    else:
+        j = int(np.nanargmin(np.where(np.isfinite(curve), curve, np.nan)))
+    mu = float(mus[j])
+    if refine and 0 < j < mus.size - 1 and np.all(np.isfinite(curve[j - 1 : j + 2])):
+        mu = _parabola_vertex(mus[j - 1 : j + 2], curve[j - 1 : j + 2])
+    fits = tuple(
+        _fit_one(d, mu, method, options, t.subject, _fit_labels(t))
+        for d, t in zip(designs, trials, strict=True)
+    )
+    n_bad = sum(not f.success for f in fits)
+    success, parts = True, [f"mu = {mu:g} minimises the summed {options.objective} over {len(trials)} trials"]
+    if not np.isfinite(curve[j]):
+        success = False
+        parts.append("the objective is not finite at any grid point")
+    if mus.size > 1 and j in (0, mus.size - 1):
+        success = False
+        parts.append(f"the minimum is at the end of the grid [{mus[0]:g}, {mus[-1]:g}]: widen the grid")
+    if n_bad:
+        success = False
+        parts.append(f"{n_bad} of {len(fits)} trial fits failed")
+    if mu != float(mus[j]):
+        parts.append(f"refined from the grid value {mus[j]:g} by a parabola through 3 grid points")
+    return SubjectFit(subject=subjects[0], mu=mu, grid=mus, curve=curve, trials=fits,
+                      success=success, message="; ".join(parts), method=method)
+
+
+def _parabola_vertex(x: np.ndarray, y: np.ndarray) -> float:
+    """Abscissa of the vertex of the parabola through three points, clipped to their span."""
+    (x0, x1, x2), (y0, y1, y2) = x, y
+    num = (x1 - x0) ** 2 * (y1 - y2) - (x1 - x2) ** 2 * (y1 - y0)
+    den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0)
+    if den == 0 or not math.isfinite(num / den):
+        return float(x1)
+    return float(np.clip(x1 - 0.5 * num / den, x0, x2))
+
+
+def fit_trials(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
+               options: FitOptions | None = None, refine: bool = False) -> dict[str, SubjectFit]:
+    """:func:`fit_subject` for every subject present in ``trials`` (keyed by subject)."""
+    trials = list(trials)
+    if not trials:
+        raise ValueError("trials is empty")
+    by: dict[str, list[Trial]] = {}
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+        by.setdefault(t.subject, []).append(t)
+    return {s: fit_subject(ts, grid=grid, method=method, options=options, refine=refine)
+            for s, ts in sorted(by.items())}

@@ -1,0 +1,228 @@
+"""Pearson correlation of measured and modelled forces per condition (Table 1), and the
+blind-spot table (Fig. 3), with CSV / Markdown / LaTeX export.
+
+Table 1 of Janko et al. 2018: "Pearson's correlation coefficient values, rho, for the
+ensemble of measurements in each condition ... All correlations were computed on
+detrended data"; data from all three speeds grouped. Here the *ensemble* of a condition
+is formed as follows (the paper does not spell it out):
+
+1. each trial's measured series and model estimate (as compared by the fit, see
+   :class:`fingerfriction.fit.TrialFit`) are detrended separately with
+   ``scipy.signal.detrend(type='linear')`` over the whole trial;
+2. the detrended series of all trials in the condition (all speeds and repetitions) are
+   concatenated, measured with measured and model with model;
+3. one ``scipy.stats.pearsonr`` on the two concatenated vectors gives rho and p.
+
+Conditions: subject x scale (2 mm, 4 mm) x shape (Bump, Step Up, Step Down), plus
+"Both subjects" (the trials of every subject pooled).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from scipy import signal, stats
+
+from .blindspots import blind_spots
+
+__all__ = [
+    "ensemble_correlation", "correlation_table", "table1_wide", "blind_spot_table", "write_table", "BOTH",
+]
+
+BOTH = "Both subjects"
+_SHAPE_LABELS = {"bump": "Bump", "step-up": "Step Up", "step-down": "Step Down"}
+
+
+def ensemble_correlation(measured: Sequence, estimate: Sequence) -> tuple[float, float, int]:
+    """Pearson rho and p-value of the detrended, concatenated ensemble of trials.
+
+    Parameters
+    ----------
+    measured, estimate : sequence of (n_k,) array_like
+        One measured and one modelled force series (N) per trial; pairs must have equal
+        lengths (trials may differ).
+
+    Returns
+    -------
+    rho : float
+    p : float
+        Two-sided p-value of ``scipy.stats.pearsonr`` (no relationship hypothesis).
+    n : int
+        Number of samples in the ensemble.
+    """
+    if len(measured) != len(estimate) or len(measured) == 0:
+        raise ValueError(
+            "measured and estimate must be non-empty lists of equal length, "
+            f"got {len(measured)} and {len(estimate)}"
+        )
+    fs, gs = [], []
+    for k, (f, g) in enumerate(zip(measured, estimate, strict=True)):
+        f = np.asarray(f, dtype=float)
+        g = np.asarray(g, dtype=float)
+        if f.ndim != 1 or f.shape != g.shape or f.size < 3:
+            raise ValueError(
+                f"trial {k}: measured {f.shape} and estimate {g.shape} must be equal 1-D, >= 3 samples"
+            )
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(g))):
+            raise ValueError(f"trial {k}: measured/estimate contain non-finite values")
+        fs.append(signal.detrend(f, type="linear"))
+        gs.append(signal.detrend(g, type="linear"))
+    f = np.concatenate(fs)
+    g = np.concatenate(gs)
+    if np.ptp(f) == 0 or np.ptp(g) == 0:
+        return math.nan, math.nan, int(f.size)
+    r = stats.pearsonr(f, g)
+    return float(r.statistic), float(r.pvalue), int(f.size)
+
+
+def correlation_table(fits, *, alpha: float = 0.01) -> pd.DataFrame:
+    """Table 1: rho and p per subject x scale x shape, plus both subjects pooled.
+
+    Parameters
+    ----------
+    fits : iterable of TrialFit, or dict of subject -> SubjectFit
+        Per-trial fits; each carries its ``measured`` and ``estimate`` series, subject and
+        labels. The condition of a trial comes from ``labels['scale']`` and
+        ``labels['shape']`` (set by the fit from the trial's surface).
+    alpha : float
+        Significance level for the ``significant`` column (paper: p < 0.01).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Long format, one row per condition, columns ``subject, scale, shape, rho, p,
+        significant, n_trials, n_samples``; subjects in sorted order then "Both subjects",
+        scales and shapes in the paper's order.
+    """
+    trial_fits = _flatten(fits)
+    groups: dict[tuple[str, str, str], list] = {}
+    for tf in trial_fits:
+        scale = tf.labels.get("scale", "")
+        shape = tf.labels.get("shape", "")
+        groups.setdefault((tf.subject, scale, shape), []).append(tf)
+        groups.setdefault((BOTH, scale, shape), []).append(tf)
+    subjects = sorted({k[0] for k in groups if k[0] != BOTH}) + [BOTH]
+    shape_order = {s: i for i, s in enumerate(_SHAPE_LABELS.values())}
+
+    def key(k):
+        return (subjects.index(k[0]), _scale_value(k[1]), shape_order.get(k[2], 99), k[2])
+
+    rows = []
+    for k in sorted(groups, key=key):
+        tfs = groups[k]
+        rho, p, n = ensemble_correlation([t.measured for t in tfs], [t.estimate for t in tfs])
+        rows.append({"subject": k[0], "scale": k[1], "shape": k[2], "rho": rho, "p": p,
+                     "significant": bool(p < alpha) if math.isfinite(p) else False,
+                     "n_trials": len(tfs), "n_samples": n})
+    return pd.DataFrame(rows)
+
+
+def _scale_value(s: str) -> float:
+    try:
+        return float(s.split()[0])
+    except (ValueError, IndexError):
+        return math.inf
+
+
+def _flatten(fits) -> list:
+    if isinstance(fits, dict):
+        out = []
+        for sf in fits.values():
+            out.extend(sf.trials)
+        return out
+    out = list(fits)
+    if not out:
+        raise ValueError("fits is empty: no trial fits to correlate")
+    return out
+
+
+def shape_label(shape: str) -> str:
+    """Paper spelling of a shape: 'step-up' -> 'Step Up'."""
+    return _SHAPE_LABELS.get(shape, shape)
+
+
+def table1_wide(table: pd.DataFrame) -> pd.DataFrame:
+    """Table 1 in the paper's layout: rows rho and p < 0.01, columns (subject, scale, shape)."""
+    cols = pd.MultiIndex.from_frame(table[["subject", "scale", "shape"]])
+    rho = pd.Series(table["rho"].to_numpy(), index=cols).round(2)
+    sig = pd.Series(np.where(table["significant"], "*", ""), index=cols)
+    return pd.DataFrame([rho, sig], index=["rho", "p < 0.01"])
+
+
+def blind_spot_table(regions_by_surface: dict, *, min_width: float = 0.0) -> pd.DataFrame:
+    """Blind spots per surface (Fig. 3): one row per blind spot.
+
+    Parameters
+    ----------
+    regions_by_surface : dict of str to (n_frames, n_max, 2) array_like or list of them
+        For each surface name, the contact regions of all its frames (all trials and
+        subjects pooled, as in Fig. 3); a list of per-trial arrays is concatenated.
+    min_width : float
+        Ignore gaps narrower than this (mm).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``surface, start_mm, end_mm, width_mm``; a surface without blind spots
+        gets one row with NaN positions and width 0.
+    """
+    rows = []
+    for name, regs in regions_by_surface.items():
+        if isinstance(regs, (list, tuple)) and regs and isinstance(regs[0], np.ndarray) and regs[0].ndim == 3:
+            k = max(r.shape[1] for r in regs)
+            regs = np.concatenate(
+                [np.pad(r, ((0, 0), (0, k - r.shape[1]), (0, 0)), constant_values=np.nan) for r in regs]
+            )
+        bs = blind_spots(regs, min_width=min_width)
+        if len(bs) == 0:
+            rows.append({"surface": name, "start_mm": math.nan, "end_mm": math.nan, "width_mm": 0.0})
+        for r in bs.as_table():
+            rows.append({"surface": name, **r})
+    return pd.DataFrame(rows, columns=["surface", "start_mm", "end_mm", "width_mm"])
+
+
+def write_table(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.3g") -> None:
+    """Write a table atomically; the format follows the suffix: .csv, .md or .tex.
+
+    Raises
+    ------
+    ValueError
+        For another suffix.
+    """
+    path = os.fspath(path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".csv":
+        text = df.to_csv(index=False)
+    elif ext == ".md":
+        text = _markdown(df)
+    elif ext == ".tex":
+        text = df.to_latex(index=False, float_format=lambda v: float_format % v)
+    else:
+        raise ValueError(f"{path}: unknown table format {ext!r}; allowed: .csv, .md, .tex")
+    d = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-", suffix=ext)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _markdown(df: pd.DataFrame) -> str:
+    """Markdown without the optional ``tabulate`` dependency of ``DataFrame.to_markdown``."""
+    def cell(v):
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.3g}"
+        return str(v)
+    head = "| " + " | ".join(map(str, df.columns)) + " |"
+    sep = "|" + "|".join("---" for _ in df.columns) + "|"
+    body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in df.itertuples(index=False)]
+    return "\n".join([head, sep, *body]) + "\n"

@@ -1,0 +1,99 @@
+"""Tests of fingerfriction.model (Eq. 1-4) against a brute-force integral."""
+
+import numpy as np
+import pytest
+
+from fingerfriction.model import FrictionModel, FrictionParams, friction_force
+from fingerfriction.surfaces import SURFACE_NAMES, SampledProfile, get_surface
+
+
+def brute_force(surface, regions, p):
+    """Eq. (4) by np.trapezoid on a fine grid in every region (independent reference)."""
+    out = []
+    for frame in regions:
+        tot = fi = fd = 0.0
+        for a, b in frame:
+            if np.isnan(a):
+                continue
+            x = np.linspace(a, b, 200001)
+            s = surface.dhdx(x)
+            al = np.arctan(s)
+            w = np.sin(al) + p.mu * np.cos(al)
+            fi += np.trapezoid(p.p0 * w, x)
+            fd += np.trapezoid(p.p1 * s * w, x)
+        tot = fi + fd
+        out.append((tot, fi, fd))
+    return np.array(out)
+
+
+def random_regions(rng, n, W):
+    """Frames with 1-3 sorted, disjoint regions spanning flat ground and the feature."""
+    out = np.full((n, 3, 2), np.nan)
+    for t in range(n):
+        k = rng.integers(1, 4)
+        pts = np.sort(rng.uniform(-1.5 * W - 3, 1.5 * W + 3, 2 * k))
+        out[t, :k] = pts.reshape(k, 2)
+    return out
+
+
+@pytest.mark.parametrize("name", SURFACE_NAMES)
+def test_eq4_matches_brute_force_integral(name):
+    s = get_surface(name)
+    rng = np.random.default_rng(1)
+    regions = random_regions(rng, 6, s.width)
+    p = FrictionParams(mu=0.55, p0=0.1, p1=0.3)
+    f = friction_force(s, regions, p)
+    # atol 0.05 uN: the model interpolates its antiderivative tables linearly at region ends.
+    ref = brute_force(s, regions, p)
+    np.testing.assert_allclose(f.total, ref[:, 0], rtol=1e-6, atol=5e-8)
+    np.testing.assert_allclose(f.interfacial, ref[:, 1], rtol=1e-6, atol=5e-8)
+    np.testing.assert_allclose(f.deformation, ref[:, 2], rtol=1e-6, atol=5e-8)
+    # Eq. (1): components sum to the total.
+    np.testing.assert_allclose(f.interfacial + f.deformation, f.total, rtol=0, atol=1e-15)
+
+
+def test_sampled_profile_matches_parametric():
+    s = get_surface("bump-4mm")
+    x = np.linspace(-5, 5, 2001)
+    prof = SampledProfile(x, s.h(x))
+    regions = random_regions(np.random.default_rng(2), 5, 4.0)
+    p = FrictionParams(0.6, 0.1, 0.3)
+    np.testing.assert_allclose(friction_force(prof, regions, p).total,
+                               friction_force(s, regions, p).total, rtol=1e-5, atol=1e-8)
+
+
+def test_vectorised_equals_per_frame():
+    s = get_surface("step-up-2mm")
+    m = FrictionModel(s)
+    regions = random_regions(np.random.default_rng(3), 50, 2.0)
+    p = FrictionParams(0.5, 0.08, 0.4)
+    allf = m.forces(regions, p).total
+    one = np.array([m.forces(regions[t][~np.isnan(regions[t, :, 0])].tolist(), p).total[0]
+                    if np.any(~np.isnan(regions[t, :, 0])) else 0.0 for t in range(50)])
+    np.testing.assert_allclose(allf, one, rtol=0, atol=1e-14)
+
+
+def test_flat_ground_is_p0_mu_L_and_basis_affine_in_mu():
+    s = get_surface("bump-2mm")
+    f = friction_force(s, [(-9.0, -3.0), (4.0, 5.5)], FrictionParams(0.5, 0.1, 0.7))
+    assert f.total[0] == pytest.approx(0.1 * 0.5 * 7.5, rel=1e-12)
+    m = FrictionModel(s)
+    r = random_regions(np.random.default_rng(4), 10, 2.0)
+    b0, b1, bm = m.basis(r, 0.0), m.basis(r, 1.0), m.basis(r, 0.37)
+    np.testing.assert_allclose(bm, b0 + 0.37 * (b1 - b0), atol=1e-13)
+
+
+def test_bad_params_and_regions():
+    with pytest.raises(ValueError, match=r"FrictionParams.p0 \(N/mm\) must be >= 0, got -0.1"):
+        FrictionParams(0.5, -0.1, 0.2)
+    with pytest.raises(ValueError, match=r"FrictionParams.mu must be in \[0, 5\], got 7"):
+        FrictionParams(7, 0.1, 0.2)
+    with pytest.raises(ValueError, match=r"mu must be a finite number, got nan"):
+        FrictionModel(get_surface("bump-2mm")).basis([(0.0, 1.0)], float("nan"))
+    with pytest.raises(ValueError, match=r"inverted: \[a, b\] = \[2.0, 1.0\]"):
+        friction_force(get_surface("bump-2mm"), [(2.0, 1.0)], FrictionParams(0.5, 0.1, 0.2))
+
+
+def test_params_json_roundtrip():
+    p = FrictionParams(0.55, 0.1, 0.3)
+    assert FrictionParams.from_json(p.to_json()) == p
