@@ -193,3 +193,107 @@ def test_load_params_forms(tmp_path):
     e.write_text(json.dumps({"mu": 9, "p0": 0.1, "p1": 0.1}))
     with pytest.raises(ValueError, match=r"mu must be in \[0, 5\]"):
         load_params(e)
+
+
+# ------------------------------------------------------------------ leave one surface out
+LOSO_SURFACES = ("bump-2mm", "step-up-4mm", "step-down-2mm")
+LOSO_MU = {"S1": 0.55, "S2": 0.60}
+LOSO_STEP = 0.2  # mm
+
+
+@pytest.fixture(scope="module")
+def forward_study():
+    """Per (subject, surface): positions, forward-model regions and Eq. (4) basis."""
+    from fingerfriction.model import FrictionModel
+    from fingerfriction.predict import forward_regions
+
+    x = np.round(-13.0 + LOSO_STEP * np.arange(int(round(26.0 / LOSO_STEP)) + 1), 9)
+    out = {}
+    for subj, mu in LOSO_MU.items():
+        for name in LOSO_SURFACES:
+            s = get_surface(name)
+            reg = forward_regions(s, SUBJECTS[int(subj[-1])], x)
+            out[subj, name] = (s, x, reg, FrictionModel(s).basis(reg, mu))
+    return out
+
+
+def _study_trials(forward_study, *, reps, noise, param_sd, seed=0):
+    """Trials whose 'video' regions are the forward model's, forces Eq. (4) + noise,
+    drift-corrected over the flat segment as a measurement would be."""
+    from fingerfriction.fit import Trial, flat_detrend, flat_segment_mask
+
+    # p0/p1 = 0.2 is kept outside the mu grid (0.3..0.9) on purpose: Eq. (4) is exactly
+    # invariant under (mu, p0, p1) -> (p0/p1, p1 mu, p1) (expand p0 (S + mu K) + p1 (Q + mu S)),
+    # so a grid containing p0/p1 has two exact minima and mu is not identifiable.
+    rng = np.random.default_rng(seed)
+    trials = []
+    for (subj, _name), (s, x, reg, B) in forward_study.items():
+        for r in range(reps):
+            p0 = 0.02 * np.exp(param_sd * rng.normal())
+            p1 = 0.1 * np.exp(param_sd * rng.normal())
+            F = p0 * B[:, 0] + p1 * B[:, 1]
+            F = F + rng.normal(scale=noise * F.std(), size=F.size)
+            F = flat_detrend(x, F, flat_segment_mask(reg, s))
+            trials.append(Trial(x, F, reg, s, subj, {"rep": str(r)}))
+    return trials
+
+
+def test_loso_exact_on_forward_generated_study(forward_study, tmp_path):
+    from fingerfriction.fit import FitOptions
+    from fingerfriction.predict import leave_one_surface_out
+
+    trials = _study_trials(forward_study, reps=2, noise=0.0, param_sd=0.0)
+    res = leave_one_surface_out(trials, options=FitOptions(median_kernel=1), forward_step=LOSO_STEP)
+    t = res.table
+    assert len(t) == 3 * 3  # (S1, S2, both) x held-out surfaces
+    assert list(t["subject"]) == ["S1"] * 3 + ["S2"] * 3 + ["Both subjects"] * 3
+    assert list(t["surface"][:3]) == ["bump-2mm", "step-down-2mm", "step-up-4mm"]  # Table 1 order
+    # noise-free, same params in every trial: the prediction from geometry alone is exact
+    np.testing.assert_allclose(t["rho_in_sample"], 1.0, atol=1e-9)
+    np.testing.assert_allclose(t["rho_out_of_sample"], 1.0, atol=1e-9)
+    per = t[t["subject"] != "Both subjects"]
+    for row in per.itertuples():
+        assert row.mu == pytest.approx(LOSO_MU[row.subject], abs=1e-12)
+        assert row.p0 == pytest.approx(0.02, rel=1e-6) and row.p1 == pytest.approx(0.1, rel=1e-6)
+    df = pd.read_csv(res.write_csv(tmp_path / "loso.csv"))
+    assert {"rho_in_sample", "rho_out_of_sample", "rho_heldout_params_video"} <= set(df.columns)
+    x, measured, predicted = res.estimates["S1", "bump-2mm"][0]
+    np.testing.assert_allclose(predicted, measured, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_loso_noisy_study_and_wrong_finger(forward_study):
+    """With 10 % noise and per-trial parameter scatter, predictions from the right finger
+    keep rho near the in-sample value; a forward model with the wrong finger (10x stiffer)
+    loses most of it on the bump: the validation measures the geometry, not the fit."""
+    from fingerfriction.fit import FitOptions
+    from fingerfriction.mechanics import FingerParams
+    from fingerfriction.predict import leave_one_surface_out
+
+    trials = _study_trials(forward_study, reps=2, noise=0.1, param_sd=0.15, seed=3)
+    opts = FitOptions(median_kernel=1)
+    good = leave_one_surface_out(trials, options=opts, forward_step=LOSO_STEP).table
+    assert np.all(good["rho_out_of_sample"] > 0.9)
+    assert np.all(good["rho_out_of_sample"] <= good["rho_in_sample"] + 0.01)
+    stiff = FingerParams(radius=8.0, modulus=1.0, width=10.0)
+    bad = leave_one_surface_out(trials, options=opts, forward_step=LOSO_STEP,
+                                fingers={"S1": stiff, "S2": stiff}).table
+    bump = (bad["surface"] == "bump-2mm") & (bad["subject"] == "Both subjects")
+    rho_bad = float(bad.loc[bump, "rho_out_of_sample"].iloc[0])
+    assert rho_bad < float(good.loc[bump, "rho_out_of_sample"].iloc[0]) - 0.3
+
+
+def test_loso_bad_input(forward_study):
+    from fingerfriction.predict import leave_one_surface_out
+
+    trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0)
+    one = [t for t in trials if t.surface.name == "bump-2mm"]
+    with pytest.raises(ValueError, match="at least 2 surfaces"):
+        leave_one_surface_out(one)
+    with pytest.raises(ValueError, match="cannot map subject 'Alice'"):
+        from fingerfriction.fit import Trial
+
+        t0 = trials[0]
+        leave_one_surface_out([Trial(t0.x, t0.force, t0.regions, t0.surface, "Alice")] + trials[1:])
+    with pytest.raises(TypeError, match=r"trials\[0\] must be a fingerfriction.fit.Trial"):
+        leave_one_surface_out([object()])

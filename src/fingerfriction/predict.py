@@ -82,6 +82,8 @@ __all__ = [
     "Prediction",
     "predict",
     "predict_from_regions",
+    "OutOfSample",
+    "leave_one_surface_out",
 ]
 
 log = logging.getLogger(__name__)
@@ -736,3 +738,219 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
 def known_surface_names() -> tuple[str, ...]:
     """The paper's surface names (for error messages and the CLI)."""
     return SURFACE_NAMES
+
+
+# ---------------------------------------------------------------------------- out of sample
+def _finger_for_label(label: str, fingers):
+    """The forward-model finger of a trial's subject label ('1', 'S1', ...)."""
+    from .mechanics import SUBJECTS, FingerParams
+
+    if fingers is not None:
+        if label not in fingers:
+            raise ValueError(f"no finger given for subject {label!r}; fingers has {sorted(fingers)}")
+        f = fingers[label]
+        return f if isinstance(f, FingerParams) else _resolve_finger(f)[1]
+    digits = "".join(c for c in str(label) if c.isdigit())
+    if digits and int(digits) in SUBJECTS:
+        return SUBJECTS[int(digits)]
+    raise ValueError(
+        f"cannot map subject {label!r} to a forward-model finger; pass fingers={{label: FingerParams or 1/2}}"
+    )
+
+
+def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regions: np.ndarray,
+                       params: FrictionParams, options, model: FrictionModel | None = None):
+    """Measured and model series as the fit compares them (fit.py's processing), for fixed
+    parameters: median filter on the per-frame integrals S, K, Q, then the same linear
+    detrend over the flat segment (defined by ``regions``) applied to both."""
+    from .fit import flat_detrend, flat_segment_mask, median_filter
+
+    model = model or FrictionModel(surface)
+    b0 = model.basis(regions, 0.0)
+    b1 = model.basis(regions, 1.0)
+    raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
+    mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
+    mu = params.mu
+    T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
+    p = np.array([params.p0, params.p1])
+    if options.median_on == "basis":
+        est = flat_detrend(x, median_filter(raw, options.median_kernel), mask) @ (T @ p)
+    else:
+        est = flat_detrend(x, median_filter(raw @ (T @ p), options.median_kernel), mask)
+    return flat_detrend(x, force, mask), est
+
+
+@dataclass(frozen=True)
+class OutOfSample:
+    """Result of :func:`leave_one_surface_out`.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        One row per (subject or "Both subjects", held-out surface): ``subject, surface,
+        scale, shape, n_trials, rho_in_sample, p_in_sample, rho_heldout_params_video,
+        rho_out_of_sample, p_out_of_sample, mu, p0, p1``. ``rho_in_sample`` is Table 1
+        (fit on all six surfaces, per-trial p0 and p1, video regions);
+        ``rho_out_of_sample`` is the prediction (fit on the other surfaces, subject-level
+        median p0 and p1, forward-model regions, no video); ``rho_heldout_params_video``
+        separates the two losses (held-out parameters on the video regions).
+        ``mu, p0, p1`` are the subject's training parameters (NaN on the pooled rows).
+    estimates : dict
+        ``(subject, surface) -> list of (x, measured, predicted)`` per held-out trial, as
+        compared (N).
+    """
+
+    table: object
+    estimates: dict = field(repr=False)
+
+    def write_csv(self, path: str | os.PathLike) -> str:
+        """Write :attr:`table` as CSV, atomically; returns the path."""
+        p = os.fspath(path)
+        _atomic_write(p, lambda tmp: self.table.to_csv(tmp, index=False, float_format="%.6g"))
+        return p
+
+
+def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load: float = DEFAULT_LOAD_N,
+                          forward_step: float = 0.01, contact: str = "geometric") -> OutOfSample:
+    """Out-of-sample validation: fit on all surfaces but one, predict the held-out one.
+
+    For each surface ``s`` of the study: ``mu`` per subject (grid search) and ``p0, p1``
+    per trial are fitted on the trials of the *other* surfaces
+    (:func:`fingerfriction.fit.fit_trials`); the held-out trials are then predicted from
+    the geometry of ``s`` alone: forward-model contact regions along the trial's finger
+    positions (no video) into Eq. (4) with the subject's ``mu`` and the **median** of its
+    training trials' ``p0`` and ``p1`` (a held-out trial cannot have its own ``p0, p1``:
+    fitting them would need its contact, i.e. its video). Measured and predicted forces
+    are compared exactly as the fit compares them (median filter, flat-segment detrend;
+    the flat segment is taken from the forward-model regions) and correlated per
+    condition as in Table 1 (:func:`fingerfriction.stats.ensemble_correlation`).
+
+    Parameters
+    ----------
+    trials : sequence of fingerfriction.fit.Trial
+        Per-trial data: finger positions ``x`` (mm), measured drift-corrected ``F_T``
+        (N), video contact regions (used for fitting only), surface, subject.
+    fingers : dict, optional
+        Subject label -> FingerParams (or 1/2) of the forward model. Default: the digits
+        of the label ('S1', '1') select :data:`fingerfriction.mechanics.SUBJECTS`.
+    grid : array_like, optional
+        ``mu`` grid (default :func:`fingerfriction.fit.mu_grid`).
+    options : fingerfriction.fit.FitOptions, optional
+    load : float
+        Normal force in N of the forward model.
+    forward_step : float
+        Finger step in mm of the forward sweeps; trial positions take the regions of the
+        nearest sweep position (exact when trials are on the same 0.01 mm grid).
+    contact : {'geometric', 'mechanical'}
+        Forward-model contact definition (default geometric, as the fitted regions).
+
+    Returns
+    -------
+    OutOfSample
+
+    Notes
+    -----
+    Eq. (4) is exactly invariant under ``(mu, p0, p1) -> (p0/p1, p1 mu, p1)``: expanding
+    ``p0 (S + mu K) + p1 (Q + mu S)`` gives the coefficients ``(p0 + p1 mu, p0 mu, p1)``
+    of ``(S, K, Q)``, which both parameter sets share. When ``p0/p1`` falls inside the
+    ``mu`` grid the grid search has two equally good minima; the subject's ``mu`` (and
+    with it ``p0``) is then not identifiable from forces alone, although the predicted
+    forces are the same either way.
+    """
+    import pandas as pd
+
+    from .fit import FitOptions, Trial, fit_trials
+    from .stats import BOTH, correlation_table, ensemble_correlation
+
+    trials = list(trials)
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a fingerfriction.fit.Trial, got {type(t).__name__}")
+    options = options or FitOptions()
+    surfaces: dict[str, Surface] = {}
+    for t in trials:
+        surfaces.setdefault(t.surface.name, t.surface)
+    if len(surfaces) < 2:
+        raise ValueError(f"leave-one-surface-out needs trials on at least 2 surfaces, got {sorted(surfaces)}")
+    subjects = sorted({t.subject for t in trials})
+    for s in subjects:
+        _finger_for_label(s, fingers)  # fail early on an unmappable subject
+    for surf in surfaces.values():
+        check_profile(surf)
+
+    in_sample = correlation_table(fit_trials(trials, grid=grid, options=options))
+    ins = {(r.subject, r.scale, r.shape): (r.rho, r.p) for r in in_sample.itertuples()}
+
+    rows = []
+    estimates: dict = {}
+    for name, surf in surfaces.items():
+        train = [t for t in trials if t.surface.name != name]
+        test = [t for t in trials if t.surface.name == name]
+        train_subjects = {t.subject for t in train}
+        fits = fit_trials(train, grid=grid, options=options)
+        model = FrictionModel(surf)
+        pooled_m, pooled_g, pooled_v, pooled_vm = [], [], [], []
+        for subj in sorted({t.subject for t in test}):
+            ttest = [t for t in test if t.subject == subj]
+            if subj not in train_subjects:
+                raise ValueError(f"subject {subj!r} has trials only on {name!r}: nothing to train on")
+            sf = fits[subj]
+            ok = [f for f in sf.trials if f.success]
+            if not ok:
+                raise RuntimeError(f"no successful training fit for subject {subj!r} without {name!r}")
+            params = FrictionParams(sf.mu, float(np.median([f.p0 for f in ok])),
+                                    float(np.median([f.p1 for f in ok])))
+            finger = _finger_for_label(subj, fingers)
+            lo = min(float(t.x[0]) for t in ttest)
+            hi = max(float(t.x[-1]) for t in ttest)
+            xs = lo + forward_step * np.arange(int(math.ceil((hi - lo) / forward_step - 1e-9)) + 1)
+            fwd = forward_regions(surf, finger, xs, load=load, contact=contact)
+            meas, pred, vmeas, vpred, per = [], [], [], [], []
+            for t in ttest:
+                idx = np.clip(np.rint((t.x - lo) / forward_step).astype(int), 0, xs.size - 1)
+                m, g = _compared_estimate(surf, t.x, t.force, fwd[idx], params, options, model)
+                vm, vg = _compared_estimate(surf, t.x, t.force, t.regions, params, options, model)
+                meas.append(m)
+                pred.append(g)
+                vmeas.append(vm)
+                vpred.append(vg)
+                per.append((t.x, m, g))
+            estimates[(subj, name)] = per
+            pooled_m += meas
+            pooled_g += pred
+            pooled_v += vpred
+            pooled_vm += vmeas
+            rows.append(_loso_row(subj, surf, ttest, ins, ensemble_correlation(meas, pred),
+                                  ensemble_correlation(vmeas, vpred), params))
+        rows.append(_loso_row(BOTH, surf, test, ins, ensemble_correlation(pooled_m, pooled_g),
+                              ensemble_correlation(pooled_vm, pooled_v), None))
+    table = pd.DataFrame(rows)
+    # Table 1's order: subjects then both pooled; scale; Bump, Step Up, Step Down.
+    sub_order = {s: i for i, s in enumerate(subjects + [BOTH])}
+    shape_order = {"Bump": 0, "Step Up": 1, "Step Down": 2}
+    key = table.apply(lambda r: (sub_order[r.subject], r.scale_mm, shape_order.get(r["shape"], 9), r.surface),
+                      axis=1)
+    table = table.iloc[sorted(range(len(table)), key=lambda i: key.iloc[i])].reset_index(drop=True)
+    return OutOfSample(table=table, estimates=estimates)
+
+
+def _loso_row(subject, surf: Surface, trials, ins, out, video, params) -> dict:
+    t0 = trials[0]
+    scale, shape = t0.scale, t0.shape
+    rho_in, p_in = ins.get((subject, scale, shape), (math.nan, math.nan))
+    return {
+        "subject": subject,
+        "surface": surf.name,
+        "scale": scale,
+        "scale_mm": float(getattr(surf, "width", math.nan)),
+        "shape": shape,
+        "n_trials": len(trials),
+        "rho_in_sample": rho_in,
+        "p_in_sample": p_in,
+        "rho_heldout_params_video": video[0],
+        "rho_out_of_sample": out[0],
+        "p_out_of_sample": out[1],
+        "mu": params.mu if params else math.nan,
+        "p0": params.p0 if params else math.nan,
+        "p1": params.p1 if params else math.nan,
+    }
