@@ -56,11 +56,15 @@ def test_unrecorded_surface_end_to_end(bump3, tmp_path):
     assert len(bs) == len(p.blind_spots)
 
 
-def test_blind_spots_consistent_with_contact_sweep(bump3):
+@pytest.mark.parametrize("spec", ["bump:W=3,H=0.5", "bump:W=3,H=0.8"])
+def test_blind_spots_consistent_with_contact_sweep(bump3, spec):
     """The prediction's blind spots are the gaps of the forward model's own sweep: never
     inside any geometric region, bounded by contacted points, and contained in the
-    (wider) gaps of the mechanical contact of the same sweep."""
-    p = bump3
+    (wider) gaps of the mechanical contact of the same sweep. The steeper bump must have
+    blind spots (so the checks below are not vacuous)."""
+    p = bump3 if spec == "bump:W=3,H=0.5" else predict(spec, 1, PARAMS, step=STEP)
+    if spec == "bump:W=3,H=0.8":
+        assert len(p.blind_spots) >= 1
     res = sweep(p.surface, SUBJECTS[1], p.positions, load=0.3)
     assert res.all_converged
     np.testing.assert_array_equal(p.regions, res.geometric_regions)
@@ -297,3 +301,22 @@ def test_loso_bad_input(forward_study):
         leave_one_surface_out([Trial(t0.x, t0.force, t0.regions, t0.surface, "Alice")] + trials[1:])
     with pytest.raises(TypeError, match=r"trials\[0\] must be a fingerfriction.fit.Trial"):
         leave_one_surface_out([object()])
+
+
+# ------------------------------------------------------------------ command line
+def test_cli_predict(tmp_path):
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+
+    pfile = tmp_path / "p.json"
+    pfile.write_text(PARAMS.to_json())
+    out = tmp_path / "pred"
+    r = CliRunner().invoke(app, ["predict", "--surface", "bump:W=3,H=0.8", "--subject", "1", "--params",
+                                 str(pfile), "--out", str(out), "--step", "0.1", "--no-figures"])
+    assert r.exit_code == 0, r.output
+    assert "blind spots" in r.output and (out / "forces.csv").exists() and not (out / "forces.png").exists()
+    bad = CliRunner().invoke(app, ["predict", "--surface", "bump:W=1,H=0.5", "--subject", "1"])
+    assert bad.exit_code == 2 and "at most 0.723 rad" in bad.output and "Traceback" not in bad.output
+    bad = CliRunner().invoke(app, ["predict", "--surface", "nope-4mm", "--subject", "1"])
+    assert bad.exit_code == 2 and "unknown surface 'nope-4mm'" in bad.output

@@ -133,3 +133,23 @@ def test_bad_input(renderer, tmp_path):
         DisplayModel(normal_force=0.3, p0=0.0, flat_length=4.0)
     with pytest.raises(ValueError, match="sidecar"):
         read_command(tmp_path / "missing.wav")
+
+
+def test_cli_render(tmp_path):
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+
+    pfile = tmp_path / "p.json"
+    pfile.write_text(FrictionParams(0.55, 0.0656, 0.1).to_json())
+    wav = tmp_path / "cmd.wav"
+    r = CliRunner().invoke(app, ["render", "--surface", SPEC, "--subject", "1", "--params", str(pfile),
+                                 "--speed", "80", "--rate", "2000", "--out", str(wav), "--step", "0.1",
+                                 "--table", str(tmp_path / "t.csv")])
+    assert r.exit_code == 0, r.output
+    fs, data = wavfile.read(wav)
+    assert fs == 2000 and data.size == int(26.0 / 80 * 2000) + 1
+    assert (tmp_path / "t.csv").exists() and (tmp_path / "cmd.wav.json").exists()
+    bad = CliRunner().invoke(app, ["render", "--surface", SPEC, "--subject", "1", "--params", str(pfile),
+                                   "--speed", "0", "--out", str(wav), "--step", "0.1"])
+    assert bad.exit_code == 2 and "speed must be a positive number" in bad.output
