@@ -158,7 +158,8 @@ def test_nelder_mead_agrees_with_lstsq_when_model_is_linear():
 def test_median_on_estimate_nm_vs_lstsq_difference_is_small():
     """Literal reading (filter the combined estimate): lstsq's filtered-basis solution is an
     approximation; NM minimises the exact objective, so NM's objective is never worse and
-    the parameters differ by well under 1 % on these trials (measured ~0.1 %)."""
+    the parameters differ by under 1 % on these trials (measured: p0 <= 0.01 %, p1 <= 0.5 %;
+    up to 1.5 % for p1 on a 2 mm Step Down, where p1 is weakly determined)."""
     rng = np.random.default_rng(11)
     opt = FitOptions(median_kernel=11, median_on="estimate")
     for name in ("bump-2mm", "step-up-4mm"):

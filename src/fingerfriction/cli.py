@@ -35,6 +35,83 @@ def fail(message: str) -> None:
 # ---------------------------------------------------------------------------------------
 
 
+@app.callback()
+def _root() -> None:
+    """fingerfriction: finger contact, tactile blind spots and friction forces on relief surfaces."""
+    # A callback keeps typer in sub-command mode even while only one command exists.
+
+
+def demo_analysis(*, reps: int = 2, seed: int = 0, method: str = "lstsq", noise: float = 0.1,
+                  speeds=(40, 80, 120)) -> dict:
+    """Synthetic trials -> per-subject fit -> Table 1 and blind-spot tables.
+
+    The study-pipeline issue replaces the synthetic trials by simulate + analyze; the
+    returned dict (``trials``, ``truth``, ``fits``, ``table1``, ``blindspots``) is what the
+    printing and writing below consume.
+    """
+    from .fit import fit_trials
+    from .stats import blind_spot_table, correlation_table
+    from .synthetic import synthetic_trials
+
+    trials, truth = synthetic_trials(reps=reps, seed=seed, noise=noise, speeds=speeds)
+    fits = fit_trials(trials, method=method)
+    by_surface: dict[str, list] = {}
+    for t in trials:
+        by_surface.setdefault(t.surface.name, []).append(t.regions)
+    return {"trials": trials, "truth": truth, "fits": fits, "table1": correlation_table(fits),
+            "blindspots": blind_spot_table(by_surface)}
+
+
+def _rich_table(df, title: str):
+    from rich.table import Table
+
+    t = Table(title=title)
+    for c in df.columns:
+        t.add_column(str(c))
+    for row in df.itertuples(index=False):
+        t.add_row(*[f"{v:.3g}" if isinstance(v, float) else str(v) for v in row])
+    return t
+
+
+@app.command()
+def demo(
+    out: str = typer.Option(None, "--out", help="Directory to write table1.{csv,md,tex} and "
+                            "blindspots.{csv,md,tex} into (created if missing)."),
+    reps: int = typer.Option(2, min=1, help="Repetitions per subject x surface x speed."),
+    seed: int = typer.Option(0, help="Seed of the random generator."),
+    method: str = typer.Option("lstsq", help="p0/p1 fit: 'lstsq' (closed form) or 'nelder-mead'."),
+) -> None:
+    """Fit the friction model to synthetic trials; print Table 1, blind spots and mu."""
+    import os
+
+    from .stats import write_table
+
+    try:
+        if method not in ("lstsq", "nelder-mead"):
+            raise ValueError(f"--method must be 'lstsq' or 'nelder-mead', got {method!r}")
+        if out is not None:
+            os.makedirs(out, exist_ok=True)
+        with console.status("simulating and fitting synthetic trials..."):
+            res = demo_analysis(reps=reps, seed=seed, method=method)
+        n = len(res["trials"])
+        console.print(f"{n} synthetic trials ({reps} reps x 3 speeds x 6 surfaces x 2 subjects), "
+                      f"{res['trials'][0].n} positions each, fit by {method}")
+        tab = res["table1"][["subject", "scale", "shape", "rho", "p", "n_trials"]]
+        console.print(_rich_table(tab, "Table 1: Pearson rho, measured vs model (detrended)"))
+        console.print(_rich_table(res["blindspots"], "Tactile blind spots (all trials pooled)"))
+        for s, f in res["fits"].items():
+            true_mu = res["truth"]["mu"][s]
+            status = "ok" if f.success else "[yellow]warning[/]"
+            console.print(f"{s}: mu fitted {f.mu:.2f}, true {true_mu:.2f} ({status}: {f.message})")
+        if out is not None:
+            for name in ("table1", "blindspots"):
+                for ext in ("csv", "md", "tex"):
+                    write_table(res[name], os.path.join(out, f"{name}.{ext}"))
+            console.print(f"tables written to {out}")
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+
+
 # ---------------------------------------------------------------------------------------
 # predict-contact (forward contact model, fingerfriction.mechanics)
 # ---------------------------------------------------------------------------------------
@@ -43,6 +120,79 @@ def fail(message: str) -> None:
 # ---------------------------------------------------------------------------------------
 # simulate (virtual experiment, fingerfriction.sim)
 # ---------------------------------------------------------------------------------------
+
+
+def _split_list(values: list[str] | None) -> list[str] | None:
+    """Accept both ``--surfaces a b`` style repeats and comma lists ``--surfaces a,b``."""
+    if not values:
+        return None
+    out: list[str] = []
+    for v in values:
+        out.extend(p.strip() for p in v.split(",") if p.strip())
+    return out
+
+
+@app.command("simulate")
+def simulate_cmd(
+    out: str = typer.Option(..., "--out", help="Output study folder (new, empty, or the same study to resume)."),
+    reps: int = typer.Option(5, "--reps", help="Repetitions per condition (the paper: 5)."),
+    seed: int = typer.Option(0, "--seed", help="Study seed: the same seed gives byte-identical studies."),
+    surfaces: list[str] = typer.Option(None, "--surfaces", help="Surface names, e.g. bump-2mm,step-up-4mm."),
+    subjects: list[str] = typer.Option(None, "--subjects", help="Subjects: 1, 2."),
+    speeds: list[str] = typer.Option(None, "--speeds", help="Nominal speeds in mm/s, e.g. 40,80,120."),
+    workers: int = typer.Option(0, "--workers", help="Worker processes (0: all cores)."),
+    video_format: str = typer.Option("ffv1-mkv", "--video-format", help="ffv1-mkv or tiff."),
+) -> None:
+    """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
+    import time
+
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .sim import SimOptions, simulate_study
+    from .study import ManifestError
+
+    kw: dict = {"reps": reps, "seed": seed, "video_format": video_format}
+    if _split_list(surfaces):
+        kw["surfaces"] = tuple(_split_list(surfaces))
+    if _split_list(subjects):
+        kw["subjects"] = tuple(_split_list(subjects))
+    if _split_list(speeds):
+        sp = []
+        for v in _split_list(speeds):
+            try:
+                sp.append(float(v))
+            except ValueError:
+                fail(f"--speeds: {v!r} is not a number (mm/s)")
+        kw["speeds"] = tuple(sp)
+    if workers < 0:
+        fail(f"--workers must be >= 0 (0: all cores), got {workers}")
+    try:
+        opts = SimOptions(**kw)
+    except ValueError as exc:
+        fail(str(exc))
+    t0 = time.perf_counter()
+    with Progress(
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        TextColumn("{task.fields[label]}"), console=console, transient=False,
+    ) as prog:
+        tasks: dict = {}
+
+        def report(stage: str, done: int, total: int, label: str) -> None:
+            if stage not in tasks:
+                name = "contact tables" if stage == "tables" else "trials"
+                tasks[stage] = prog.add_task(name, total=total, label="")
+            prog.update(tasks[stage], completed=done, label=label)
+
+        try:
+            study = simulate_study(out, opts, workers=workers or None, progress=report)
+        except (ValueError, OSError, ManifestError) as exc:
+            prog.stop()
+            fail(str(exc))
+    dt = time.perf_counter() - t0
+    console.print(
+        f"[green]wrote[/] {len(study.trials)} trials to {out}/manifest.json in {dt:.1f} s "
+        f"(ground truth in {out}/truth/)"
+    )
 
 
 # ---------------------------------------------------------------------------------------
@@ -55,9 +205,181 @@ def fail(message: str) -> None:
 # ---------------------------------------------------------------------------------------
 
 
+def _frame_positions(study: str, trial: dict, positions: str | None, from_truth: bool):
+    """Per-frame finger positions (mm) for the forces command: a file, or the study's truth."""
+    import numpy as np
+
+    from .forces.readers import study_path
+
+    if positions is not None:
+        if positions.endswith(".npy"):
+            return np.load(positions, allow_pickle=False)
+        import pandas as pd
+
+        df = pd.read_csv(positions)
+        if "x_mm" not in df.columns:
+            raise ValueError(f"{positions!r} has no column 'x_mm' (columns: {list(df.columns)})")
+        return df["x_mm"].to_numpy(dtype=float)
+    if from_truth:
+        if not trial.get("truth"):
+            raise ValueError(f"trial {trial.get('id')!r} has no 'truth' file (not a simulated study)")
+        path = study_path(study, trial["truth"], f"trial {trial.get('id')!r}: truth")
+        with np.load(path, allow_pickle=False) as z:
+            return np.asarray(z["x_finger_video"], dtype=float)
+    raise ValueError(
+        "finger positions are needed: --positions FILE (x_mm per video frame, from the video "
+        "analysis; .csv with column x_mm or .npy) or --from-truth (simulated studies)"
+    )
+
+
+@app.command("forces")
+def forces_cmd(
+    study: str = typer.Argument(..., help="study folder (with manifest.json)"),
+    trial: str = typer.Argument(..., help="trial id"),
+    out: str = typer.Option(None, "--out", help="write F_T(x) to this CSV (x_mm, F_T_N, F_N_N, n_samples)"),
+    positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
+    from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
+    highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none"),
+    notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches"),
+) -> None:
+    """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+
+    from .forces import ForceProcessingParams, process_trial
+
+    try:
+        manifest = json.loads((Path(study) / "manifest.json").read_text())
+        rec = next((t for t in manifest.get("trials", []) if t.get("id") == trial), None)
+        if rec is None:
+            raise ValueError(f"no trial {trial!r} in {study}/manifest.json")
+        x = _frame_positions(study, rec, positions, from_truth)
+        params = ForceProcessingParams(sensor_highpass_hz=highpass_hz or None, notch_q=notch_q)
+        prof = process_trial(study, manifest, trial, x, params=params, on_error="flag")
+        if out is not None:
+            prof.write_csv(out)
+    except (ValueError, OSError, KeyError) as exc:
+        fail(str(exc).strip("'\""))
+        return
+    for f in prof.flags:
+        colour = "red" if f.severity == "error" else "yellow"
+        console.print(f"[{colour}]{f.severity}[/] [{f.code}] {f.message}", highlight=False)
+    if not prof.success:
+        fail(prof.message)
+    ok = np.isfinite(prof.f_t)
+    console.print(
+        f"trial {trial}: F_T(x) on {prof.x.size} positions "
+        f"[{prof.window_mm[0]:g}, {prof.window_mm[1]:g}] mm, "
+        f"flat segment [{prof.flat_segment_mm[0]:.2f}, {prof.flat_segment_mm[1]:.2f}] mm; "
+        f"F_T from {np.min(prof.f_t[ok]) * 1e3:.1f} to {np.max(prof.f_t[ok]) * 1e3:.1f} mN "
+        f"(peak at x = {prof.x[np.argmax(prof.f_t)]:.2f} mm)",
+        highlight=False,
+    )
+    console.print("steps: " + ", ".join(h["step"] for h in prof.history), highlight=False)
+    if out is not None:
+        console.print(f"wrote {out}", highlight=False)
+
+
 # ---------------------------------------------------------------------------------------
 # analyze / fit / report (study pipeline, fingerfriction.pipeline and .report)
 # ---------------------------------------------------------------------------------------
+
+
+def _print_failures(failures) -> None:
+    for tid, reason in failures:
+        err_console.print(f"[red]failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
+
+
+@app.command("analyze")
+def analyze_cmd(
+    study: str = typer.Argument(..., help="Study folder (with manifest.json)."),
+    out: str = typer.Option(..., "--out", "-o", help="Results folder (created; resumed if it exists)."),
+    scheduler: str = typer.Option(None, "--scheduler", help="Address of a running Dask scheduler, "
+                                  "e.g. tcp://10.0.0.5:8786 (default: a local cluster on all cores)."),
+    workers: int = typer.Option(None, "--workers", "-j", min=1, help="Local workers (default: all cores)."),
+    force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
+) -> None:
+    """Every trial through video analysis and force processing, in parallel (resumable)."""
+    from .pipeline import analyze
+
+    try:
+        res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_failures(res.failures)
+    console.print(
+        f"{res.n_computed} computed, {res.n_skipped} already done, {res.n_failed} failed "
+        f"of {res.n_trials} trials in {res.elapsed_s:.1f} s ({res.scheduler}, {res.n_workers} workers) "
+        f"-> {res.results}", highlight=False)
+
+
+@app.command("fit")
+def fit_cmd(
+    results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
+    method: str = typer.Option("lstsq", help="p0, p1 fit: lstsq (closed form) or nelder-mead (paper)."),
+    mu_min: float = typer.Option(0.30, help="Smallest mu of the grid."),
+    mu_max: float = typer.Option(0.90, help="Largest mu of the grid."),
+    mu_step: float = typer.Option(0.01, help="Step of the mu grid."),
+    median: int = typer.Option(11, help="Median filter window on the model, samples (odd; 1 = off)."),
+) -> None:
+    """mu per subject (grid search), p0 and p1 per trial, model forces with F_int and F_def."""
+    from .pipeline import fit
+
+    try:
+        res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
+                  progress=True)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_failures(res.failures)
+    for subj, mu in res.mu.items():
+        console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
+    console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {results}/fit", highlight=False)
+
+
+def _print_tables(rep) -> None:
+    from rich.table import Table
+
+    from .report.tables import table1_display
+
+    if rep.table1 is not None:
+        wide = table1_display(rep.table1)
+        t = Table(title="Table 1: Pearson rho, measured vs model (* p < 0.01)")
+        for c in wide.columns:
+            t.add_column(str(c))
+        for row in wide.itertuples(index=False):
+            t.add_row(*[str(v) for v in row])
+        console.print(t)
+    t = Table(title="Tactile blind spots (all trials pooled)")
+    for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):
+        t.add_column(c)
+    for r in rep.blindspots.itertuples(index=False):
+        t.add_row(str(r.surface), str(r.n_trials), f"{r.start_mm:.2f}", f"{r.end_mm:.2f}",
+                  f"{r.width_mm:.2f}")
+    console.print(t)
+    for key, df in rep.truth.items():
+        t = Table(title=f"Recovered vs ground truth: {key}")
+        for c in df.columns:
+            t.add_column(str(c))
+        for row in df.itertuples(index=False):
+            t.add_row(*[f"{v:.3f}" if isinstance(v, float) else str(v) for v in row])
+        console.print(t)
+
+
+@app.command("report")
+def report_cmd(
+    results: str = typer.Argument(..., help="Results folder (after analyze; fit for Fig. 6/S3, Table 1)."),
+) -> None:
+    """Figures (PNG, SVG), Table 1, blind-spot table and a self-contained HTML report."""
+    from .report import make_report
+
+    try:
+        rep = make_report(results, progress=True)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_tables(rep)
+    console.print(f"report: {rep.html}  ({len(rep.files)} files)", highlight=False)
 
 
 # ---------------------------------------------------------------------------------------

@@ -1,0 +1,1496 @@
+"""Force data processing of the paper's Methods: from two piezo channels to ``F_T(x)``.
+
+Implements "Measurement apparatus" and "Force data processing" of Janko, Wiertlewski &
+Visell (2018):
+
+1. decomposition of the two +-45 degree transducer channels into normal and tangential
+   force, ``F_N = (F1 + F2) / sqrt(2)`` and ``F_T = (F1 - F2) / sqrt(2)``
+   (:func:`decompose`);
+2. zero-phase notch filters at 50, 150 and 300 Hz against mains interference
+   (:func:`notch_filter`);
+3. a zero-phase low-pass at 500 Hz (:func:`lowpass_filter`);
+4. removal of the sensor drift: the best linear fit (in time) to the force over the flat
+   segment before the feature is subtracted from the whole record
+   (:func:`remove_linear_drift`), preceded, beyond the paper, by the compensation of the
+   piezo chain's high-pass (:func:`fit_baseline`, :func:`compensate_highpass`; see
+   below);
+5. synchronisation with the video clock and association of ``F_T(t)`` with the finger
+   position ``x(t)`` (:func:`positions_at_times`);
+6. resampling onto positions at 0.01 mm over the 26 mm window centred on the feature
+   (:func:`resample_to_positions`).
+
+The pure functions above are wrapped by :class:`ForceSignals`, a small object that
+records every step applied to its data (``history``, in the manner of MNE-Python's
+``Raw``), and by :func:`process_forces`, which runs the whole chain for one trial, checks
+the input (NaN runs, clipping, sampling rate, window coverage) and returns a
+:class:`ForceProfile` with its flags.
+
+Notes
+-----
+**Forces and positions: which one is interpolated.** The forces are sampled at 10 kHz, the
+video at 1 kHz. We keep the forces at their own rate and interpolate the finger position
+``x(t)`` (smooth: the finger moves 0.04 to 0.12 mm per frame) linearly from the frame
+times to the force sample times. Decimating the forces to the frame rate instead would put
+the 500 Hz low-pass exactly at the 1 kHz Nyquist frequency, aliasing whatever the filter
+leaves above it. The paper's text says the forces were "downsampled and filtered to
+match the video sampling period of 0.1 ms"; 0.1 ms is the *force* sampling period and the
+video period is 1 ms (Methods "Measurement apparatus"), so that sentence cannot be taken
+literally; we read it as "associated with the video frames" and do the association in
+the direction that loses nothing.
+
+**Positions to grid.** ``F_T`` is averaged over every force sample whose finger position
+falls in each 0.01 mm bin (bin centres ``x_k``, edges ``x_k +- 0.005 mm``). This is exact
+for a monotonic slide and stays well defined when the finger stalls (many samples in one
+bin are averaged) or moves back a little (the visits are averaged): both are flagged.
+Bins no sample fell in (a fast slide moves 0.012 mm per sample at 120 mm/s) are filled
+by linear interpolation between their neighbours and counted.
+
+**The flat segment.** By default it is defined from the finger position: the finger
+contact (about 16 mm wide, so ``contact_half_width_mm = 8``) lies entirely on the flat
+ground before the feature while the finger centre is left of ``feature_start - 8 mm``;
+the segment runs from the window's left end to there (``[-13, -9]`` mm for a 2 mm
+feature centred at 0). It can also be given in mm, or derived from contact regions
+(frames whose contact lies entirely left of the feature).
+
+**Drift and the flat-ground friction level.** The piezo transducers are high-pass
+(about 5 Hz) and drift; the fit on the flat segment removes the drift *and* whatever
+constant/linear level the true force has there, so the recovered ``F_T(x)`` is the force
+relative to its flat-ground trend, not the absolute friction force.
+
+**The sensor's high-pass (beyond the paper).** A first-order high-pass at 5 Hz has a time
+constant of 32 ms, while a slide across the 26 mm window lasts 0.2 to 0.65 s: the
+recorded force is the *derivative-like* response of the true force (the friction level
+set up when the slide starts decays away, slow features are distorted), and no linear
+trend fitted on the flat segment can undo that. Measured on simulated trials, the paper's
+procedure alone leaves RMS errors of 12 to 68 % of the peak-to-peak force (see
+``benchmarks/forces.py``). We therefore invert the high-pass (:func:`compensate_highpass`,
+``sensor_highpass_hz``, default 5 Hz as stated in the paper's Methods; ``None`` gives the
+paper's procedure). The inverse is an integrator, so it turns a linear drift ``a t + b``
+into ``b + (a + 2 pi fc b) t + pi fc a t**2``, which a linear fit no longer removes: the
+drift line is therefore first estimated on the unloaded rest at the start of the record
+(before the finger touches, where the true force is zero; :func:`fit_baseline`, fitted
+together with the mains sinusoids, which the notch filters only remove later) and
+subtracted, then the high-pass is inverted, then the paper's flat-segment fit is applied.
+The result depends on knowing the cut-off: a 10 % error in ``sensor_highpass_hz`` costs
+several % of the peak-to-peak force (measured in the benchmark).
+
+References
+----------
+.. [1] M. Janko, M. Wiertlewski, Y. Visell, "Contact geometry and mechanics predict
+   friction forces during tactile surface exploration", Sci. Rep. 8, 4868 (2018),
+   Methods.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+from scipy import signal
+
+from .readers import ForceRecord
+
+__all__ = [
+    "ForceDataError",
+    "ForceProcessingParams",
+    "Flag",
+    "ForceSignals",
+    "ForceProfile",
+    "decompose",
+    "compose",
+    "design_notch",
+    "design_lowpass",
+    "notch_filter",
+    "lowpass_filter",
+    "fit_linear_drift",
+    "remove_linear_drift",
+    "fit_baseline",
+    "compensate_highpass",
+    "detect_baseline",
+    "positions_at_times",
+    "flat_segment_from_positions",
+    "flat_mask_from_regions",
+    "resample_to_positions",
+    "PositionResampling",
+    "nan_runs",
+    "find_clipping",
+    "process_forces",
+]
+
+logger = logging.getLogger(__name__)
+
+SQRT2 = math.sqrt(2.0)
+
+
+class ForceDataError(ValueError):
+    """Force data that cannot be turned into a trustworthy ``F_T(x)``."""
+
+
+# --------------------------------------------------------------------------------------
+# validation helpers
+# --------------------------------------------------------------------------------------
+
+
+def _check_fs(fs) -> float:
+    try:
+        v = float(fs)
+    except (TypeError, ValueError):
+        raise ValueError(f"fs must be a sampling frequency in Hz, got {fs!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"fs must be a finite positive sampling frequency in Hz, got {fs!r}")
+    return v
+
+
+def _check_freq(name: str, value, fs: float) -> float:
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a frequency in Hz, got {value!r}") from None
+    nyq = fs / 2.0
+    if not (math.isfinite(f) and f > 0):
+        raise ValueError(f"{name} must be a finite positive frequency in Hz, got {value!r}")
+    if f >= nyq:
+        raise ValueError(
+            f"{name} ({f:g} Hz) must be below the Nyquist frequency ({nyq:g} Hz) of fs={fs:g} Hz"
+        )
+    if f > 0.9 * nyq:
+        warnings.warn(
+            f"{name} ({f:g} Hz) is within 10 % of the Nyquist frequency ({nyq:g} Hz); "
+            "the filter will be poorly conditioned",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+    return f
+
+
+def _positive(name: str, value, unit: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number in {unit}, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be finite and positive (in {unit}), got {value!r}")
+    return v
+
+
+# --------------------------------------------------------------------------------------
+# parameters
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ForceProcessingParams:
+    """Options of the force processing chain (defaults: the paper's Methods).
+
+    Parameters
+    ----------
+    notch_hz : tuple of float
+        Centre frequencies in Hz of the zero-phase notch filters. Default
+        ``(50.0, 150.0, 300.0)`` (mains and its odd harmonics). Empty: no notch.
+    notch_q : float
+        Quality factor of each notch (centre frequency / -3 dB bandwidth of one pass).
+        Default 10.0 (5 Hz wide at 50 Hz). Higher Q removes less signal but rings longer
+        (time constant ``Q / (pi f0)``: 64 ms at Q = 10, 50 Hz), which leaves mains
+        residue near the ends of short records. The paper does not state its Q.
+    lowpass_hz : float or None
+        Cut-off in Hz of the zero-phase Butterworth low-pass. Default 500.0. ``None``: no
+        low-pass.
+    lowpass_order : int
+        Order of the Butterworth design (the zero-phase result has twice the attenuation
+        in dB). Default 4.
+    window_mm : float
+        Width in mm of the position window, centred on the feature. Default 26.0.
+    resolution_mm : float
+        Position grid step in mm. Default 0.01.
+    contact_half_width_mm : float
+        Half width in mm of the finger contact on flat ground, used to place the default
+        flat segment (contact entirely before the feature). Default 8.0 (a 16 mm finger).
+    flat_segment_mm : (float, float) or None
+        Finger-centre positions ``(x_lo, x_hi)`` in mm of the flat segment; ``None``
+        (default) derives it from the window and the feature (see module notes).
+    min_flat_mm : float
+        Shortest accepted flat segment in mm of finger travel. Default 1.0.
+    max_nan_gap : int
+        Longest run of NaN samples (per channel) that is filled by linear interpolation
+        (and flagged); longer runs are an error. Default 10 (1 ms at 10 kHz).
+    clip_run : int
+        A run of at least this many identical samples at a channel's maximum or minimum is
+        taken as clipping (a flat top). Default 10.
+    full_scale_n : float or None
+        Full scale of the acquisition in N, when known: any sample at ``+-full_scale_n``
+        is clipped. Default ``None``.
+    max_reversal_mm : float
+        Backward finger travel in mm above which the slide is flagged as non-monotonic.
+        Default 0.05.
+    max_fill_mm : float
+        Longest run of empty position bins in mm that may be filled by interpolation
+        without flagging. Default 0.1.
+    sensor_highpass_hz : float or None
+        Cut-off in Hz of the first-order high-pass of the piezo / charge-amplifier chain,
+        inverted by :func:`compensate_highpass`. Default 5.0 (Methods: "approximately
+        5 Hz"). ``None``: no compensation (the paper's procedure as written).
+    baseline : "auto", None or (float, float)
+        The unloaded rest at the start of the record on which the drift line is fitted
+        before the compensation: ``"auto"`` (default) detects it (from the record start to
+        ``baseline_guard_s`` before the force first departs from its initial level by
+        ``contact_threshold_n``); a ``(t_lo, t_hi)`` interval in s on the common clock;
+        ``None``: no baseline (a warning when compensating).
+    contact_threshold_n : float
+        Force departure in N that marks the first touch for ``baseline="auto"``. Default
+        0.02.
+    baseline_guard_s : float
+        Time in s left out between the baseline and the detected touch. Default 0.01.
+    min_baseline_s : float
+        Shortest usable baseline in s. Default 0.02.
+    """
+
+    notch_hz: tuple[float, ...] = (50.0, 150.0, 300.0)
+    notch_q: float = 10.0
+    lowpass_hz: float | None = 500.0
+    lowpass_order: int = 4
+    window_mm: float = 26.0
+    resolution_mm: float = 0.01
+    contact_half_width_mm: float = 8.0
+    flat_segment_mm: tuple[float, float] | None = None
+    min_flat_mm: float = 1.0
+    max_nan_gap: int = 10
+    clip_run: int = 10
+    full_scale_n: float | None = None
+    max_reversal_mm: float = 0.05
+    max_fill_mm: float = 0.1
+    sensor_highpass_hz: float | None = 5.0
+    baseline: str | tuple[float, float] | None = "auto"
+    contact_threshold_n: float = 0.02
+    baseline_guard_s: float = 0.01
+    min_baseline_s: float = 0.02
+
+    def __post_init__(self) -> None:
+        notch = tuple(float(f) for f in np.atleast_1d(np.asarray(self.notch_hz, dtype=float)))
+        for f in notch:
+            if not (math.isfinite(f) and f > 0):
+                raise ValueError(
+                    f"notch_hz must hold finite positive frequencies in Hz, got {self.notch_hz!r}"
+                )
+        object.__setattr__(self, "notch_hz", notch)
+        object.__setattr__(self, "notch_q", _positive("notch_q", self.notch_q, "dimensionless"))
+        if self.lowpass_hz is not None:
+            object.__setattr__(self, "lowpass_hz", _positive("lowpass_hz", self.lowpass_hz, "Hz"))
+        if int(self.lowpass_order) != self.lowpass_order or not 1 <= int(self.lowpass_order) <= 12:
+            raise ValueError(f"lowpass_order must be an integer in [1, 12], got {self.lowpass_order!r}")
+        object.__setattr__(self, "lowpass_order", int(self.lowpass_order))
+        for name, unit in (
+            ("window_mm", "mm"),
+            ("resolution_mm", "mm"),
+            ("contact_half_width_mm", "mm"),
+            ("min_flat_mm", "mm"),
+            ("max_reversal_mm", "mm"),
+            ("max_fill_mm", "mm"),
+        ):
+            object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
+        if self.resolution_mm > self.window_mm / 10:
+            raise ValueError(
+                f"resolution_mm ({self.resolution_mm:g} mm) must be at most a tenth of window_mm "
+                f"({self.window_mm:g} mm)"
+            )
+        if self.flat_segment_mm is not None:
+            try:
+                lo, hi = (float(v) for v in self.flat_segment_mm)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"flat_segment_mm must be (x_lo, x_hi) in mm, got {self.flat_segment_mm!r}"
+                ) from None
+            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+                raise ValueError(f"flat_segment_mm must be (x_lo, x_hi) with x_lo < x_hi, got {(lo, hi)!r}")
+            object.__setattr__(self, "flat_segment_mm", (lo, hi))
+        for name in ("max_nan_gap", "clip_run"):
+            v = getattr(self, name)
+            if int(v) != v or int(v) < (0 if name == "max_nan_gap" else 2):
+                raise ValueError(f"{name} must be a non-negative integer number of samples, got {v!r}")
+            object.__setattr__(self, name, int(v))
+        if self.full_scale_n is not None:
+            object.__setattr__(self, "full_scale_n", _positive("full_scale_n", self.full_scale_n, "N"))
+        if self.sensor_highpass_hz is not None:
+            object.__setattr__(
+                self, "sensor_highpass_hz", _positive("sensor_highpass_hz", self.sensor_highpass_hz, "Hz")
+            )
+        if isinstance(self.baseline, str):
+            if self.baseline != "auto":
+                raise ValueError(f"baseline must be 'auto', None or (t_lo, t_hi) in s, got {self.baseline!r}")
+        elif self.baseline is not None:
+            try:
+                lo, hi = (float(v) for v in self.baseline)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"baseline must be 'auto', None or (t_lo, t_hi) in s, got {self.baseline!r}"
+                ) from None
+            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+                raise ValueError(f"baseline must be (t_lo, t_hi) in s with t_lo < t_hi, got {(lo, hi)!r}")
+            object.__setattr__(self, "baseline", (lo, hi))
+        for name in ("contact_threshold_n", "baseline_guard_s", "min_baseline_s"):
+            unit = "N" if name.endswith("_n") else "s"
+            object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable dict of the parameters."""
+        d = asdict(self)
+        d["notch_hz"] = list(self.notch_hz)
+        if self.flat_segment_mm is not None:
+            d["flat_segment_mm"] = list(self.flat_segment_mm)
+        if isinstance(self.baseline, tuple):
+            d["baseline"] = list(self.baseline)
+        return d
+
+
+# --------------------------------------------------------------------------------------
+# decomposition (Methods "Measurement apparatus", Fig. 1C)
+# --------------------------------------------------------------------------------------
+
+
+def decompose(f1, f2) -> tuple[np.ndarray, np.ndarray]:
+    """Normal and tangential force from the two +-45 degree transducers.
+
+    ``F_N = (F1 + F2) / sqrt(2)`` and ``F_T = (F1 - F2) / sqrt(2)`` (Methods
+    "Measurement apparatus", Fig. 1C of Janko et al. 2018): a rotation by 45 degrees, so
+    ``F_N**2 + F_T**2 == F1**2 + F2**2``.
+
+    Parameters
+    ----------
+    f1, f2 : array_like, same shape
+        Forces in N along the two transducer axes.
+
+    Returns
+    -------
+    f_n, f_t : ndarray, same shape as the inputs
+        Normal and tangential force in N.
+    """
+    a = np.asarray(f1, dtype=np.float64)
+    b = np.asarray(f2, dtype=np.float64)
+    if a.shape != b.shape:
+        raise ValueError(f"f1 and f2 must have the same shape, got {a.shape} and {b.shape}")
+    return (a + b) / SQRT2, (a - b) / SQRT2
+
+
+def compose(f_n, f_t) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`decompose`: transducer forces ``(F1, F2)`` in N from ``F_N, F_T``."""
+    n = np.asarray(f_n, dtype=np.float64)
+    t = np.asarray(f_t, dtype=np.float64)
+    if n.shape != t.shape:
+        raise ValueError(f"f_n and f_t must have the same shape, got {n.shape} and {t.shape}")
+    return (n + t) / SQRT2, (n - t) / SQRT2
+
+
+# --------------------------------------------------------------------------------------
+# filters
+# --------------------------------------------------------------------------------------
+
+
+def design_notch(fs: float, freqs: Sequence[float] = (50.0, 150.0, 300.0), q: float = 10.0) -> np.ndarray:
+    """Second-order sections of a cascade of IIR notch filters.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling frequency in Hz.
+    freqs : sequence of float
+        Notch centre frequencies in Hz, each below ``fs / 2``. Default (50, 150, 300).
+    q : float
+        Quality factor of each notch (:func:`scipy.signal.iirnotch`). Default 10.
+
+    Returns
+    -------
+    (n_sections, 6) ndarray
+        One section per notch, for :func:`scipy.signal.sosfiltfilt`.
+    """
+    fs = _check_fs(fs)
+    q = _positive("q", q, "dimensionless")
+    sections = []
+    for i, f0 in enumerate(freqs):
+        f0 = _check_freq(f"notch frequency freqs[{i}]", f0, fs)
+        b, a = signal.iirnotch(f0, q, fs=fs)
+        sections.append(signal.tf2sos(b, a))
+    if not sections:
+        return np.zeros((0, 6))
+    return np.vstack(sections)
+
+
+def design_lowpass(fs: float, cutoff: float = 500.0, order: int = 4) -> np.ndarray:
+    """Second-order sections of a Butterworth low-pass (:func:`scipy.signal.butter`).
+
+    Parameters
+    ----------
+    fs : float
+        Sampling frequency in Hz.
+    cutoff : float
+        -3 dB frequency in Hz of the single-pass design, below ``fs / 2``. Default 500.
+    order : int
+        Filter order. Default 4.
+
+    Returns
+    -------
+    (n_sections, 6) ndarray
+    """
+    fs = _check_fs(fs)
+    cutoff = _check_freq("cutoff", cutoff, fs)
+    return signal.butter(int(order), cutoff, btype="lowpass", output="sos", fs=fs)
+
+
+def _zero_phase(sos: np.ndarray, x, axis: int) -> np.ndarray:
+    x = np.asarray(x, dtype=np.float64)
+    if sos.shape[0] == 0:
+        return x.copy()
+    if not np.all(np.isfinite(x)):
+        raise ValueError("x contains NaN or infinite values; fill or remove them before filtering")
+    n = x.shape[axis]
+    padlen = 3 * (2 * sos.shape[0] + 1)
+    if n <= padlen:
+        raise ValueError(
+            f"x has {n} samples along axis {axis}; zero-phase filtering needs more than {padlen}"
+        )
+    return signal.sosfiltfilt(sos, x, axis=axis)
+
+
+def notch_filter(
+    x, fs: float, freqs: Sequence[float] = (50.0, 150.0, 300.0), *, q: float = 10.0, axis: int = -1
+) -> np.ndarray:
+    """Zero-phase notch filtering (mains interference, Methods "Measurement apparatus").
+
+    The cascade of :func:`design_notch` is applied forwards and backwards
+    (:func:`scipy.signal.sosfiltfilt`): zero phase, magnitude response ``|H(f)|**2``.
+
+    Parameters
+    ----------
+    x : array_like
+        Signal(s), finite.
+    fs : float
+        Sampling frequency in Hz.
+    freqs : sequence of float
+        Centre frequencies in Hz. Default (50, 150, 300).
+    q : float
+        Quality factor of each notch. Default 10.
+    axis : int
+        Time axis. Default -1.
+
+    Returns
+    -------
+    ndarray, same shape as ``x``
+    """
+    return _zero_phase(design_notch(fs, freqs, q), x, axis)
+
+
+def lowpass_filter(x, fs: float, cutoff: float = 500.0, *, order: int = 4, axis: int = -1) -> np.ndarray:
+    """Zero-phase Butterworth low-pass (Methods "Force data processing": 500 Hz).
+
+    Forwards-backwards (:func:`scipy.signal.sosfiltfilt`), so the magnitude response is
+    ``|H(f)|**2``: -6 dB at ``cutoff`` and a roll-off of ``12 * order`` dB per octave.
+
+    Parameters
+    ----------
+    x : array_like
+        Signal(s), finite.
+    fs : float
+        Sampling frequency in Hz.
+    cutoff : float
+        Cut-off frequency in Hz (-3 dB of one pass), below ``fs / 2``. Default 500.
+    order : int
+        Butterworth order of one pass. Default 4.
+    axis : int
+        Time axis. Default -1.
+
+    Returns
+    -------
+    ndarray, same shape as ``x``
+    """
+    return _zero_phase(design_lowpass(fs, cutoff, order), x, axis)
+
+
+# --------------------------------------------------------------------------------------
+# drift
+# --------------------------------------------------------------------------------------
+
+
+def fit_linear_drift(t, y, mask=None) -> tuple[float, float]:
+    """Least-squares line ``y ~ slope * t + intercept`` over the samples in ``mask``.
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Sample times in s.
+    y : (n,) array_like
+        Force in N.
+    mask : (n,) array_like of bool, optional
+        Samples to fit (the flat segment). Default: all.
+
+    Returns
+    -------
+    slope : float
+        N/s.
+    intercept : float
+        N at ``t = 0``.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if t.ndim != 1 or t.shape != y.shape:
+        raise ValueError(f"t and y must be 1-D arrays of the same length, got {t.shape} and {y.shape}")
+    m = np.ones(t.shape, bool) if mask is None else np.asarray(mask, dtype=bool)
+    if m.shape != t.shape:
+        raise ValueError(f"mask must have the shape of t {t.shape}, got {m.shape}")
+    m = m & np.isfinite(t) & np.isfinite(y)
+    tm, ym = t[m], y[m]
+    if tm.size < 2 or np.ptp(tm) == 0:
+        raise ValueError(
+            f"the drift fit needs at least 2 distinct sample times in mask, got {tm.size} sample(s)"
+        )
+    # centre t for conditioning: t can be ~1e3 s on a lab clock while the segment lasts 0.03 s
+    tc = tm.mean()
+    dt = tm - tc
+    yc = ym.mean()
+    slope = float(np.dot(dt, ym - yc) / np.dot(dt, dt))
+    intercept = float(yc - slope * tc)
+    return slope, intercept
+
+
+def remove_linear_drift(t, y, mask=None) -> tuple[np.ndarray, tuple[float, float]]:
+    """Subtract the linear drift fitted over the flat segment from the whole signal.
+
+    Methods "Force data processing": "We removed this artifact by computing the best
+    linear fit to the force signal during the flat segment, and subtracted it from the
+    force measured during the touch interaction."
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Sample times in s.
+    y : (n,) array_like
+        Force in N.
+    mask : (n,) array_like of bool, optional
+        The flat-segment samples. Default: all.
+
+    Returns
+    -------
+    y_corrected : (n,) ndarray
+        ``y - (slope * t + intercept)`` in N.
+    (slope, intercept) : tuple of float
+        The fitted drift, N/s and N.
+    """
+    slope, intercept = fit_linear_drift(t, y, mask)
+    t = np.asarray(t, dtype=np.float64)
+    tc = np.mean(t[np.asarray(mask, bool)]) if mask is not None else np.mean(t)
+    # evaluate around the fit's centre, for the same conditioning as the fit
+    line = (slope * tc + intercept) + slope * (t - tc)
+    return np.asarray(y, dtype=np.float64) - line, (slope, intercept)
+
+
+def fit_baseline(t, y, mask, *, mains_hz: Sequence[float] = (50.0, 150.0, 300.0)) -> tuple[float, float]:
+    """Drift line of an unloaded baseline, fitted together with mains sinusoids.
+
+    Least squares of ``y ~ slope * t + intercept + sum_k (c_k cos 2 pi f_k t + s_k sin 2 pi
+    f_k t)`` over the samples in ``mask``: on a short baseline (0.1 s holds 5 periods of
+    50 Hz) the interference would otherwise bias the slope.
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Sample times in s.
+    y : (n,) array_like
+        Force in N (unfiltered: the sinusoids are part of the model).
+    mask : (n,) array_like of bool
+        Baseline samples (the true force is zero, or constant, there).
+    mains_hz : sequence of float
+        Interference frequencies in Hz. Default (50, 150, 300).
+
+    Returns
+    -------
+    slope : float
+        N/s.
+    intercept : float
+        N at ``t = 0``.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    m = np.asarray(mask, dtype=bool)
+    if t.ndim != 1 or t.shape != y.shape or m.shape != t.shape:
+        raise ValueError(f"t, y and mask must be 1-D of the same length, got {t.shape}, {y.shape}, {m.shape}")
+    m = m & np.isfinite(y)
+    n_par = 2 + 2 * len(mains_hz)
+    if m.sum() < 2 * n_par:
+        raise ValueError(f"the baseline fit needs at least {2 * n_par} samples in mask, got {int(m.sum())}")
+    tm = t[m]
+    tc = tm.mean()
+    cols = [np.ones_like(tm), tm - tc]
+    for f in mains_hz:
+        cols += [np.cos(2 * np.pi * f * tm), np.sin(2 * np.pi * f * tm)]
+    coef, *_ = np.linalg.lstsq(np.column_stack(cols), y[m], rcond=None)
+    slope = float(coef[1])
+    return slope, float(coef[0] - slope * tc)
+
+
+def compensate_highpass(y, fs: float, cutoff: float, *, axis: int = -1) -> np.ndarray:
+    """Invert a first-order high-pass: the force before a piezo / charge-amplifier chain.
+
+    The chain ``H(s) = s / (s + w0)``, ``w0 = 2 pi cutoff``, discretised by the bilinear
+    transform (:func:`scipy.signal.butter` of order 1), has the exact inverse
+    ``x = y + w0 * integral(y dt)`` with trapezoidal integration, applied here with
+    :func:`scipy.signal.lfilter` and the filter's coefficients swapped. The input is
+    assumed to start from rest (zero state); otherwise the result is off by a constant.
+
+    Parameters
+    ----------
+    y : array_like
+        Recorded signal(s), finite.
+    fs : float
+        Sampling frequency in Hz.
+    cutoff : float
+        High-pass cut-off in Hz, below ``fs / 2``.
+    axis : int
+        Time axis. Default -1.
+
+    Returns
+    -------
+    ndarray, same shape as ``y``
+
+    Notes
+    -----
+    The inverse has a pole at z = 1 (an integrator): an offset ``b`` in ``y`` grows as
+    ``b w0 t``, a slope ``a`` as ``a w0 t**2 / 2``. Remove the drift on an unloaded
+    baseline first (:func:`fit_baseline`).
+    """
+    fs = _check_fs(fs)
+    cutoff = _check_freq("cutoff", cutoff, fs)
+    y = np.asarray(y, dtype=np.float64)
+    if not np.all(np.isfinite(y)):
+        raise ValueError("y contains NaN or infinite values; fill or remove them before compensating")
+    b, a = signal.butter(1, cutoff, btype="highpass", fs=fs)
+    return signal.lfilter(a, b, y, axis=axis)
+
+
+def detect_baseline(f_n, f_t, fs: float, *, threshold: float = 0.02, guard_s: float = 0.01) -> int:
+    """Number of samples of unloaded rest at the start of a record.
+
+    The rest ends ``guard_s`` before the first sample at which ``F_N`` or ``F_T`` departs
+    from its initial level (median of the first 5 ms) by more than ``threshold`` N.
+
+    Parameters
+    ----------
+    f_n, f_t : (n,) array_like
+        Normal and tangential force in N (filtered: mains and noise well below
+        ``threshold``).
+    fs : float
+        Sampling frequency in Hz.
+    threshold : float
+        Departure in N marking the touch. Default 0.02.
+    guard_s : float
+        Margin in s before the touch. Default 0.01.
+
+    Returns
+    -------
+    int
+        0 when the force departs immediately (no rest) or never does.
+    """
+    fs = _check_fs(fs)
+    dev = np.zeros(np.shape(f_n))
+    k0 = max(int(0.005 * fs), 1)
+    for y in (np.asarray(f_n, float), np.asarray(f_t, float)):
+        dev = np.maximum(dev, np.abs(y - np.median(y[:k0])))
+    above = np.flatnonzero(dev > threshold)
+    if above.size == 0:
+        return 0
+    return max(int(above[0]) - int(round(guard_s * fs)), 0)
+
+
+# --------------------------------------------------------------------------------------
+# synchronisation and positions
+# --------------------------------------------------------------------------------------
+
+
+def positions_at_times(t, t_frames, x_frames) -> np.ndarray:
+    """Finger position at arbitrary times by linear interpolation between frames.
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Times in s on the common clock (the force samples).
+    t_frames : (m,) array_like
+        Frame times in s on the same clock, increasing.
+    x_frames : (m,) array_like
+        Finger centre in mm at each frame; NaN where there is no finger.
+
+    Returns
+    -------
+    (n,) ndarray
+        Position in mm; NaN outside ``[t_frames[0], t_frames[-1]]`` and wherever one of
+        the two bracketing frames is NaN.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    tf = np.asarray(t_frames, dtype=np.float64)
+    xf = np.asarray(x_frames, dtype=np.float64)
+    if tf.ndim != 1 or tf.shape != xf.shape:
+        raise ValueError(
+            f"t_frames and x_frames must be 1-D of the same length, got {tf.shape} and {xf.shape}"
+        )
+    if tf.size < 2 or np.any(np.diff(tf) <= 0):
+        raise ValueError("t_frames must hold at least 2 strictly increasing times in s")
+    k = np.searchsorted(tf, t, side="right") - 1
+    inside = (k >= 0) & (t <= tf[-1])
+    k = np.clip(k, 0, tf.size - 2)
+    t0, t1 = tf[k], tf[k + 1]
+    w = (t - t0) / (t1 - t0)
+    x = xf[k] * (1 - w) + xf[k + 1] * w
+    # exactly on a frame: do not let a NaN next frame poison a valid sample
+    on_frame = w == 0
+    x = np.where(on_frame, xf[k], x)
+    x[~inside] = np.nan
+    return x
+
+
+def flat_segment_from_positions(
+    feature_start_mm: float, *, window: tuple[float, float], contact_half_width_mm: float = 8.0
+) -> tuple[float, float]:
+    """Default flat segment, in finger-centre positions (mm).
+
+    From the window's left end to ``feature_start_mm - contact_half_width_mm``: while the
+    finger centre is left of that point its contact (``2 * contact_half_width_mm`` wide)
+    lies entirely on the flat ground before the feature.
+
+    Returns
+    -------
+    (x_lo, x_hi) : tuple of float
+        mm; ``x_hi <= x_lo`` when the window leaves no flat segment (the caller reports it).
+    """
+    return float(window[0]), float(feature_start_mm) - float(contact_half_width_mm)
+
+
+def flat_mask_from_regions(t, t_frames, regions, feature_start_mm: float) -> np.ndarray:
+    """Samples whose nearest frame has contact entirely on the flat ground before the feature.
+
+    Parameters
+    ----------
+    t : (n,) array_like
+        Sample times in s.
+    t_frames : (m,) array_like
+        Frame times in s, increasing.
+    regions : (m, k, 2) array_like
+        Contact regions per frame in mm (``fingerfriction.regions`` format).
+    feature_start_mm : float
+        Left end of the feature in mm.
+
+    Returns
+    -------
+    (n,) ndarray of bool
+        True where the nearest frame has at least one contact region and every region ends
+        (``b_i``) before ``feature_start_mm``.
+    """
+    from ..regions import as_regions
+
+    r = as_regions(regions, name="regions")
+    tf = np.asarray(t_frames, dtype=np.float64)
+    if r.shape[0] != tf.size:
+        raise ValueError(f"regions has {r.shape[0]} frames but t_frames has {tf.size} times")
+    b = r[..., 1]
+    has = np.any(np.isfinite(b), axis=1)
+    flat_frame = has & np.all(np.where(np.isfinite(b), b < feature_start_mm, True), axis=1)
+    t = np.asarray(t, dtype=np.float64)
+    k = np.clip(np.searchsorted(tf, t), 1, tf.size - 1)
+    nearest = np.where(np.abs(t - tf[k - 1]) <= np.abs(tf[k] - t), k - 1, k)
+    inside = (t >= tf[0] - 0.5 * (tf[1] - tf[0])) & (t <= tf[-1] + 0.5 * (tf[-1] - tf[-2]))
+    return flat_frame[nearest] & inside
+
+
+@dataclass(frozen=True)
+class PositionResampling:
+    """Result of :func:`resample_to_positions`.
+
+    Attributes
+    ----------
+    x : (L,) ndarray
+        Bin centres in mm.
+    values : (L,) ndarray
+        Per bin, the mean of its samples placed at their mean position, linearly
+        interpolated onto the bin centres (empty bins are filled by the same interpolation).
+    counts : (L,) ndarray of int
+        Samples averaged in each bin (0: filled).
+    n_filled : int
+        Number of empty bins filled.
+    max_fill_mm : float
+        Longest run of consecutive filled bins, in mm.
+    max_reversal_mm : float
+        Largest backward excursion of the finger (running maximum minus position) among
+        the samples used, in mm; 0 for a monotonic slide.
+    """
+
+    x: np.ndarray
+    values: np.ndarray
+    counts: np.ndarray
+    n_filled: int
+    max_fill_mm: float
+    max_reversal_mm: float
+
+
+def resample_to_positions(
+    x, y, *, window: tuple[float, float], resolution: float = 0.01
+) -> PositionResampling:
+    """Associate samples with positions and average them per position bin.
+
+    Parameters
+    ----------
+    x : (n,) array_like
+        Finger position in mm at each sample (NaN: unknown, ignored).
+    y : (n,) array_like
+        Values (force in N) at each sample.
+    window : (float, float)
+        First and last bin centre in mm.
+    resolution : float
+        Bin width in mm. Default 0.01.
+
+    Returns
+    -------
+    PositionResampling
+
+    Raises
+    ------
+    ValueError
+        If no sample falls in the window, or a bin at either end of the window is empty
+        (the finger does not span the window: nothing to interpolate from).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if x.shape != y.shape or x.ndim != 1:
+        raise ValueError(f"x and y must be 1-D arrays of the same length, got {x.shape} and {y.shape}")
+    res = _positive("resolution", resolution, "mm")
+    lo, hi = float(window[0]), float(window[1])
+    n_bins = int(round((hi - lo) / res)) + 1
+    grid = lo + res * np.arange(n_bins)
+    ok = np.isfinite(x) & np.isfinite(y)
+    if not ok.any():
+        raise ValueError("no sample has both a finite finger position and a finite value")
+    x_min, x_max = float(x[ok].min()), float(x[ok].max())
+    if x_min > lo + res / 2 or x_max < hi - res / 2:
+        raise ValueError(
+            f"the finger positions cover [{max(x_min, lo):.3f}, {min(x_max, hi):.3f}] mm of the window "
+            f"[{lo:g}, {hi:g}] mm; the whole window must be traversed"
+        )
+    # bins on the window extended by a margin, so that an empty bin at either end of the
+    # window is interpolated from samples just outside it
+    margin = 50
+    idx = np.rint((x - lo) / res) + margin
+    use = ok & (idx >= 0) & (idx < n_bins + 2 * margin)
+    idx = idx[use].astype(np.intp)
+    counts_ext = np.bincount(idx, minlength=n_bins + 2 * margin)
+    sums = np.bincount(idx, weights=y[use], minlength=n_bins + 2 * margin)
+    sums_x = np.bincount(idx, weights=x[use], minlength=n_bins + 2 * margin)
+    have = counts_ext > 0
+    # each bin's mean force sits at the bin's mean sample position (not exactly its centre);
+    # interpolating those points onto the centres makes the result exact for a force linear
+    # in x and reduces to linear interpolation when bins hold one sample or none.
+    x_mean = sums_x[have] / counts_ext[have]
+    y_mean = sums[have] / counts_ext[have]
+    values = np.interp(grid, x_mean, y_mean)
+    counts = counts_ext[margin : margin + n_bins]
+    filled = counts == 0
+    # longest run of filled bins
+    max_run = 0
+    if filled.any():
+        d = np.diff(np.concatenate(([0], filled.astype(np.int8), [0])))
+        starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+        max_run = int(np.max(ends - starts))
+    xs = x[ok & (x >= lo - res / 2) & (x <= hi + res / 2)]
+    reversal = float(np.max(np.maximum.accumulate(xs) - xs)) if xs.size else 0.0
+    return PositionResampling(
+        x=grid,
+        values=values,
+        counts=counts,
+        n_filled=int(filled.sum()),
+        max_fill_mm=max_run * res,
+        max_reversal_mm=reversal,
+    )
+
+
+# --------------------------------------------------------------------------------------
+# input checks
+# --------------------------------------------------------------------------------------
+
+
+def nan_runs(x) -> list[tuple[int, int]]:
+    """Runs of NaN in a 1-D signal, as ``(start, length)`` pairs in samples."""
+    bad = ~np.isfinite(np.asarray(x, dtype=np.float64))
+    if not bad.any():
+        return []
+    d = np.diff(np.concatenate(([0], bad.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    return [(int(s), int(e - s)) for s, e in zip(starts, ends, strict=True)]
+
+
+def _fill_nan(x: np.ndarray) -> np.ndarray:
+    bad = ~np.isfinite(x)
+    if not bad.any():
+        return x
+    out = x.copy()
+    i = np.arange(x.size)
+    out[bad] = np.interp(i[bad], i[~bad], x[~bad])
+    return out
+
+
+def find_clipping(x, *, run: int = 10, full_scale: float | None = None) -> list[tuple[int, int, float]]:
+    """Clipped stretches of one channel: flat tops at its extreme values, or full scale.
+
+    Parameters
+    ----------
+    x : (n,) array_like
+        One channel in N (NaN ignored).
+    run : int
+        Minimum number of consecutive identical samples at the channel's maximum or
+        minimum to call a flat top. Default 10. A noisy, unclipped signal does not sit on
+        its extreme value for several consecutive samples.
+    full_scale : float, optional
+        Acquisition full scale in N; every sample with ``|x| >= full_scale`` counts,
+        whatever the run length.
+
+    Returns
+    -------
+    list of (start, length, value)
+        Clipped runs in samples with the value held, N.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    fin = np.isfinite(x)
+    if not fin.any():
+        return []
+    hits = np.zeros(x.size, bool)
+    if full_scale is not None:
+        hits |= fin & (np.abs(x) >= full_scale)
+    flat = np.zeros(x.size, bool)
+    for extreme in (np.nanmax(x), np.nanmin(x)):
+        flat |= fin & (x == extreme)
+    out = []
+    for mask, min_len in ((hits, 1), (flat & ~hits, run)):
+        if not mask.any():
+            continue
+        d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+        for s, e in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True):
+            if e - s >= min_len:
+                out.append((int(s), int(e - s), float(x[s])))
+    return sorted(out)
+
+
+# --------------------------------------------------------------------------------------
+# provenance object
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ForceSignals:
+    """Normal and tangential force of one trial in time, with the steps applied to them.
+
+    Every method returns a new object whose ``history`` has one more entry (the step's
+    name and parameters), in the spirit of MNE-Python's ``Raw`` objects.
+
+    Attributes
+    ----------
+    f_n, f_t : (n,) ndarray
+        Normal and tangential force in N.
+    fs_hz : float
+        Sampling frequency in Hz.
+    t0_s : float
+        Time in s of sample 0 on the trial's common clock.
+    history : tuple of dict
+        Steps applied, oldest first.
+    """
+
+    f_n: np.ndarray
+    f_t: np.ndarray
+    fs_hz: float
+    t0_s: float = 0.0
+    history: tuple = ()
+
+    @classmethod
+    def from_record(cls, record: ForceRecord) -> ForceSignals:
+        """Decompose a :class:`~fingerfriction.forces.readers.ForceRecord` (Fig. 1C)."""
+        f_n, f_t = decompose(record.f1, record.f2)
+        step = {"step": "decompose", "formula": "F_N=(F1+F2)/sqrt2, F_T=(F1-F2)/sqrt2", "source": record.path}
+        return cls(f_n, f_t, record.fs_hz, record.t0_s, (step,))
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.f_t.shape[0])
+
+    def times(self) -> np.ndarray:
+        """``(n,)`` sample times in s on the common clock."""
+        return self.t0_s + np.arange(self.n_samples) / self.fs_hz
+
+    def _with(self, step: dict, **changes) -> ForceSignals:
+        logger.info("forces: %s", step)
+        return replace(self, history=self.history + (step,), **changes)
+
+    def notch(self, freqs: Sequence[float] = (50.0, 150.0, 300.0), *, q: float = 10.0) -> ForceSignals:
+        """Zero-phase notch filters at ``freqs`` Hz (:func:`notch_filter`)."""
+        if len(freqs) == 0:
+            return self
+        sos = design_notch(self.fs_hz, freqs, q)
+        both = _zero_phase(sos, np.vstack([self.f_n, self.f_t]), -1)
+        step = {"step": "notch", "freqs_hz": [float(f) for f in freqs], "q": float(q), "zero_phase": True}
+        return self._with(step, f_n=both[0], f_t=both[1])
+
+    def lowpass(self, cutoff: float = 500.0, *, order: int = 4) -> ForceSignals:
+        """Zero-phase Butterworth low-pass at ``cutoff`` Hz (:func:`lowpass_filter`)."""
+        sos = design_lowpass(self.fs_hz, cutoff, order)
+        both = _zero_phase(sos, np.vstack([self.f_n, self.f_t]), -1)
+        step = {"step": "lowpass", "cutoff_hz": float(cutoff), "order": int(order), "zero_phase": True}
+        return self._with(step, f_n=both[0], f_t=both[1])
+
+    def remove_baseline(self, mask, *, mains_hz: Sequence[float] = (50.0, 150.0, 300.0)) -> ForceSignals:
+        """Subtract the drift line fitted on an unloaded baseline (:func:`fit_baseline`)."""
+        t = self.times()
+        out = {}
+        step: dict = {"step": "remove_baseline", "n_samples": int(np.count_nonzero(mask))}
+        for name in ("f_n", "f_t"):
+            a, b = fit_baseline(t, getattr(self, name), mask, mains_hz=mains_hz)
+            out[name] = getattr(self, name) - (a * t + b)
+            step[f"{name[2:].upper()}_slope_N_per_s"] = a
+            step[f"{name[2:].upper()}_intercept_N"] = b
+        sel = np.flatnonzero(mask)
+        step["t_s"] = [float(t[sel[0]]), float(t[sel[-1]])]
+        return self._with(step, **out)
+
+    def compensate_highpass(self, cutoff: float) -> ForceSignals:
+        """Invert the sensor's first-order high-pass at ``cutoff`` Hz (:func:`compensate_highpass`)."""
+        both = compensate_highpass(np.vstack([self.f_n, self.f_t]), self.fs_hz, cutoff)
+        step = {"step": "compensate_highpass", "cutoff_hz": float(cutoff), "order": 1, "from_rest": True}
+        return self._with(step, f_n=both[0], f_t=both[1])
+
+    def remove_drift(self, mask, *, segment: str = "") -> ForceSignals:
+        """Subtract a line in time fitted over ``mask`` (the flat segment) from both forces."""
+        t = self.times()
+        f_t, (a_t, b_t) = remove_linear_drift(t, self.f_t, mask)
+        f_n, (a_n, b_n) = remove_linear_drift(t, self.f_n, mask)
+        step = {
+            "step": "remove_drift",
+            "segment": segment,
+            "n_samples": int(np.count_nonzero(mask)),
+            "F_T_slope_N_per_s": a_t,
+            "F_T_intercept_N": b_t,
+            "F_N_slope_N_per_s": a_n,
+            "F_N_intercept_N": b_n,
+        }
+        return self._with(step, f_n=f_n, f_t=f_t)
+
+
+# --------------------------------------------------------------------------------------
+# the whole chain
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Flag:
+    """One finding about a trial's input: ``severity`` is ``"warning"`` or ``"error"``."""
+
+    code: str
+    message: str
+    severity: str = "warning"
+
+
+@dataclass(frozen=True)
+class ForceProfile:
+    """Processed forces of one trial on the position grid (result of :func:`process_forces`).
+
+    Attributes
+    ----------
+    x : (L,) ndarray
+        Position grid in mm (finger centre), ``resolution_mm`` apart over the window.
+    f_t, f_n : (L,) ndarray
+        Tangential and normal force in N at each position, relative to their linear trend
+        over the flat segment (NaN when ``success`` is False and nothing could be computed).
+    counts : (L,) ndarray of int
+        Force samples averaged per position bin (0: interpolated).
+    signals : ForceSignals or None
+        The processed time signals (with their history).
+    x_at_samples : (n,) ndarray or None
+        Finger position in mm at each force sample.
+    flat_segment_mm : (float, float)
+        Finger positions in mm bounding the flat segment used (regions: their extent).
+    window_mm : (float, float)
+        First and last grid position in mm.
+    flags : tuple of Flag
+        Everything noticed about the input, warnings and errors.
+    success : bool
+        False when an error flag was raised (the values must not be used).
+    message : str
+        One line: "ok" or the first error.
+    params : ForceProcessingParams
+    """
+
+    x: np.ndarray
+    f_t: np.ndarray
+    f_n: np.ndarray
+    counts: np.ndarray
+    signals: ForceSignals | None
+    x_at_samples: np.ndarray | None
+    flat_segment_mm: tuple[float, float]
+    window_mm: tuple[float, float]
+    flags: tuple = ()
+    success: bool = True
+    message: str = "ok"
+    params: ForceProcessingParams = field(default_factory=ForceProcessingParams)
+
+    @property
+    def history(self) -> tuple:
+        """Processing steps applied to the time signals."""
+        return () if self.signals is None else self.signals.history
+
+    def to_frame(self):
+        """``pandas.DataFrame`` with columns ``x_mm, F_T_N, F_N_N, n_samples``."""
+        import pandas as pd
+
+        return pd.DataFrame({"x_mm": self.x, "F_T_N": self.f_t, "F_N_N": self.f_n, "n_samples": self.counts})
+
+    def write_csv(self, path) -> None:
+        """Write :meth:`to_frame` to ``path`` atomically (temporary file, then rename)."""
+        import os
+        import tempfile
+        from pathlib import Path
+
+        p = Path(path)
+        fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent or ".")
+        try:
+            with os.fdopen(fd, "w", newline="") as fh:
+                self.to_frame().to_csv(fh, index=False, float_format="%.9g")
+            os.replace(tmp, p)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+
+
+def _check_channels(record: ForceRecord, params: ForceProcessingParams, flags: list) -> tuple:
+    fs = record.fs_hz
+    out = []
+    for name, x in (("F1", record.f1), ("F2", record.f2)):
+        runs = nan_runs(x)
+        if runs:
+            longest = max(runs, key=lambda r: r[1])
+            total = sum(r[1] for r in runs)
+            s, n = longest
+            if n > params.max_nan_gap or n >= x.size // 2:
+                flags.append(
+                    Flag(
+                        "nan",
+                        f"channel {name} has a run of {n} NaN samples starting at sample {s} "
+                        f"(t={record.t0_s + s / fs:.4f} s, {n / fs * 1e3:.3g} ms); at most "
+                        f"max_nan_gap={params.max_nan_gap} samples can be interpolated",
+                        "error",
+                    )
+                )
+            else:
+                flags.append(
+                    Flag(
+                        "nan-filled",
+                        f"channel {name}: {total} NaN sample(s) in {len(runs)} run(s) of at most {n} "
+                        "filled by linear interpolation",
+                    )
+                )
+            x = _fill_nan(x) if np.isfinite(x).sum() >= 2 else x
+        clips = find_clipping(x, run=params.clip_run, full_scale=params.full_scale_n)
+        if clips:
+            s, n, v = max(clips, key=lambda c: c[1])
+            tot = sum(c[1] for c in clips)
+            why = (
+                f"at or beyond full_scale_n={params.full_scale_n:g} N"
+                if params.full_scale_n is not None and abs(v) >= params.full_scale_n
+                else f"held at the channel's extreme value for >= clip_run={params.clip_run} samples"
+            )
+            flags.append(
+                Flag(
+                    "clipped",
+                    f"channel {name} is clipped: {tot} sample(s) in {len(clips)} run(s), the longest "
+                    f"{n} samples at {v:.6g} N from sample {s} (t={record.t0_s + s / fs:.4f} s), {why}; "
+                    "the saturated force is unknown, so this trial cannot be used",
+                    "error",
+                )
+            )
+        out.append(x)
+    return out[0], out[1]
+
+
+def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list) -> np.ndarray | None:
+    """The unloaded-rest samples before the high-pass compensation, or None (flagged)."""
+    t = sig.times()
+    fs = sig.fs_hz
+    if params.baseline is None:
+        flags.append(
+            Flag(
+                "no-baseline",
+                "baseline=None: the drift is not removed before the high-pass compensation, so a "
+                "drift becomes quadratic in time and the flat-segment fit removes only its linear part",
+            )
+        )
+        return None
+    if params.baseline == "auto":
+        quick = lowpass_filter(np.vstack([sig.f_n, sig.f_t]), fs, min(50.0, 0.4 * fs))
+        n = detect_baseline(
+            quick[0], quick[1], fs, threshold=params.contact_threshold_n, guard_s=params.baseline_guard_s
+        )
+        mask = np.arange(t.size) < n
+        how = (
+            f"the record starts with {n / fs:.4f} s of rest before the force departs by "
+            f"contact_threshold_n={params.contact_threshold_n:g} N"
+        )
+    else:
+        lo, hi = params.baseline
+        mask = (t >= lo) & (t <= hi)
+        how = f"baseline=({lo:g}, {hi:g}) s holds {int(mask.sum())} samples"
+    if mask.sum() < params.min_baseline_s * fs:
+        flags.append(
+            Flag(
+                "no-baseline",
+                f"no usable unloaded baseline: {how}, less than min_baseline_s={params.min_baseline_s:g} s; "
+                "the drift is not removed before the high-pass compensation (it becomes quadratic in "
+                "time, and the flat-segment fit removes only its linear part). Record a rest before the "
+                "touch, or set baseline=(t_lo, t_hi)",
+            )
+        )
+        return None
+    return mask
+
+
+def _empty_profile(params, window, flat, flags, signals=None, x_at=None) -> ForceProfile:
+    lo, hi = window
+    n = int(round((hi - lo) / params.resolution_mm)) + 1
+    x = lo + params.resolution_mm * np.arange(n)
+    nan = np.full(n, np.nan)
+    first = next(f for f in flags if f.severity == "error")
+    return ForceProfile(
+        x=x,
+        f_t=nan,
+        f_n=nan.copy(),
+        counts=np.zeros(n, int),
+        signals=signals,
+        x_at_samples=x_at,
+        flat_segment_mm=flat,
+        window_mm=window,
+        flags=tuple(flags),
+        success=False,
+        message=first.message,
+        params=params,
+    )
+
+
+def process_forces(
+    record: ForceRecord,
+    t_frames,
+    x_frames,
+    *,
+    feature_extent_mm: tuple[float, float] = (0.0, 0.0),
+    params: ForceProcessingParams | None = None,
+    regions=None,
+    on_error: str = "raise",
+) -> ForceProfile:
+    """Run the Methods' force processing on one trial: ``F_T(x)`` on the position grid.
+
+    Steps: input checks, decomposition, notch, low-pass, drift removal over the flat
+    segment, synchronisation with the video clock, association with positions, resampling
+    on the grid (see the module notes for the choices made).
+
+    Parameters
+    ----------
+    record : ForceRecord
+        The two channels (N), with ``fs_hz`` and ``t0_s`` on the common clock.
+    t_frames : (m,) array_like
+        Frame times in s on the same clock (``video.t0_s + k / fps``).
+    x_frames : (m,) array_like
+        Finger centre ``x(t)`` in mm at each frame (NaN: no finger), from the video
+        analysis or, in benchmarks, the ground truth.
+    feature_extent_mm : (float, float)
+        ``(x_start, x_end)`` in mm of the relief feature (``Surface.feature_extent``); the
+        window is centred on its middle.
+    params : ForceProcessingParams, optional
+        Defaults: the paper's Methods.
+    regions : (m, k, 2) array_like, optional
+        Contact regions per frame (mm). When given and ``params.flat_segment_mm`` is None,
+        the flat segment is the frames whose contact lies entirely before the feature
+        (restricted to finger positions inside the window).
+    on_error : {"raise", "flag"}
+        ``"raise"`` (default): raise :class:`ForceDataError` on the first error found.
+        ``"flag"``: return a :class:`ForceProfile` with ``success=False``, the reasons in
+        ``flags`` and NaN forces wherever they could not be computed.
+
+    Returns
+    -------
+    ForceProfile
+
+    Raises
+    ------
+    ForceDataError
+        (``on_error="raise"``) for a run of NaN longer than ``max_nan_gap``, a clipped
+        channel, a force record that does not cover the slide across the window (wrong
+        ``fs_hz`` or clock offsets), a finger that never traverses the window, or a flat
+        segment shorter than ``min_flat_mm``.
+    ValueError
+        For invalid arguments (e.g. a filter cut-off at or above Nyquist).
+    """
+    if on_error not in ("raise", "flag"):
+        raise ValueError(f"on_error must be 'raise' or 'flag', got {on_error!r}")
+    params = ForceProcessingParams() if params is None else params
+    if not isinstance(params, ForceProcessingParams):
+        raise TypeError(f"params must be a ForceProcessingParams, got {type(params).__name__}")
+    fs = record.fs_hz
+    # filter designs first: a cut-off above Nyquist is an argument error, not a data flag
+    design_notch(fs, params.notch_hz, params.notch_q)
+    if params.lowpass_hz is not None:
+        design_lowpass(fs, params.lowpass_hz, params.lowpass_order)
+    a, b = (float(v) for v in feature_extent_mm)
+    if not (math.isfinite(a) and math.isfinite(b) and b >= a):
+        raise ValueError(
+            f"feature_extent_mm must be (start, end) in mm with start <= end, got {feature_extent_mm!r}"
+        )
+    centre = 0.5 * (a + b)
+    window = (centre - params.window_mm / 2, centre + params.window_mm / 2)
+    tf = np.asarray(t_frames, dtype=np.float64)
+    xf = np.asarray(x_frames, dtype=np.float64)
+    flags: list[Flag] = []
+
+    def finish_error() -> ForceProfile:
+        err = next(f for f in flags if f.severity == "error")
+        if on_error == "raise":
+            raise ForceDataError(err.message)
+        return _empty_profile(params, window, flat_mm, flags)
+
+    if params.flat_segment_mm is not None:
+        flat_mm = params.flat_segment_mm
+    else:
+        flat_mm = flat_segment_from_positions(
+            a, window=window, contact_half_width_mm=params.contact_half_width_mm
+        )
+
+    # --- input checks -----------------------------------------------------------------
+    f1, f2 = _check_channels(record, params, flags)
+    t = record.times()
+    x_at = positions_at_times(t, tf, xf)
+    fin = np.isfinite(xf)
+    if not fin.any():
+        flags.append(Flag("no-finger", "x_frames holds no finger position (all NaN)", "error"))
+        return finish_error()
+    x_lo, x_hi = float(np.nanmin(xf)), float(np.nanmax(xf))
+    if x_lo > window[0] or x_hi < window[1]:
+        flags.append(
+            Flag(
+                "window",
+                f"the finger positions span [{x_lo:.3f}, {x_hi:.3f}] mm, which does not cover the "
+                f"{params.window_mm:g} mm window [{window[0]:.3f}, {window[1]:.3f}] mm centred on the "
+                "feature; the finger must traverse the whole window",
+                "error",
+            )
+        )
+        return finish_error()
+    # when is the finger in the window on the video clock, and does the force record cover it?
+    in_win = fin & (xf >= window[0]) & (xf <= window[1])
+    tw0, tw1 = float(tf[in_win][0]), float(tf[in_win][-1])
+    if t[0] > tw0 or t[-1] < tw1:
+        flags.append(
+            Flag(
+                "coverage",
+                f"the force record covers t=[{t[0]:.4f}, {t[-1]:.4f}] s ({record.n_samples} samples at "
+                f"fs_hz={fs:g} Hz, t0_s={record.t0_s:g} s) but the finger crosses the window during "
+                f"t=[{tw0:.4f}, {tw1:.4f}] s; check force.fs_hz, force.t0_s and video.t0_s",
+                "error",
+            )
+        )
+    video_span = float(tf[-1] - tf[0])
+    if video_span > 0:
+        ratio = record.duration_s / video_span
+        if not 0.5 <= ratio <= 2.0:
+            flags.append(
+                Flag(
+                    "duration",
+                    f"the force record lasts {record.duration_s:.4g} s ({record.n_samples} samples at "
+                    f"fs_hz={fs:g} Hz) but the video lasts {video_span:.4g} s; a ratio of {ratio:.3g} "
+                    "(allowed 0.5 to 2) suggests a wrong fs_hz",
+                )
+            )
+    if any(f.severity == "error" for f in flags):
+        return finish_error()
+
+    # --- signals ----------------------------------------------------------------------
+    sig = ForceSignals.from_record(replace(record, f1=f1, f2=f2))
+    if params.sensor_highpass_hz is not None:
+        base = _baseline_mask(sig, params, flags)
+        if base is not None:
+            sig = sig.remove_baseline(base, mains_hz=params.notch_hz)
+    if params.notch_hz:
+        sig = sig.notch(params.notch_hz, q=params.notch_q)
+    if params.lowpass_hz is not None:
+        sig = sig.lowpass(params.lowpass_hz, order=params.lowpass_order)
+    if params.sensor_highpass_hz is not None:
+        sig = sig.compensate_highpass(params.sensor_highpass_hz)
+
+    # --- flat segment and drift ---------------------------------------------------------
+    if params.flat_segment_mm is None and regions is not None:
+        mask = flat_mask_from_regions(t, tf, regions, a) & (x_at >= window[0])
+        how = "contact regions entirely before the feature, inside the window"
+        if mask.any():
+            flat_mm = (float(np.nanmin(x_at[mask])), float(np.nanmax(x_at[mask])))
+    else:
+        mask = (x_at >= flat_mm[0]) & (x_at <= flat_mm[1])
+        how = f"finger centre in [{flat_mm[0]:.3f}, {flat_mm[1]:.3f}] mm"
+    travel = float(np.ptp(x_at[mask])) if mask.sum() >= 2 else 0.0
+    if travel < params.min_flat_mm:
+        flags.append(
+            Flag(
+                "flat-segment",
+                f"the flat segment ({how}) spans {travel:.3f} mm of finger travel "
+                f"({int(mask.sum())} samples); at least min_flat_mm={params.min_flat_mm:g} mm is needed "
+                "to fit the drift; widen the window or set flat_segment_mm",
+                "error",
+            )
+        )
+        return finish_error()
+    sig = sig.remove_drift(mask, segment=how)
+
+    # --- positions --------------------------------------------------------------------
+    res_t = resample_to_positions(x_at, sig.f_t, window=window, resolution=params.resolution_mm)
+    res_n = resample_to_positions(x_at, sig.f_n, window=window, resolution=params.resolution_mm)
+    if res_t.max_reversal_mm > params.max_reversal_mm:
+        flags.append(
+            Flag(
+                "reversal",
+                f"the finger moved backwards by up to {res_t.max_reversal_mm:.3f} mm inside the window "
+                f"(allowed max_reversal_mm={params.max_reversal_mm:g} mm); forces from the repeated "
+                "positions were averaged per bin",
+            )
+        )
+    if res_t.max_fill_mm > params.max_fill_mm:
+        flags.append(
+            Flag(
+                "gap",
+                f"{res_t.n_filled} empty position bins were interpolated, the longest run "
+                f"{res_t.max_fill_mm:.3f} mm (allowed max_fill_mm={params.max_fill_mm:g} mm): the finger "
+                "position jumps (video dropouts or a very fast slide)",
+            )
+        )
+    dwell = res_t.counts[res_t.counts > 0]
+    med = float(np.median(dwell))
+    if dwell.max() > 20 * max(med, 1.0):
+        k = int(np.argmax(res_t.counts))
+        flags.append(
+            Flag(
+                "stall",
+                f"the finger stalled near x={res_t.x[k]:.2f} mm: {int(dwell.max())} samples in one "
+                f"{params.resolution_mm:g} mm bin (median {med:g}); the forces there were averaged",
+            )
+        )
+    for f in flags:
+        logger.warning("forces: %s", f.message)
+    return ForceProfile(
+        x=res_t.x,
+        f_t=res_t.values,
+        f_n=res_n.values,
+        counts=res_t.counts,
+        signals=sig,
+        x_at_samples=x_at,
+        flat_segment_mm=flat_mm,
+        window_mm=window,
+        flags=tuple(flags),
+        success=True,
+        message="ok",
+        params=params,
+    )

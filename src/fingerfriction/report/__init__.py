@@ -1,0 +1,162 @@
+"""Figures, tables and a self-contained HTML report of an analysed (and fitted) study.
+
+:func:`make_report` reads a results folder (:mod:`fingerfriction.results`) and writes,
+into ``RESULTS/report/``: each figure as PNG and SVG (:mod:`.figures`), Table 1, the
+blind-spot table and, for a simulated study, the recovered parameters next to the ground
+truth (:mod:`.tables`) as CSV and Markdown (Table 1 also LaTeX), and ``index.html``, a
+single file with every figure embedded (base64 PNG) that opens anywhere on its own.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import logging
+import os
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from importlib import resources
+from pathlib import Path
+
+import jinja2
+import pandas as pd
+from markupsafe import Markup
+
+from ..results import atomic_write_text
+from ..stats import write_table
+from .data import ReportData, load_report_data
+from .figures import FIGURES, save_figure
+from .tables import blindspot_table, fit_parameter_table, table1, table1_display, truth_tables
+
+__all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ReportResult:
+    """What :func:`make_report` wrote.
+
+    Attributes
+    ----------
+    html : Path
+        The self-contained report.
+    files : tuple of Path
+        Every file written (figures, tables, the report).
+    table1 : pandas.DataFrame or None
+        Table 1 in long format (None before the fit).
+    blindspots : pandas.DataFrame
+        One row per blind spot per surface.
+    truth : dict of str to pandas.DataFrame
+        Recovered against true parameters (simulated studies).
+    n_trials, n_failed : int
+    """
+
+    html: Path
+    files: tuple[Path, ...]
+    table1: pd.DataFrame | None
+    blindspots: pd.DataFrame
+    truth: dict
+    n_trials: int
+    n_failed: int
+
+
+def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
+    def fmt(v):
+        if isinstance(v, float):
+            return "" if v != v else float_format.format(v)
+        return html.escape(str(v))
+
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+    body = "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
+                   for row in df.itertuples(index=False))
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def make_report(results: str | os.PathLike, *, progress: bool = False) -> ReportResult:
+    """Write the figures, tables and the HTML report of a results folder.
+
+    Parameters
+    ----------
+    results : path
+        A results folder after ``analyze`` (and, for Fig. 6, Fig. S3 and Table 1,
+        ``fit``).
+    progress : bool
+        Show a progress bar on stderr.
+
+    Returns
+    -------
+    ReportResult
+
+    Raises
+    ------
+    ValueError
+        Not a results folder, or no trial finished OK.
+    """
+    from ..pipeline import _Progress
+
+    data = load_report_data(results)
+    out = Path(data.root) / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    has_fit = data.fit is not None and any(t.model is not None for t in data.trials)
+    files: list[Path] = []
+    bar = _Progress(progress, len(FIGURES) + 2, "report")
+    figures = []
+    try:
+        for stem, title, fn, needs_fit in FIGURES:
+            if needs_fit and not has_fit:
+                bar.advance(f"{stem} (needs fit)")
+                continue
+            fig = fn(data)
+            blobs = save_figure(fig, out / stem)
+            files += [out / f"{stem}.png", out / f"{stem}.svg"]
+            figures.append({"stem": stem, "title": title,
+                            "png_b64": base64.b64encode(blobs["png"]).decode("ascii")})
+            bar.advance(stem)
+
+        t1 = table1(data) if has_fit else None
+        if t1 is not None:
+            for ext in ("csv", "md", "tex"):
+                write_table(t1, out / f"table1.{ext}")
+                files.append(out / f"table1.{ext}")
+        bs = blindspot_table(data)
+        for ext in ("csv", "md"):
+            write_table(bs, out / f"blindspots.{ext}")
+            files.append(out / f"blindspots.{ext}")
+        truth = truth_tables(data)
+        for key, df in truth.items():
+            for ext in ("csv", "md"):
+                write_table(df, out / f"truth_{key}.{ext}")
+                files.append(out / f"truth_{key}.{ext}")
+        params = fit_parameter_table(data)
+        bar.advance("tables")
+
+        titles = {"mu": "Friction coefficient per subject",
+                  "blindspots": "Blind-spot widths: video analysis against the simulator's 3-px contact"}
+        env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
+                                 undefined=jinja2.StrictUndefined)
+        template = env.from_string(
+            resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
+        run = data.run
+        page = template.render(
+            study_name=Path(run.get("study", "study")).name, study=run.get("study", ""),
+            results=str(data.root),
+            generated=datetime.now(UTC).isoformat(timespec="seconds"),
+            version=(run.get("versions") or {}).get("fingerfriction", "?"),
+            n_ok=len(data.trials), n_trials=len(data.trials) + len(data.failed),
+            subjects=data.subjects, surfaces=data.surface_names,
+            speeds=", ".join(f"{v:g}" for v in data.speeds),
+            mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
+            table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
+            blindspots=Markup(_html_table(bs)),
+            truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
+            params=Markup(_html_table(params)) if params is not None else None,
+            figures=figures, parameters=run.get("parameters", {}), versions=run.get("versions", {}),
+        )
+        atomic_write_text(out / "index.html", page)
+        files.append(out / "index.html")
+        bar.advance("index.html")
+    finally:
+        bar.close()
+    return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
+                        n_trials=len(data.trials), n_failed=len(data.failed))

@@ -1,0 +1,159 @@
+"""Loading a results folder into memory for the figures and tables of the report."""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..results import ResultsStore, regions_from_table
+from ..surfaces import Surface, surface_from_spec
+
+__all__ = ["TrialData", "ReportData", "load_report_data"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(eq=False)
+class TrialData:
+    """One analysed trial.
+
+    Attributes
+    ----------
+    id, subject, surface : str
+    speed_mm_s : float
+    repetition : int or None
+    frames : pandas.DataFrame
+        Per-frame table (``frame, t_s, x_mm, n_regions, a1, b1, ..., flag``).
+    regions : (n_frames, n_max, 2) ndarray
+        Contact regions in mm.
+    forces : pandas.DataFrame
+        Per-position table (``x_mm, F_T_N, t_s``).
+    model : pandas.DataFrame or None
+        Fit output per position (``x_mm, F_T_N, F_hat_N, F_model_N, F_int_N, F_def_N``)
+        when :func:`fingerfriction.pipeline.fit` has run.
+    """
+
+    id: str
+    subject: str
+    surface: str
+    speed_mm_s: float
+    repetition: int | None
+    frames: pd.DataFrame
+    regions: np.ndarray
+    forces: pd.DataFrame
+    model: pd.DataFrame | None = None
+
+
+@dataclass(eq=False)
+class ReportData:
+    """Everything the report needs.
+
+    Attributes
+    ----------
+    root : Path
+        The results folder.
+    run : dict
+        The run record (``run.json``).
+    surfaces : dict of str to Surface
+    trials : list of TrialData
+        The trials that finished OK, in manifest order.
+    failed : list of (str, str)
+        ``(trial_id, reason)`` of failed or unfinished trials.
+    fit : dict or None
+        ``fit/fit.json`` if present.
+    fit_trials : pandas.DataFrame or None
+        ``fit/trials.csv`` if present.
+    truth : dict or None
+        ``truth/study.json`` of a simulated study, if the study folder is reachable.
+    truth_dir : Path or None
+    """
+
+    root: Path
+    run: dict
+    surfaces: dict[str, Surface]
+    trials: list[TrialData]
+    failed: list[tuple[str, str]]
+    fit: dict | None = None
+    fit_trials: pd.DataFrame | None = None
+    truth: dict | None = None
+    truth_dir: Path | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def surface_names(self) -> list[str]:
+        """Surfaces with at least one trial, in the manifest's order."""
+        seen = []
+        for t in self.trials:
+            if t.surface not in seen:
+                seen.append(t.surface)
+        order = list(self.surfaces)
+        return sorted(seen, key=lambda s: order.index(s) if s in order else math.inf)
+
+    @property
+    def subjects(self) -> list[str]:
+        return sorted({t.subject for t in self.trials})
+
+    @property
+    def speeds(self) -> list[float]:
+        return sorted({float(t.speed_mm_s) for t in self.trials})
+
+    def select(self, *, surface=None, subject=None, speed=None) -> list[TrialData]:
+        return [
+            t for t in self.trials
+            if (surface is None or t.surface == surface)
+            and (subject is None or t.subject == subject)
+            and (speed is None or float(t.speed_mm_s) == float(speed))
+        ]
+
+
+def load_report_data(results) -> ReportData:
+    """Read a results folder (after ``analyze``, optionally ``fit``).
+
+    Raises
+    ------
+    ValueError
+        If the folder is not a results folder or no trial finished OK.
+    """
+    store = ResultsStore(results)
+    run = store.read_run()
+    surfaces = {k: surface_from_spec(v) for k, v in (run.get("surfaces") or {}).items()}
+    model_dir = store.fit_dir / "model"
+    trials, failed = [], []
+    for m in run.get("trials", []):
+        tid = m["id"]
+        st = store.status(tid)
+        if st is None or st.get("status") != "ok":
+            failed.append((tid, (st or {}).get("reason") or "not analysed (run interrupted?)"))
+            continue
+        frames = store.read_frames(tid)
+        model = None
+        mp = model_dir / f"{tid}.parquet"
+        if mp.is_file():
+            model = pd.read_parquet(mp)
+        trials.append(TrialData(
+            id=tid, subject=str(m.get("subject")), surface=str(m.get("surface")),
+            speed_mm_s=float(m.get("speed_mm_s") or math.nan), repetition=m.get("repetition"),
+            frames=frames, regions=regions_from_table(frames), forces=store.read_forces(tid), model=model))
+    if not trials:
+        raise ValueError(f"{str(store.root)!r}: no trial finished OK; nothing to report")
+    fit = fit_trials = None
+    if (store.fit_dir / "fit.json").is_file():
+        fit = json.loads((store.fit_dir / "fit.json").read_text(encoding="utf-8"))
+        fit_trials = pd.read_csv(store.fit_dir / "trials.csv", dtype={"subject": str})
+    truth = truth_dir = None
+    notes = []
+    if run.get("truth"):
+        truth_dir = Path(run["truth"])
+        try:
+            truth = json.loads((truth_dir / "study.json").read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            notes.append(f"ground truth not readable ({exc}); the comparison with the truth is left out")
+            truth_dir = None
+    return ReportData(root=store.root, run=run, surfaces=surfaces, trials=trials, failed=failed, fit=fit,
+                      fit_trials=fit_trials, truth=truth, truth_dir=truth_dir, notes=notes)

@@ -1,0 +1,163 @@
+"""The report's tables: Table 1, the blind-spot table, fitted parameters, and the
+recovered parameters next to the ground truth of a simulated study."""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..stats import BOTH, blind_spot_table, correlation_table, shape_label
+from .data import ReportData
+
+__all__ = ["table1", "blindspot_table", "fit_parameter_table", "truth_tables"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class _Series:
+    """The minimal TrialFit-like record :func:`fingerfriction.stats.correlation_table` reads."""
+
+    measured: np.ndarray
+    estimate: np.ndarray
+    subject: str
+    labels: dict = field(default_factory=dict)
+
+
+def _condition(data: ReportData, surface: str) -> tuple[str, str]:
+    s = data.surfaces.get(surface)
+    shape = getattr(s, "shape", None)
+    width = getattr(s, "width", None)
+    return (shape_label(shape) if shape else surface), (f"{width:g} mm" if width else "")
+
+
+def table1(data: ReportData) -> pd.DataFrame | None:
+    """Table 1 (long format): Pearson rho and p of detrended measured vs model per
+    subject x scale x shape, plus both subjects pooled; None before the fit."""
+    series = []
+    for t in data.trials:
+        if t.model is None:
+            continue
+        m = t.model["F_T_N"].to_numpy(float)
+        e = t.model["F_hat_N"].to_numpy(float)
+        ok = np.isfinite(m) & np.isfinite(e)
+        if ok.sum() < 3:
+            continue
+        shape, scale = _condition(data, t.surface)
+        series.append(_Series(m[ok], e[ok], t.subject, {"shape": shape, "scale": scale}))
+    if not series:
+        return None
+    return correlation_table(series)
+
+
+def blindspot_table(data: ReportData) -> pd.DataFrame:
+    """Blind spots per surface (all trials of all subjects pooled, as Fig. 3)."""
+    by = {name: [t.regions for t in data.select(surface=name)] for name in data.surface_names}
+    df = blind_spot_table(by)
+    n = {name: len(v) for name, v in by.items()}
+    df.insert(1, "n_trials", df["surface"].map(n))
+    return df
+
+
+def fit_parameter_table(data: ReportData) -> pd.DataFrame | None:
+    """Mean and SD of the fitted p0, p1 (N/mm) and the mean objective per subject and surface."""
+    ft = data.fit_trials
+    if ft is None or ft.empty:
+        return None
+    g = ft.groupby(["subject", "surface"], sort=False)
+    out = g.agg(n_trials=("trial", "size"), mu=("mu", "first"), p0_mean=("p0", "mean"), p0_sd=("p0", "std"),
+                p1_mean=("p1", "mean"), p1_sd=("p1", "std"), objective_mean=("objective", "mean"),
+                n_failed=("success", lambda s: int((~s.astype(bool)).sum())))
+    return out.reset_index()
+
+
+def _mu_of(v) -> float | None:
+    if not isinstance(v, dict):
+        return None
+    if "mu" in v:
+        return float(v["mu"])
+    for key in ("force_law", "friction"):  # the simulator's truth: subjects.<s>.force_law.mu
+        if isinstance(v.get(key), dict) and "mu" in v[key]:
+            return float(v[key]["mu"])
+    return None
+
+
+def _truth_mu(truth: dict) -> dict[str, float]:
+    """Per-subject true mu from truth/study.json (``subjects`` as a dict or a list)."""
+    subs = truth.get("subjects")
+    out = {}
+    if isinstance(subs, dict):
+        items = [(str(k), v) for k, v in subs.items()]
+    elif isinstance(subs, list):
+        items = [(str(v.get("subject", v.get("id", v.get("name")))), v) for v in subs if isinstance(v, dict)]
+    else:
+        items = []
+    for k, v in items:
+        mu = _mu_of(v)
+        if mu is not None:
+            out[k] = mu
+    return out
+
+
+def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
+    """For a simulated study: recovered against true parameters.
+
+    Returns a dict with (when available) ``'mu'``: subject, mu true, mu fitted, error;
+    and ``'blindspots'``: surface, blind-spot widths from the analysed video against
+    those of the simulator's geometric (3 px) contact regions of the same trials.
+    """
+    out: dict[str, pd.DataFrame] = {}
+    if data.truth is None:
+        return out
+    true_mu = _truth_mu(data.truth)
+    fitted = (data.fit or {}).get("mu", {})
+    if true_mu:
+        rows = []
+        for s in sorted(set(true_mu) | set(fitted)):
+            t, f = true_mu.get(s, math.nan), fitted.get(s, math.nan)
+            rows.append({"subject": s, "mu_true": t, "mu_fitted": f, "error": f - t})
+        out["mu"] = pd.DataFrame(rows)
+    if data.truth_dir is not None:
+        rows = []
+        for name in data.surface_names:
+            regs = []
+            for t in data.select(surface=name):
+                p = data.truth_dir / f"{t.id}.npz"
+                if not p.is_file():
+                    continue
+                with np.load(p, allow_pickle=False) as z:
+                    if "regions_geom" in z.files:
+                        regs.append(np.asarray(z["regions_geom"], float))
+            if not regs:
+                continue
+            true_bs = blind_spot_table({name: regs})
+            meas_bs = blind_spot_table({name: [t.regions for t in data.select(surface=name)]})
+            tw = true_bs["width_mm"].to_numpy()
+            mw = meas_bs["width_mm"].to_numpy()
+            for i in range(max(tw.size, mw.size)):
+                a = float(tw[i]) if i < tw.size else math.nan
+                b = float(mw[i]) if i < mw.size else math.nan
+                rows.append({"surface": name, "blind_spot": i + 1, "width_true_mm": a,
+                             "width_measured_mm": b, "error_mm": b - a})
+        if rows:
+            out["blindspots"] = pd.DataFrame(rows)
+    return out
+
+
+def table1_display(table: pd.DataFrame) -> pd.DataFrame:
+    """Table 1 in a compact wide form for HTML: one row per (subject, scale), shapes as columns
+    with ``rho`` and a star where p < 0.01."""
+    rows = []
+    for (subj, scale), g in table.groupby(["subject", "scale"], sort=False):
+        row = {"subject": subj, "scale": scale}
+        for _, r in g.iterrows():
+            star = "*" if r["significant"] else ""
+            row[r["shape"]] = "" if not np.isfinite(r["rho"]) else f"{r['rho']:.2f}{star}"
+        rows.append(row)
+    df = pd.DataFrame(rows).fillna("")
+    order = {s: i for i, s in enumerate([*sorted(set(df["subject"]) - {BOTH}), BOTH])}
+    return df.sort_values("subject", key=lambda c: c.map(order), kind="stable").reset_index(drop=True)

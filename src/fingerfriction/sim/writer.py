@@ -1,0 +1,559 @@
+"""Simulate trials and write a study directory (``docs/study-format.md``).
+
+:func:`simulate_study` validates the options, refuses an output folder that holds anything
+else than the same study (nothing is overwritten), precomputes one contact table per
+(surface, subject) in parallel, simulates the trials in parallel, and writes the
+manifest last. Every file is written atomically; a re-run of the same study into the same
+folder skips the trials already complete (resume). Per-trial random streams come from
+``numpy.random.SeedSequence(seed, spawn_key=(crc32(trial id),))``, so a trial's files do
+not depend on the number of workers, the order of execution, or which other trials are
+simulated: the same seed gives byte-identical studies.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import shutil
+import zlib
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..regions import regions_from_mask
+from ..study import (
+    ForceInfo,
+    Study,
+    TrialRecord,
+    VideoInfo,
+    atomic_write_text,
+    write_manifest,
+)
+from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
+from ._io import VideoWriter, write_npz
+from .camera import Camera, CameraParams
+from .contact import SIM_SUBJECTS, ContactTable, SimFinger, build_table, default_provider
+from .kinematics import Kinematics, KinematicsParams, simulate_kinematics
+from .physics import SUBJECT_FORCE_LAWS, ForceLaw, true_forces
+from .sensor import SensorParams, apply_sensor
+
+__all__ = ["SimOptions", "TrialSpec", "simulate_study", "simulate_trial", "plan_trial", "StudyFolderError"]
+
+log = logging.getLogger(__name__)
+
+PAPER_SPEEDS = (40.0, 80.0, 120.0)
+TRUTH_FORMAT = "fingerfriction-sim-truth"
+VIDEO_EXT = {"ffv1-mkv": "mkv", "tiff": "tif"}
+
+
+class StudyFolderError(ValueError):
+    """The output folder holds something other than this study; nothing was written."""
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """What to simulate (validated; every mistake is a ``ValueError`` naming the option).
+
+    Parameters
+    ----------
+    reps : int
+        Repetitions per condition (>= 1; the paper: 5).
+    subjects : tuple of str
+        Keys of :data:`~fingerfriction.sim.contact.SIM_SUBJECTS` (``'1'``, ``'2'``).
+    surfaces : tuple of str
+        Paper surface names (``bump-2mm`` ...) or parametric specs (``bump:W=3,H=0.5``).
+    speeds : tuple of float
+        Nominal sliding speeds in mm/s (> 0).
+    seed : int
+        Study seed (>= 0).
+    video_format : {'ffv1-mkv', 'tiff'}
+    camera, sensor, kinematics : parameter dataclasses
+    table_step : float
+        Finger-position step of the contact tables in mm.
+    table_loads : tuple of float
+        Normal loads of the contact tables in N.
+    """
+
+    reps: int = 5
+    subjects: tuple = ("1", "2")
+    surfaces: tuple = SURFACE_NAMES
+    speeds: tuple = PAPER_SPEEDS
+    seed: int = 0
+    video_format: str = "ffv1-mkv"
+    camera: CameraParams = field(default_factory=CameraParams)
+    sensor: SensorParams = field(default_factory=SensorParams)
+    kinematics: KinematicsParams = field(default_factory=KinematicsParams)
+    table_step: float = 0.01
+    table_loads: tuple = (0.2, 0.3, 0.4)
+    video_end_mm: float = 14.5
+
+    def __post_init__(self) -> None:
+        if isinstance(self.reps, bool) or not isinstance(self.reps, (int, np.integer)) or self.reps < 1:
+            raise ValueError(f"reps must be an integer >= 1, got {self.reps!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {self.seed!r}")
+        subs = tuple(str(s) for s in self.subjects)
+        if not subs:
+            raise ValueError("subjects must not be empty")
+        for s in subs:
+            if s not in SIM_SUBJECTS:
+                raise ValueError(f"unknown subject {s!r}; simulated subjects: {', '.join(SIM_SUBJECTS)}")
+        if len(set(subs)) != len(subs):
+            raise ValueError(f"subjects has duplicates: {list(subs)}")
+        surfs = tuple(str(s) for s in self.surfaces)
+        if not surfs:
+            raise ValueError("surfaces must not be empty")
+        names = []
+        for s in surfs:
+            if os.path.exists(s) or s.lower().endswith(".csv"):
+                raise ValueError(f"surface {s!r}: the simulator takes surface names or 'shape:W=..,H=..' specs")
+            if s not in SURFACE_NAMES and ":" not in s:
+                raise ValueError(f"unknown surface {s!r}; known surfaces: {', '.join(SURFACE_NAMES)} "
+                                 "(or a spec like 'bump:W=3,H=0.5')")
+            try:
+                names.append(surface_from_spec(s).name)
+            except (ValueError, TypeError) as exc:
+                raise ValueError(f"surface {s!r}: {exc}") from None
+        if len(set(names)) != len(names):
+            raise ValueError(f"surfaces has duplicates: {surfs}")
+        sp = []
+        for v in self.speeds:
+            try:
+                f = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"speed {v!r} is not a number (mm/s)") from None
+            if not math.isfinite(f) or f <= 0:
+                raise ValueError(f"speed must be a positive speed in mm/s, got {v!r}")
+            if f > 1000:
+                raise ValueError(f"speed {f} mm/s is beyond what the simulator supports (<= 1000 mm/s)")
+            sp.append(f)
+        if not sp:
+            raise ValueError("speeds must not be empty")
+        if len(set(sp)) != len(sp):
+            raise ValueError(f"speeds has duplicates: {sp}")
+        if self.video_format not in VIDEO_EXT:
+            raise ValueError(f"video_format must be one of {', '.join(VIDEO_EXT)}, got {self.video_format!r}")
+        if not (self.table_step > 0 and math.isfinite(self.table_step)):
+            raise ValueError(f"table_step must be a positive length in mm, got {self.table_step!r}")
+        object.__setattr__(self, "subjects", subs)
+        object.__setattr__(self, "surfaces", surfs)
+        object.__setattr__(self, "speeds", tuple(sp))
+        object.__setattr__(self, "table_loads", tuple(float(v) for v in self.table_loads))
+        object.__setattr__(self, "reps", int(self.reps))
+        object.__setattr__(self, "seed", int(self.seed))
+
+    def surface(self, spec: str) -> Surface:
+        return surface_from_spec(spec)
+
+    def trial_specs(self) -> list[TrialSpec]:
+        """The design in a fixed order: subject, surface, speed, repetition."""
+        out = []
+        for subj in self.subjects:
+            for s in self.surfaces:
+                name = surface_from_spec(s).name
+                for v in self.speeds:
+                    for r in range(1, self.reps + 1):
+                        tid = f"s{subj}-{name}-v{v:03.0f}-r{r}" if float(v).is_integer() else \
+                            f"s{subj}-{name}-v{v:g}-r{r}"
+                        out.append(TrialSpec(tid, subj, s, name, v, r))
+        return out
+
+    def to_dict(self) -> dict:
+        """Everything that determines the study's content (used to recognise it on resume)."""
+        return {
+            "reps": self.reps, "subjects": list(self.subjects), "surfaces": list(self.surfaces),
+            "speeds": list(self.speeds), "seed": self.seed, "video_format": self.video_format,
+            "camera": self.camera.to_dict(), "sensor": self.sensor.to_dict(),
+            "kinematics": self.kinematics.to_dict(), "table_step": self.table_step,
+            "table_loads": list(self.table_loads), "video_end_mm": self.video_end_mm,
+        }
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """One trial of the design: ids and conditions."""
+
+    id: str
+    subject: str
+    surface_spec: str
+    surface_name: str
+    speed_mm_s: float
+    repetition: int
+
+    def seed_sequence(self, seed: int) -> np.random.SeedSequence:
+        """The trial's random stream: keyed by the study seed and the trial id only."""
+        return np.random.SeedSequence(seed, spawn_key=(zlib.crc32(self.id.encode("utf-8")),))
+
+
+def _rngs(spec: TrialSpec, seed: int):
+    kin, sensor, camera = spec.seed_sequence(seed).spawn(3)
+    return np.random.default_rng(kin), np.random.default_rng(sensor), np.random.default_rng(camera)
+
+
+@dataclass(frozen=True)
+class TrialPlan:
+    """Kinematics and the file layout of one trial (cheap, deterministic)."""
+
+    spec: TrialSpec
+    kin: Kinematics
+    frame_idx: np.ndarray  # force-sample index of each frame
+    record: TrialRecord
+
+
+def plan_trial(spec: TrialSpec, opts: SimOptions) -> TrialPlan:
+    """Draw the trial's kinematics and compute its manifest record (no files written)."""
+    rk, _, _ = _rngs(spec, opts.seed)
+    kin = simulate_kinematics(spec.speed_mm_s, rk, opts.kinematics)
+    cam = opts.camera
+    fs = opts.kinematics.fs_hz
+    step = fs / cam.fps
+    if abs(step - round(step)) > 1e-9:
+        raise ValueError(f"the force rate ({fs} Hz) must be a multiple of the frame rate ({cam.fps} Hz)")
+    step = int(round(step))
+    i0 = int(round(kin.t_descent * fs))
+    past = np.flatnonzero((kin.x >= opts.video_end_mm) & (np.arange(kin.x.size) >= i0))
+    i_end = int(past[0]) if past.size else kin.x.size - 1
+    frame_idx = np.arange(i0, i_end + 1, step)
+    surf = surface_from_spec(spec.surface_spec)
+    base = f"trials/{spec.id}"
+    ext = VIDEO_EXT[opts.video_format]
+    rec = TrialRecord(
+        id=spec.id, subject=spec.subject, surface=spec.surface_name, speed_mm_s=spec.speed_mm_s,
+        repetition=spec.repetition,
+        video=VideoInfo(path=f"{base}/video.{ext}", format=opts.video_format, fps=cam.fps,
+                        width=int(cam.width), height=int(cam.height), n_frames=int(frame_idx.size),
+                        t0_s=float(kin.t[i0]), calibration_frame=0),
+        force=ForceInfo(path=f"{base}/forces.npz", format="npz", fs_hz=fs, n_samples=int(kin.t.size),
+                        channels={"F1": "F1", "F2": "F2"}, units="N", t0_s=0.0),
+        calibration={"surface_height_mm": float(_feature_height(surf))},
+        truth=f"truth/{spec.id}.npz",
+    )
+    return TrialPlan(spec, kin, frame_idx, rec)
+
+
+def _feature_height(surf: Surface) -> float:
+    h = getattr(surf, "height", None)
+    return float(h) if h is not None else float(surf.max_height)
+
+
+def geometric_mask(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, tol_mm: float) -> np.ndarray:
+    """Surface points within ``tol_mm`` of the finger outline (the paper's 3-px criterion).
+
+    The distance from the surface point ``(x, h(x))`` to the finger curve is the vertical
+    gap ``y_f - h`` times ``cos`` of the finger outline's slope angle (exact for a locally
+    straight outline; the outline's radius of curvature, >= several mm, is far above the
+    70 um tolerance).
+    """
+    gap = y_f - h
+    slope = np.gradient(y_f, xi)
+    return gap / np.sqrt(1.0 + slope * slope) <= tol_mm
+
+
+def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw,
+                   root: Path) -> TrialRecord:
+    """Simulate one trial and write its video, force and truth files under ``root``."""
+    spec, kin, rec = plan.spec, plan.kin, plan.record
+    _, rs, rc = _rngs(spec, opts.seed)
+    surf = surface_from_spec(spec.surface_spec)
+
+    # forces
+    f_t, f_int, f_def = true_forces(table, law, kin.x, kin.f_n, kin.sliding_distance,
+                                    kin.mean_speed, kin.in_contact)
+    F1, F2 = apply_sensor(kin.f_n, f_t, rs, opts.sensor)
+
+    # video + per-frame truth
+    cam = Camera(surf, opts.camera)
+    tol = 3.0 * opts.camera.mm_per_px
+    xi = table.xi
+    load_min = float(table.loads[0])
+    n_f = plan.frame_idx.size
+    has_finger = np.zeros(n_f, bool)
+    geom_masks, mech_masks, grids = [], [], []
+    vw = VideoWriter(root / rec.video.path, opts.video_format, cam.params.width, cam.params.height, cam.params.fps)
+    try:
+        for k, i in enumerate(plan.frame_idx):
+            if k == rec.video.calibration_frame:
+                vw.write(cam.render(None, rc))
+                geom_masks.append(None)
+                mech_masks.append(None)
+                grids.append(None)
+                continue
+            x_c = float(kin.x[i])
+            y_f, p = table.profile(x_c, max(float(kin.f_n[i]), load_min))
+            z = float(kin.z[i])
+            if z > 0 or not kin.in_contact[i]:
+                y_f = y_f + z
+                p = np.zeros_like(p)
+            rows = cam.finger_rows(x_c, xi, y_f)
+            has_finger[k] = bool(np.any(rows > -0.5))
+            vw.write(cam.render(rows, rc))
+            X = x_c + xi
+            h = np.asarray(surf.h(X), float)
+            grids.append(X)
+            geom_masks.append(geometric_mask(xi, y_f, h, tol))
+            mech_masks.append(p > 0)
+        vw.close()
+    except BaseException:
+        vw.abort()
+        raise
+    reg_geom = _stack_regions(grids, geom_masks)
+    reg_mech = _stack_regions(grids, mech_masks)
+    t_video = kin.t[plan.frame_idx]
+    x_video = np.where(has_finger, kin.x[plan.frame_idx], np.nan)
+
+    write_npz(root / rec.force.path, {"F1": F1, "F2": F2})
+    write_npz(root / rec.truth, {
+        "t_force": kin.t, "x_finger_force": kin.x, "F_N": kin.f_n, "F_T": f_t,
+        "F_T_int": f_int, "F_T_def": f_def, "t_video": t_video, "x_finger_video": x_video,
+        "has_finger": has_finger, "regions_mech": reg_mech, "regions_geom": reg_geom,
+        "geom_tol_mm": np.float64(tol), "mm_per_px": np.float64(opts.camera.mm_per_px),
+        "x0_px": np.float64(opts.camera.x0_px), "y0_row": np.float64(opts.camera.y0_row),
+        "mean_speed_mm_s": np.float64(kin.mean_speed), "z_finger_force": kin.z,
+    })
+    return rec
+
+
+def _stack_regions(grids, masks) -> np.ndarray:
+    per = []
+    for X, m in zip(grids, masks):
+        if X is None or not m.any():
+            per.append(np.full((1, 1, 2), np.nan))
+        else:
+            per.append(regions_from_mask(X, m))
+    k = max(r.shape[1] for r in per)
+    out = np.full((len(per), k, 2), np.nan)
+    for t, r in enumerate(per):
+        out[t, : r.shape[1]] = r[0]
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# the study
+
+
+def _truth_header(opts: SimOptions, provider: str) -> dict:
+    subjects = {
+        s: {"finger": SIM_SUBJECTS[s].to_dict(), "force_law": SUBJECT_FORCE_LAWS[s].to_dict()}
+        for s in opts.subjects
+    }
+    return {
+        "format": TRUTH_FORMAT,
+        "schema_version": 1,
+        "contact_provider": provider,
+        "geom_tol_mm": 3.0 * opts.camera.mm_per_px,
+        "options": opts.to_dict(),
+        "subjects": subjects,
+    }
+
+
+def _check_folder(out: Path, header: dict) -> bool:
+    """True if ``out`` already holds this study (resume); raise if it holds anything else."""
+    if not out.exists():
+        return False
+    if not out.is_dir():
+        raise StudyFolderError(f"output {out} exists and is not a folder")
+    entries = [e for e in os.listdir(out)]
+    if not entries:
+        return False
+    sj = out / "truth" / "study.json"
+    if not sj.is_file():
+        raise StudyFolderError(
+            f"output folder {out} is not empty and holds no simulated study (no truth/study.json); "
+            "choose an empty or new folder"
+        )
+    try:
+        old = json.loads(sj.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise StudyFolderError(f"{sj}: cannot read the existing study's description ({exc}); "
+                               "choose an empty or new folder") from None
+    if old != json.loads(json.dumps(header)):
+        diff = _first_difference(old, json.loads(json.dumps(header)))
+        raise StudyFolderError(
+            f"output folder {out} already holds a different study ({diff}); nothing was written. "
+            "Use a new folder, or the same options to resume"
+        )
+    return True
+
+
+def _first_difference(a, b, path: str = "") -> str:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in list(a) + [k for k in b if k not in a]:
+            if k not in a or k not in b:
+                return f"{path + k}: only in {'the existing' if k in a else 'the new'} study"
+            if a[k] != b[k]:
+                return _first_difference(a[k], b[k], f"{path}{k}.")
+    return f"{path.rstrip('.') or 'value'}: existing {a!r}, requested {b!r}"
+
+
+def _trial_complete(root: Path, rec: TrialRecord) -> bool:
+    return all((root / p).is_file() for p in (rec.video.path, rec.force.path, rec.truth))
+
+
+# worker-side cache: one table at a time (trials are submitted grouped by table)
+_TABLE_CACHE: dict = {}
+
+
+def _get_table(path: str) -> ContactTable:
+    if path not in _TABLE_CACHE:
+        _TABLE_CACHE.clear()
+        _TABLE_CACHE[path] = ContactTable.load(path)
+    return _TABLE_CACHE[path]
+
+
+def _table_task(surface_spec: str, subject: str, opts: SimOptions, path: str) -> str:
+    if not os.path.exists(path):
+        surf = surface_from_spec(surface_spec)
+        table = build_table(surf, SIM_SUBJECTS[subject], loads=opts.table_loads, step=opts.table_step)
+        table.save(path)
+    return path
+
+
+def _trial_task(spec: TrialSpec, opts: SimOptions, table_path: str, root: str) -> str:
+    plan = plan_trial(spec, opts)
+    simulate_trial(plan, opts, _get_table(table_path), SUBJECT_FORCE_LAWS[spec.subject], Path(root))
+    return spec.id
+
+
+def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, workers: int | None = None,
+                   description: str = "", progress: Callable[[str, int, int, str], None] | None = None,
+                   ) -> Study:
+    """Simulate a study into the folder ``out``.
+
+    Parameters
+    ----------
+    out : path-like
+        Output folder: new, empty, or holding the same study (its complete trials are
+        kept, the others simulated).
+    opts : SimOptions, optional
+        The design and models (default: the paper's 180-trial design, seed 0).
+    workers : int, optional
+        Worker processes (default: ``os.cpu_count()``); results do not depend on it.
+    description : str
+        Free text for the manifest.
+    progress : callable, optional
+        ``progress(stage, done, total, label)`` after each table and trial
+        (``stage`` is ``'tables'`` or ``'trials'``).
+
+    Returns
+    -------
+    Study
+        The manifest written to ``out/manifest.json``.
+
+    Raises
+    ------
+    StudyFolderError
+        If ``out`` holds anything else than this study; nothing is written.
+    ValueError
+        For invalid options.
+    """
+    opts = opts or SimOptions()
+    if workers is None:
+        workers = os.cpu_count() or 1
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    out = Path(out)
+    provider_name, _ = default_provider()
+    header = _truth_header(opts, provider_name)
+    resume = _check_folder(out, header)
+    specs = opts.trial_specs()
+    plans = [plan_trial(s, opts) for s in specs]  # validates the whole design before writing
+
+    out.mkdir(parents=True, exist_ok=True)
+    if not resume:
+        atomic_write_text(out / "truth" / "study.json", json.dumps(header, indent=2) + "\n")
+    todo = [p for p in plans if not _trial_complete(out, p.record)]
+    log.info("simulate: %d trials, %d to do (%d complete)", len(plans), len(todo), len(plans) - len(todo))
+
+    cache = out / ".cache"
+    groups: dict[tuple[str, str], list[TrialPlan]] = {}
+    for p in todo:
+        groups.setdefault((p.spec.surface_spec, p.spec.subject), []).append(p)
+    table_paths = {
+        key: str(cache / f"table-{surface_from_spec(key[0]).name}-s{key[1]}.npz") for key in groups
+    }
+    if todo:
+        cache.mkdir(exist_ok=True)
+        ctx = None
+        if workers > 1:
+            import multiprocessing as mp
+
+            ctx = mp.get_context("forkserver") if "forkserver" in mp.get_all_start_methods() else None
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) if workers > 1 else _Serial() as ex:
+            futs = {ex.submit(_table_task, k[0], k[1], opts, table_paths[k]): k for k in groups}
+            done_n = 0
+            for f in _as_completed(futs):
+                f.result()
+                done_n += 1
+                if progress:
+                    progress("tables", done_n, len(futs), f"{futs[f][0]} s{futs[f][1]}")
+            tfuts = {}
+            for key, plist in groups.items():
+                for p in plist:
+                    tfuts[ex.submit(_trial_task, p.spec, opts, table_paths[key], str(out))] = p.spec.id
+            done_n = 0
+            for f in _as_completed(tfuts):
+                f.result()
+                done_n += 1
+                if progress:
+                    progress("trials", done_n, len(tfuts), tfuts[f])
+        shutil.rmtree(cache, ignore_errors=True)
+
+    surfaces = {}
+    for s in opts.surfaces:
+        surf = surface_from_spec(s)
+        surfaces[surf.name] = surf.to_dict()
+    study = Study(
+        trials=tuple(p.record for p in plans),
+        surfaces=surfaces,
+        description=description or (
+            f"virtual experiment: {len(opts.subjects)} subjects x {len(opts.surfaces)} surfaces x "
+            f"{len(opts.speeds)} speeds x {opts.reps} repetitions, seed {opts.seed}"
+        ),
+        created_by=f"fingerfriction {__version__} simulate",
+        root=out.resolve(),
+    )
+    write_manifest(study, out)
+    return study
+
+
+def _as_completed(futs):
+    pending = set(futs)
+    while pending:
+        done, pending = wait(pending, return_when=FIRST_COMPLETED)
+        # deterministic order among simultaneously finished futures is irrelevant: files
+        # do not depend on completion order
+        yield from done
+
+
+class _Serial:
+    """A stand-in executor running tasks in the calling process (workers=1)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def submit(self, fn, *args):
+        from concurrent.futures import Future
+
+        f: Future = Future()
+        try:
+            f.set_result(fn(*args))
+        except BaseException as e:  # noqa: BLE001 - re-raised by f.result()
+            f.set_exception(e)
+        return f
+
+
+def default_options(**kw) -> SimOptions:
+    """:class:`SimOptions` with the paper's design, overridden by ``kw``."""
+    return SimOptions(**kw)
+
+
+__all__ += ["default_options", "SimFinger"]

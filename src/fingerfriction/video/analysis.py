@@ -1,0 +1,454 @@
+"""The per-video analysis: frames in, x(t), contact regions C_i and per-frame flags out.
+
+Pipeline (Methods "Image analysis" of Janko et al. 2018, Fig. 7):
+
+1. :func:`~fingerfriction.video.calibrate.calibrate` on the finger-free calibration frame:
+   crop, threshold (given or Otsu), surface profile h-hat, mm per pixel, origin.
+2. Every frame, streamed in chunks: threshold the finger zone above the surface, trace
+   the finger's contour (``cv2.findContours``), take its lower envelope, refine it to a
+   fraction of a pixel from the gray levels.
+3. Area-preserving region C_f (:mod:`.tracking`): the area ``A`` below the line 0.4 mm
+   above the feature's top in the first usable finger frame; in every frame the line
+   enclosing ``A``; ``x(t)`` = centroid of C_f in surface mm.
+4. Contact (:mod:`.contact`): finger outline points within 3 px of the surface outline,
+   grouped into regions ``[a_i, b_i]`` in surface mm.
+
+Frames that cannot give a trustworthy ``x`` are flagged with a reason (:class:`FrameFlag`)
+and carry NaN for ``x`` and no contact regions: a flagged frame is never a silently wrong
+number.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import math
+import os
+import time
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..regions import n_regions, region_lengths
+from ..surfaces import Surface
+from .binarize import Crop
+from .calibrate import Calibration, calibrate
+from .contact import contact_distance, contact_regions
+from .contours import finger_zone, lower_envelope, trace_finger
+from .readers import VideoReader, open_video
+from .tracking import area_below_line, centroid_below_line, line_for_area
+
+__all__ = ["FrameFlag", "FLAG_REASONS", "AnalysisOptions", "FrameAnalyzer", "VideoResult",
+           "analyze_video"]
+
+log = logging.getLogger(__name__)
+
+
+class FrameFlag(enum.IntFlag):
+    """Why a frame has no position (bit flags; 0 = a good frame)."""
+
+    CALIBRATION = 1
+    FINGER_MISSING = 2
+    OUT_OF_VIEW = 4
+    NO_CONTOUR = 8
+    CORRUPT = 16
+    AREA_UNREACHABLE = 32
+    NO_REFERENCE = 64
+
+
+#: Human-readable reason of each flag.
+FLAG_REASONS = {
+    FrameFlag.CALIBRATION: "calibration frame (finger-free by definition)",
+    FrameFlag.FINGER_MISSING: "finger missing: no dark region entering from the top",
+    FrameFlag.OUT_OF_VIEW: "finger leaves the field of view: C_f is cut by the crop's side",
+    FrameFlag.NO_CONTOUR: "threshold leaves no contour: the finger zone is (almost) all dark",
+    FrameFlag.CORRUPT: "corrupt or missing frame: the video could not be decoded here",
+    FrameFlag.AREA_UNREACHABLE: "finger lifted: no line encloses the reference area A",
+    FrameFlag.NO_REFERENCE: "no reference area A yet (no usable finger frame before this one)",
+}
+
+
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """Options of the video analysis.
+
+    Parameters
+    ----------
+    crop : Crop, optional
+        Window analysed; default the central 1260 x 360 px of the frame (the paper's).
+    level : float, optional
+        Threshold in gray units (dark = ``<= level``); default Otsu on the calibration
+        frame.
+    contact_tol_px : float
+        Contact distance in px (paper: 3 px, about 70 um).
+    contact_metric : {'euclidean', 'vertical'}
+        Distance between outline points (paper: euclidean) or vertical gap.
+    line_offset_mm : float
+        Height of the C_f line above the feature's top in the reference frame (0.4 mm).
+    chunk_size : int
+        Frames decoded and analysed together (memory: ~1 MB per frame of 1280 x 720 uint8).
+    calibration_frame : int
+        Index of the finger-free frame.
+    min_finger_points : int
+        Shortest finger contour (pixels) accepted; shorter ones are noise.
+    n_max_regions : int
+        Most contact regions expected in a frame.
+    """
+
+    crop: Crop | None = None
+    level: float | None = None
+    contact_tol_px: float = 3.0
+    contact_metric: str = "euclidean"
+    line_offset_mm: float = 0.4
+    chunk_size: int = 128
+    calibration_frame: int = 0
+    min_finger_points: int = 20
+    n_max_regions: int = 8
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.contact_tol_px) and self.contact_tol_px > 0):
+            raise ValueError(f"contact_tol_px must be > 0 px, got {self.contact_tol_px!r}")
+        if self.contact_metric not in ("euclidean", "vertical"):
+            raise ValueError(f"contact_metric must be 'euclidean' or 'vertical', got {self.contact_metric!r}")
+        if not (math.isfinite(self.line_offset_mm) and self.line_offset_mm > 0):
+            raise ValueError(f"line_offset_mm must be > 0 mm, got {self.line_offset_mm!r}")
+        if int(self.chunk_size) < 1:
+            raise ValueError(f"chunk_size must be >= 1 frame, got {self.chunk_size!r}")
+        if int(self.calibration_frame) < 0:
+            raise ValueError(f"calibration_frame must be >= 0, got {self.calibration_frame!r}")
+        if int(self.n_max_regions) < 1:
+            raise ValueError(f"n_max_regions must be >= 1, got {self.n_max_regions!r}")
+        if self.level is not None and not math.isfinite(float(self.level)):
+            raise ValueError(f"level must be a finite gray level, got {self.level!r}")
+
+
+@dataclass(frozen=True)
+class VideoResult:
+    """Result of :func:`analyze_video` for one video.
+
+    Attributes
+    ----------
+    path : str
+        The video.
+    x : (n_frames,) ndarray
+        Finger position x(t) in mm, surface coordinates (centroid of C_f); NaN where
+        flagged.
+    regions : (n_frames, n_max, 2) ndarray
+        Contact regions C_i in mm (:mod:`fingerfriction.regions`); no regions (all NaN)
+        in flagged frames.
+    flags : (n_frames,) uint8 ndarray
+        :class:`FrameFlag` bits; 0 for a good frame.
+    line_row : (n_frames,) ndarray
+        Row of the C_f line (crop coordinates, px); NaN where flagged.
+    area_px : float
+        Reference area A in px^2 (NaN if no usable finger frame).
+    reference_frame : int
+        Frame where A was measured (-1 if none).
+    calibration : Calibration
+        Scale, origin, threshold, surface profile.
+    fps : float or None
+        Frame rate in Hz.
+    contact_tol_px, contact_metric : float, str
+        The contact criterion used.
+    timings : dict
+        ``decode_s``, ``analysis_s`` (s) and ``frames_per_s`` of the analysis alone.
+    truncated : bool
+        The video ended or broke before its announced frame count.
+    success : bool
+        At least one frame gave a position.
+    message : str
+        Summary.
+    """
+
+    path: str
+    x: np.ndarray = field(repr=False)
+    regions: np.ndarray = field(repr=False)
+    flags: np.ndarray = field(repr=False)
+    line_row: np.ndarray = field(repr=False)
+    area_px: float
+    reference_frame: int
+    calibration: Calibration = field(repr=False)
+    fps: float | None
+    contact_tol_px: float
+    contact_metric: str
+    timings: dict
+    truncated: bool
+    success: bool
+    message: str
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.x.size)
+
+    @property
+    def threshold(self) -> float:
+        """Threshold level used (gray units)."""
+        return self.calibration.level
+
+    @property
+    def mm_per_px(self) -> float:
+        return self.calibration.mm_per_px
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Contact lengths L_i in mm, ``(n_frames, n_max)``."""
+        return region_lengths(self.regions)
+
+    @property
+    def n_regions(self) -> np.ndarray:
+        """Number of contact regions per frame (0 in flagged frames)."""
+        return n_regions(self.regions)
+
+    @property
+    def valid(self) -> np.ndarray:
+        """Frames with a position, ``(n_frames,)`` bool."""
+        return self.flags == 0
+
+    def reasons(self, frame: int) -> list[str]:
+        """Reasons a frame is flagged (empty for a good frame)."""
+        f = FrameFlag(int(self.flags[frame]))
+        return [FLAG_REASONS[b] for b in FrameFlag if b in f]
+
+    def flag_counts(self) -> dict[str, int]:
+        """Number of frames carrying each flag, by flag name."""
+        return {b.name: int(np.count_nonzero(self.flags & b)) for b in FrameFlag
+                if np.any(self.flags & b)}
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the result to a ``.npz`` file (atomic: temp file + rename)."""
+        path = os.fspath(path)
+        tmp = path + ".tmp.npz"
+        cal = self.calibration
+        np.savez(tmp, x=self.x, regions=self.regions, flags=self.flags, line_row=self.line_row,
+                 area_px=self.area_px, reference_frame=self.reference_frame,
+                 mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
+                 surface_x_mm=cal.x_mm, surface_h_mm=cal.h_hat_mm,
+                 contact_tol_px=self.contact_tol_px)
+        os.replace(tmp, path)
+
+
+class FrameAnalyzer:
+    """Analyses decoded frames chunk by chunk, given a calibration.
+
+    Stateful only in the reference area ``A`` (set from the first usable finger frame),
+    so chunks must be passed in frame order.
+
+    Parameters
+    ----------
+    calibration : Calibration
+    options : AnalysisOptions
+    frame_shape : (int, int)
+        ``(rows, cols)`` of the full frames.
+    """
+
+    def __init__(self, calibration: Calibration, options: AnalysisOptions,
+                 frame_shape: tuple[int, int]) -> None:
+        self.cal = calibration
+        self.opt = options
+        calibration.crop.check_fits(frame_shape, "video frame")
+        h, w = calibration.crop.height, calibration.crop.width
+        self.width = w
+        fd = calibration.surface_first_dark
+        self.zone_rows = int(max(int(fd.max()) - 1, 1))
+        self.zone = finger_zone(fd, h)[: self.zone_rows].copy()
+        self.zone_bool = self.zone > 0
+        self.zone_count = int(np.count_nonzero(self.zone))
+        self.zone_last = fd - 2
+        self.s = calibration.surface_row.astype(float)
+        self.buf = np.empty((self.zone_rows, w), np.uint8)
+        self.line0 = calibration.top_row - options.line_offset_mm / calibration.mm_per_px
+        self.area: float | None = None
+        self.reference_frame = -1
+        self.n_frames_seen = 0
+
+    def outlines(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Finger lower outlines of a chunk.
+
+        Parameters
+        ----------
+        frames : (k, rows, cols) uint8 or uint16 ndarray
+            Full frames.
+
+        Returns
+        -------
+        f : (k, width) float ndarray
+            Sub-pixel lower-outline row per crop column, NaN where no finger.
+        flags : (k,) uint8 ndarray
+            FINGER_MISSING / NO_CONTOUR where no outline was found.
+        """
+        crop = self.cal.crop.apply(frames)
+        k = crop.shape[0]
+        w = self.width
+        level = self.cal.level
+        env = np.full((k, w), -1, dtype=np.int64)
+        flags = np.zeros(k, np.uint8)
+        eight = crop.dtype == np.uint8
+        lvl8 = int(math.floor(level))
+        boolbuf = np.empty((self.zone_rows, w), bool)
+        for t in range(k):
+            img = crop[t, : self.zone_rows]
+            if eight:
+                cv2.threshold(img, lvl8, 255, cv2.THRESH_BINARY_INV, dst=self.buf)
+                cv2.bitwise_and(self.buf, self.zone, dst=self.buf)
+                binimg = self.buf
+            else:
+                np.less_equal(img, level, out=boolbuf)
+                np.logical_and(boolbuf, self.zone_bool, out=boolbuf)
+                binimg = boolbuf.view(np.uint8)
+            nz = cv2.countNonZero(binimg)
+            if nz > 0.98 * self.zone_count:
+                flags[t] = int(FrameFlag.NO_CONTOUR)
+                continue
+            fc = trace_finger(binimg, min_points=self.opt.min_finger_points) if nz else None
+            if fc is None:
+                flags[t] = int(FrameFlag.FINGER_MISSING)
+                continue
+            env[t] = lower_envelope(fc.points, w)
+        has = env >= 0
+        yb = np.where(has, env, 0)
+        tt = np.arange(k)[:, None]
+        cc = np.arange(w)[None, :]
+        g0 = crop[tt, yb, cc].astype(np.float32)
+        g1 = crop[tt, yb + 1, cc].astype(np.float32)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.where(g1 > g0, (level - g0) / (g1 - g0), 0.5)
+        f = yb + np.clip(frac, 0.0, 1.0)
+        touch = (yb >= self.zone_last[None, :]) & (g1 <= level)
+        f = np.where(touch, self.s[None, :], np.minimum(f, self.s[None, :]))
+        f[~has] = np.nan
+        return f, flags
+
+    def analyze_chunk(self, start: int, frames: np.ndarray) -> dict:
+        """Outlines, C_f tracking and contact for one chunk of full frames.
+
+        Returns
+        -------
+        dict
+            ``x`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
+            ``line_row`` (k,) px, ``f`` (k, width) outline rows.
+        """
+        opt, cal = self.opt, self.cal
+        f, flags = self.outlines(frames)
+        k = f.shape[0]
+        idx = start + np.arange(k)
+        flags[idx == opt.calibration_frame] |= int(FrameFlag.CALIBRATION)
+        w = self.width
+        if self.area is None:
+            cand = np.flatnonzero(flags == 0)
+            for t in cand:
+                ft = f[t]
+                if ft[0] > self.line0 or ft[w - 1] > self.line0:
+                    continue  # C_f cut by the crop: not a usable reference
+                a = float(area_below_line(ft, self.line0))
+                if a >= 1.0:
+                    self.area = a
+                    self.reference_frame = int(start + t)
+                    log.info("reference area A = %.1f px^2 in frame %d", a, self.reference_frame)
+                    break
+        line = np.full(k, np.nan)
+        if self.area is None:
+            flags[flags == 0] |= int(FrameFlag.NO_REFERENCE)
+        else:
+            before = idx < self.reference_frame
+            flags[(flags == 0) & before] |= int(FrameFlag.NO_REFERENCE)
+            ok = flags == 0
+            if ok.any():
+                line[ok] = line_for_area(f[ok], self.area)
+            unreachable = ok & np.isnan(line)
+            flags[unreachable] |= int(FrameFlag.AREA_UNREACHABLE)
+            cut = (flags == 0) & ((np.nan_to_num(f[:, 0], nan=-np.inf) > line)
+                                  | (np.nan_to_num(f[:, w - 1], nan=-np.inf) > line))
+            flags[cut] |= int(FrameFlag.OUT_OF_VIEW)
+        good = flags == 0
+        line[~good] = np.nan
+        xcol = centroid_below_line(f, np.where(good, line, np.inf))
+        x = np.where(good, cal.col_to_mm(xcol), np.nan)
+        fg = np.where(good[:, None], f, np.nan)
+        d = contact_distance(fg, self.s, metric=opt.contact_metric, tol_px=opt.contact_tol_px)
+        regions = contact_regions(d, opt.contact_tol_px, cal.col_to_mm, n_max=opt.n_max_regions)
+        self.n_frames_seen += k
+        return {"x": x, "regions": regions, "flags": flags, "line_row": line, "f": f}
+
+
+def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = None,
+                  options: AnalysisOptions | None = None, calibration: Calibration | None = None,
+                  start: int = 0, stop: int | None = None) -> VideoResult:
+    """Analyse one video: x(t), contact regions and per-frame flags.
+
+    Parameters
+    ----------
+    video : path-like or VideoReader
+        The video (any format of :func:`~fingerfriction.video.readers.open_video`).
+    surface_height_mm : float
+        Known feature height ``H`` in mm, for the scale.
+    surface : Surface, optional
+        The surface shape (enables the exact raised-cosine calibration fit).
+    options : AnalysisOptions, optional
+    calibration : Calibration, optional
+        Reuse a calibration instead of computing it from ``options.calibration_frame``.
+    start, stop : int
+        Frame range to analyse (default: all).
+
+    Returns
+    -------
+    VideoResult
+
+    Raises
+    ------
+    ValueError
+        For an unreadable file, a calibration frame that cannot be read or calibrated.
+    """
+    opt = options or AnalysisOptions()
+    reader = video if isinstance(video, VideoReader) else open_video(video)
+    own = not isinstance(video, VideoReader)
+    try:
+        n = reader.n_frames
+        if n == 0:
+            raise ValueError(f"{reader.path}: the video has no frames")
+        stop = n if stop is None else min(int(stop), n)
+        if calibration is None:
+            if opt.calibration_frame >= n:
+                raise ValueError(f"{reader.path}: calibration_frame {opt.calibration_frame} is beyond "
+                                 f"the last frame ({n - 1})")
+            frame0 = reader.read_frame(opt.calibration_frame)
+            try:
+                calibration = calibrate(frame0, surface_height_mm, crop=opt.crop, level=opt.level,
+                                        surface=surface)
+            except ValueError as exc:
+                raise ValueError(f"{reader.path}, calibration frame {opt.calibration_frame}: {exc}") from None
+        an = FrameAnalyzer(calibration, opt, reader.shape)
+        m = stop - start
+        x = np.full(m, np.nan)
+        line = np.full(m, np.nan)
+        flags = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
+        regions = np.full((m, opt.n_max_regions, 2), np.nan)
+        t_dec = t_an = 0.0
+        n_an = 0
+        t0 = time.perf_counter()
+        for i0, frames in reader.iter_chunks(opt.chunk_size, start=start, stop=stop):
+            t1 = time.perf_counter()
+            t_dec += t1 - t0
+            r = an.analyze_chunk(i0, frames)
+            s = slice(i0 - start, i0 - start + frames.shape[0])
+            x[s], line[s], flags[s], regions[s] = r["x"], r["line_row"], r["flags"], r["regions"]
+            t0 = time.perf_counter()
+            t_an += t0 - t1
+            n_an += frames.shape[0]
+        truncated = reader.truncated
+    finally:
+        if own:
+            reader.close()
+    kmax = max(int(n_regions(regions).max(initial=0)), 1)
+    regions = regions[:, :kmax]
+    n_good = int(np.count_nonzero(flags == 0))
+    msg = f"{n_good} of {m} frames tracked"
+    if truncated:
+        msg += f"; video truncated after frame {reader.n_read - 1}: {reader.error}"
+    timings = {"decode_s": t_dec, "analysis_s": t_an,
+               "frames_per_s": n_an / t_an if t_an > 0 else float("nan")}
+    return VideoResult(path=reader.path, x=x, regions=regions, flags=flags, line_row=line,
+                       area_px=float(an.area) if an.area is not None else float("nan"),
+                       reference_frame=an.reference_frame, calibration=calibration, fps=reader.fps,
+                       contact_tol_px=opt.contact_tol_px, contact_metric=opt.contact_metric,
+                       timings=timings, truncated=bool(truncated), success=n_good > 0, message=msg)

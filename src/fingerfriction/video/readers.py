@@ -1,0 +1,460 @@
+"""Video readers with one interface: stream gray frames in chunks, never a whole video.
+
+Supported inputs (``open_video(path)`` picks the reader from the path):
+
+================================  ==========================================  ===========
+input                             library                                     ``format``
+================================  ==========================================  ===========
+folder of ``.tif``/``.tiff``      tifffile, one frame per file, natural order  ``tiff``
+multi-page ``.tif``/``.tiff``     tifffile, one frame per page                 ``tiff``
+``.avi``, ``.mp4``, ``.mkv``      PyAV (FFmpeg): FFV1, H.264, MJPEG, raw...    ``avi``...
+``.cine`` (Phantom cameras)       :mod:`fingerfriction.video.cine`            ``cine``
+================================  ==========================================  ===========
+
+Every reader has ``n_frames``, ``shape`` ``(height, width)``, ``dtype``, ``fps`` (Hz, or
+None if the file does not say), and :meth:`VideoReader.iter_chunks` yielding
+``(start_index, frames)`` with ``frames`` a ``(k, height, width)`` uint8 or uint16 array.
+Colour frames are reduced to their luma (Y plane) or converted to gray.
+
+A file that is truncated or corrupt part-way yields the frames that could be read, then
+stops with ``reader.truncated = True`` and ``reader.error`` set (the analysis flags the
+missing frames); a file that cannot be read at all raises ``ValueError`` naming it.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+from collections.abc import Iterator
+
+import numpy as np
+
+from .cine import read_cine_header
+
+__all__ = ["VideoReader", "open_video", "TiffStackReader", "MultiPageTiffReader", "AVReader",
+           "CineReader", "VIDEO_EXTENSIONS"]
+
+log = logging.getLogger(__name__)
+
+#: File extensions recognised by :func:`open_video` (lower case, with dot).
+VIDEO_EXTENSIONS = (".tif", ".tiff", ".avi", ".mp4", ".mkv", ".mov", ".cine")
+
+
+class VideoReader:
+    """Base class of the readers: a video as a stream of gray frames.
+
+    Attributes
+    ----------
+    path : str
+        The file or folder read.
+    format : str
+        Short format name (``'tiff'``, ``'mkv'``, ``'cine'``...).
+    n_frames : int
+        Number of frames the file announces.
+    shape : (int, int)
+        ``(height, width)`` of a frame in pixels.
+    dtype : numpy.dtype
+        uint8 or uint16.
+    fps : float or None
+        Frame rate in Hz, if the file records it.
+    truncated : bool
+        Set once reading stopped before ``n_frames`` because the file is truncated or
+        corrupt; ``error`` then says why and ``n_read`` how many frames were read.
+    """
+
+    format = "video"
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.truncated = False
+        self.error: str | None = None
+        self.n_read = 0
+        self.n_frames = 0
+        self.shape: tuple[int, int] = (0, 0)
+        self.dtype = np.dtype(np.uint8)
+        self.fps: float | None = None
+
+    # -- to implement ---------------------------------------------------------------
+    def _read_range(self, start: int, stop: int, out: np.ndarray) -> int:
+        """Fill ``out[:stop - start]`` with frames ``start..stop-1``; return how many were read.
+
+        A return value below ``stop - start`` means the file ended or is corrupt there
+        (and ``self.error`` says why).
+        """
+        raise NotImplementedError
+
+    # -- common interface -----------------------------------------------------------
+    def iter_chunks(self, chunk_size: int = 256, *, start: int = 0,
+                    stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
+        """Yield ``(start_index, frames)`` chunks of at most ``chunk_size`` frames.
+
+        Parameters
+        ----------
+        chunk_size : int
+            Frames per chunk (memory: ``chunk_size * height * width * itemsize`` bytes).
+        start, stop : int
+            Frame range ``[start, stop)``; ``stop`` defaults to ``n_frames``.
+
+        Yields
+        ------
+        start_index : int
+            Index of the first frame of the chunk.
+        frames : (k, height, width) ndarray
+            uint8 or uint16; the array is reused between chunks: copy what you keep.
+        """
+        chunk_size = int(chunk_size)
+        if chunk_size < 1:
+            raise ValueError(f"chunk_size must be >= 1 frame, got {chunk_size}")
+        stop = self.n_frames if stop is None else min(int(stop), self.n_frames)
+        if not 0 <= start <= stop:
+            raise ValueError(f"start ({start}) must be in [0, {stop}] for {self.path}")
+        buf = np.empty((min(chunk_size, max(stop - start, 1)), *self.shape), dtype=self.dtype)
+        i = start
+        while i < stop:
+            j = min(i + chunk_size, stop)
+            got = self._read_range(i, j, buf)
+            self.n_read = max(self.n_read, i + got)
+            if got:
+                yield i, buf[:got]
+            if got < j - i:
+                self.truncated = True
+                log.warning("%s: read stopped at frame %d of %d: %s", self.path, i + got,
+                            self.n_frames, self.error)
+                return
+            i = j
+
+    def read_frame(self, index: int) -> np.ndarray:
+        """One frame ``(height, width)`` (a copy).
+
+        Raises
+        ------
+        IndexError
+            If ``index`` is outside ``[0, n_frames)``.
+        ValueError
+            If the frame cannot be read (truncated or corrupt file).
+        """
+        if not 0 <= index < self.n_frames:
+            raise IndexError(f"frame {index} is outside [0, {self.n_frames}) in {self.path}")
+        out = np.empty((1, *self.shape), dtype=self.dtype)
+        if self._read_range(index, index + 1, out) != 1:
+            raise ValueError(f"{self.path}: frame {index} cannot be read: {self.error}")
+        return out[0].copy()
+
+    def close(self) -> None:
+        """Release the file."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        h, w = self.shape
+        return (f"<{type(self).__name__} {self.path!r}: {self.n_frames} frames {w}x{h} "
+                f"{self.dtype} fps={self.fps}>")
+
+
+def _to_gray(img: np.ndarray, where: str) -> np.ndarray:
+    if img.ndim == 2:
+        return img
+    if img.ndim == 3 and img.shape[-1] in (3, 4):
+        import cv2
+
+        code = cv2.COLOR_RGB2GRAY if img.shape[-1] == 3 else cv2.COLOR_RGBA2GRAY
+        return cv2.cvtColor(img, code)
+    raise ValueError(f"{where}: expected a 2-D gray (or RGB) image, got shape {img.shape}")
+
+
+def _check_dtype(dtype: np.dtype, where: str) -> np.dtype:
+    dtype = np.dtype(dtype)
+    if dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"{where}: pixel type {dtype} is not supported; allowed: uint8, uint16")
+    return dtype
+
+
+def _natural_key(name: str):
+    return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", name)]
+
+
+# ---------------------------------------------------------------------------------------
+# TIFF
+# ---------------------------------------------------------------------------------------
+class TiffStackReader(VideoReader):
+    """A folder of single-image TIFF files, one frame each, in natural name order."""
+
+    format = "tiff"
+
+    def __init__(self, path: str) -> None:
+        import tifffile
+
+        super().__init__(path)
+        names = sorted((n for n in os.listdir(path) if n.lower().endswith((".tif", ".tiff"))),
+                       key=_natural_key)
+        if not names:
+            raise ValueError(f"{path}: folder contains no .tif/.tiff files")
+        self.files = [os.path.join(path, n) for n in names]
+        try:
+            first = _to_gray(tifffile.imread(self.files[0]), self.files[0])
+        except (OSError, ValueError, KeyError) as exc:
+            raise ValueError(f"{self.files[0]}: cannot read TIFF image ({exc})") from None
+        self.dtype = _check_dtype(first.dtype, self.files[0])
+        self.shape = first.shape
+        self.n_frames = len(self.files)
+
+    def _read_range(self, start, stop, out):
+        import tifffile
+
+        for k, i in enumerate(range(start, stop)):
+            f = self.files[i]
+            try:
+                img = _to_gray(tifffile.imread(f), f)
+            except Exception as exc:  # noqa: BLE001 - any decoder failure = corrupt frame
+                self.error = f"{f}: cannot read TIFF image ({type(exc).__name__}: {exc})"
+                return k
+            if img.shape != self.shape:
+                self.error = f"{f}: image is {img.shape}, the stack's frames are {self.shape}"
+                return k
+            out[k] = img
+        return stop - start
+
+
+class MultiPageTiffReader(VideoReader):
+    """A multi-page TIFF file, one frame per page (tifffile)."""
+
+    format = "tiff"
+
+    def __init__(self, path: str) -> None:
+        import tifffile
+
+        super().__init__(path)
+        try:
+            self._tf = tifffile.TiffFile(path)
+            pages = self._tf.pages
+            pages.useframes = True
+            n = len(pages)
+            first = _to_gray(pages[0].asarray(), path)
+        except Exception as exc:  # noqa: BLE001 - tifffile raises many types on bad files
+            raise ValueError(f"{path}: cannot read as TIFF ({type(exc).__name__}: {exc})") from None
+        self.dtype = _check_dtype(first.dtype, path)
+        self.shape = first.shape
+        self.n_frames = n
+        fps = None
+        ij = self._tf.imagej_metadata or {}
+        if ij.get("finterval"):
+            fps = 1.0 / float(ij["finterval"])
+        elif ij.get("fps"):
+            fps = float(ij["fps"])
+        self.fps = fps
+
+    def _read_range(self, start, stop, out):
+        for k, i in enumerate(range(start, stop)):
+            try:
+                img = _to_gray(self._tf.pages[i].asarray(), self.path)
+            except Exception as exc:  # noqa: BLE001
+                self.error = f"page {i} cannot be read ({type(exc).__name__}: {exc})"
+                return k
+            if img.shape != self.shape:
+                self.error = f"page {i} is {img.shape}, the first page is {self.shape}"
+                return k
+            out[k] = img
+        return stop - start
+
+    def close(self) -> None:
+        self._tf.close()
+
+
+# ---------------------------------------------------------------------------------------
+# FFmpeg containers (PyAV)
+# ---------------------------------------------------------------------------------------
+class AVReader(VideoReader):
+    """AVI / MP4 / MKV (any FFmpeg codec: FFV1, H.264, MJPEG, raw) through PyAV.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    threads : int
+        Decoder threads (default 1: one core, as the benchmarks measure).
+
+    Notes
+    -----
+    YUV frames are reduced to their luma plane without a colour conversion; 9-16 bit
+    gray formats (``gray16le``, ``gray12le``...) are returned as uint16. Frames are
+    decoded sequentially; a chunk starting before the current position reopens the file.
+    """
+
+    def __init__(self, path: str, *, threads: int = 1) -> None:
+        import av
+
+        super().__init__(path)
+        self.format = os.path.splitext(path)[1].lower().lstrip(".")
+        self._threads = int(threads)
+        try:
+            with av.open(path) as c:
+                if not c.streams.video:
+                    raise ValueError(f"{path}: file has no video stream")
+                s = c.streams.video[0]
+                cc = s.codec_context
+                self.shape = (int(cc.height), int(cc.width))
+                rate = s.average_rate or s.guessed_rate or s.base_rate
+                self.fps = float(rate) if rate else None
+                pix = cc.pix_fmt or ""
+                n = int(s.frames or 0)
+                if n == 0:  # MKV does not store a frame count: count packets (no decoding)
+                    dur = None
+                    if s.duration is not None and s.time_base is not None:
+                        dur = float(s.duration * s.time_base)
+                    elif c.duration is not None:
+                        dur = c.duration / 1e6
+                    n = sum(1 for p in c.demux(s) if p.size)
+                    # The container's duration announces the frame count: fewer packets
+                    # than that means the file was cut short.
+                    if dur and self.fps and round(dur * self.fps) > n:
+                        n_ann = int(round(dur * self.fps))
+                        log.warning("%s: duration says %d frames but only %d are stored", path, n_ann, n)
+                        n = n_ann
+        except av.error.FFmpegError as exc:
+            raise ValueError(f"{path}: cannot open as video ({exc})") from None
+        self.n_frames = n
+        self.dtype = np.dtype(np.uint16 if _is_high_bit_gray(pix) else np.uint8)
+        self._container = None
+        self._gen = None
+        self._pos = 0
+
+    def _open(self) -> None:
+        import av
+
+        self.close()
+        self._container = av.open(self.path)
+        s = self._container.streams.video[0]
+        s.thread_count = self._threads
+        s.thread_type = "AUTO" if self._threads > 1 else "SLICE"
+        self._gen = self._container.decode(s)
+        self._pos = 0
+
+    def _next_frame(self) -> np.ndarray:
+        frame = next(self._gen)
+        name = frame.format.name
+        if self.dtype == np.uint16:
+            return frame.to_ndarray(format="gray16le")
+        if name in ("gray", "gray8") or name.startswith(("yuv", "yuvj", "nv12", "nv21")):
+            plane = frame.planes[0]
+            h, w = self.shape
+            buf = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)
+            return buf[:h, :w]
+        return frame.to_ndarray(format="gray")
+
+    def _read_range(self, start, stop, out):
+        import av
+
+        if self._gen is None or start < self._pos:
+            self._open()
+        try:
+            while self._pos < start:
+                self._next_frame()
+                self._pos += 1
+            for k in range(stop - start):
+                out[k] = self._next_frame()
+                self._pos += 1
+        except StopIteration:
+            self.error = f"the stream ended after {self._pos} frames ({self.n_frames} announced)"
+            return self._pos - start if self._pos > start else 0
+        except (av.error.FFmpegError, ValueError) as exc:
+            self.error = f"decoding failed at frame {self._pos} ({exc})"
+            return max(self._pos - start, 0)
+        return stop - start
+
+    def close(self) -> None:
+        if self._container is not None:
+            self._container.close()
+        self._container = None
+        self._gen = None
+
+
+def _is_high_bit_gray(pix: str) -> bool:
+    return bool(re.fullmatch(r"gray(9|10|12|14|16)(le|be)", pix))
+
+
+# ---------------------------------------------------------------------------------------
+# Phantom cine
+# ---------------------------------------------------------------------------------------
+class CineReader(VideoReader):
+    """Phantom ``.cine`` files, uncompressed 8- or 16-bit gray (see :mod:`.cine`)."""
+
+    format = "cine"
+
+    def __init__(self, path: str) -> None:
+        super().__init__(path)
+        hdr = read_cine_header(path)
+        self.header = hdr
+        self.shape = (hdr.height, hdr.width)
+        self.dtype = hdr.dtype
+        self.fps = hdr.fps
+        self.n_frames = hdr.image_count
+        self._fh = open(path, "rb")
+
+    def _read_range(self, start, stop, out):
+        hdr = self.header
+        h, w = self.shape
+        rb = hdr.row_bytes
+        for k, i in enumerate(range(start, stop)):
+            off = int(hdr.image_offsets[i])
+            self._fh.seek(off)
+            raw = self._fh.read(4)
+            if len(raw) < 4 or off < 0:
+                self.error = f"image {i}: its annotation at offset {off} is past the end of the file"
+                return k
+            ann = int.from_bytes(raw, "little")
+            if ann < 8:
+                self.error = f"image {i}: AnnotationSize={ann} is invalid (>= 8 expected)"
+                return k
+            self._fh.seek(off + ann)
+            data = self._fh.read(hdr.image_size)
+            if len(data) < hdr.image_size:
+                self.error = (f"image {i} is cut short: {len(data)} of {hdr.image_size} bytes "
+                              "(the file is truncated)")
+                return k
+            img = np.frombuffer(data, dtype=hdr.dtype).reshape(h, rb // hdr.dtype.itemsize)[:, :w]
+            out[k] = img[::-1] if hdr.bottom_up else img
+        return stop - start
+
+    def close(self) -> None:
+        self._fh.close()
+
+
+def open_video(path: str | os.PathLike, **kwargs) -> VideoReader:
+    """Open a video for streaming; the reader is chosen from the path.
+
+    Parameters
+    ----------
+    path : path-like
+        A folder of TIFF files, or a ``.tif/.tiff``, ``.avi``, ``.mp4``, ``.mkv``,
+        ``.mov`` or ``.cine`` file.
+    **kwargs
+        Passed to the reader (``threads=`` for :class:`AVReader`).
+
+    Returns
+    -------
+    VideoReader
+
+    Raises
+    ------
+    ValueError
+        For a missing file, an unknown extension, or a file that cannot be read at all.
+    """
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        return TiffStackReader(p)
+    if not os.path.exists(p):
+        raise ValueError(f"{p}: no such video file or folder")
+    ext = os.path.splitext(p)[1].lower()
+    if ext in (".tif", ".tiff"):
+        return MultiPageTiffReader(p)
+    if ext in (".avi", ".mp4", ".mkv", ".mov"):
+        return AVReader(p, **kwargs)
+    if ext == ".cine":
+        return CineReader(p)
+    raise ValueError(f"{p}: unknown video extension {ext!r}; allowed: a TIFF folder or "
+                     + ", ".join(VIDEO_EXTENSIONS))

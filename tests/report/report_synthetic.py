@@ -1,0 +1,83 @@
+"""A synthetic results folder (no video, no Dask): what `analyze` would write for trials
+whose contact regions and forces come from Eq. (4) with known parameters."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from fingerfriction.model import FrictionParams, friction_force
+from fingerfriction.results import ResultsStore, frames_table
+from fingerfriction.surfaces import get_surface
+
+SUBJECTS = {"1": 0.55, "2": 0.60}
+SURFACES = ("bump-2mm", "step-down-4mm")
+SPEEDS = (40.0, 120.0)
+REPS = 2
+
+
+def _regions(x: np.ndarray, gap: tuple[float, float]) -> np.ndarray:
+    """Contact [x - 4, x + 4] mm with the interval ``gap`` never touched."""
+    reg = np.full((x.size, 2, 2), np.nan)
+    for k, xc in enumerate(x):
+        lo, hi = xc - 4.0, xc + 4.0
+        segs = []
+        if lo < gap[0]:
+            segs.append((lo, min(hi, gap[0])))
+        if hi > gap[1]:
+            segs.append((max(lo, gap[1]), hi))
+        for i, s in enumerate(segs):
+            reg[k, i] = s
+    return reg
+
+
+def write_synthetic_results(root, *, truth_dir=None, seed: int = 0) -> dict:
+    """Write a results folder; return the true per-trial parameters and blind spots."""
+    rng = np.random.default_rng(seed)
+    store = ResultsStore(root)
+    trials, truth = [], {"gaps": {}, "p": {}}
+    for subj, mu in SUBJECTS.items():
+        for sname in SURFACES:
+            surf = get_surface(sname)
+            a, _ = surf.feature_extent
+            gap = (a - 0.5, a + 0.2)
+            truth["gaps"][sname] = gap
+            for v in SPEEDS:
+                for r in range(1, REPS + 1):
+                    tid = f"s{subj}-{sname}-v{int(v):03d}-r{r}"
+                    t = np.arange(0.0, 34.0 / v, 1e-3)
+                    x = -17.0 + v * t
+                    x[0] = np.nan  # calibration frame: no finger
+                    reg = _regions(np.nan_to_num(x, nan=-17.0), gap)
+                    reg[0] = np.nan
+                    flags = ["no finger"] + [""] * (t.size - 1)
+                    frames = frames_table(t, x, reg, flags)
+                    p = FrictionParams(mu, 0.05 * (1 + 0.1 * rng.standard_normal()), 0.3)
+                    truth["p"][tid] = p
+                    xg = np.round(np.arange(-13.0, 13.0 + 1e-9, 0.01), 2)
+                    xv, rv = x[1:], reg[1:]
+                    idx = np.clip(np.searchsorted(xv, xg), 0, xv.size - 1)
+                    F = friction_force(surf, rv[idx], p).total
+                    F = F - F[:200].mean() + 0.002 * rng.standard_normal(xg.size)
+                    import pandas as pd
+
+                    forces = pd.DataFrame({"x_mm": xg, "F_T_N": F, "F_N_N": np.full(xg.size, 0.3),
+                                           "n_samples": np.ones(xg.size, dtype=np.int64)})
+                    store.write_trial(tid, frames, forces, {"params_sha256": "synthetic", "inputs": {},
+                                                           "elapsed_s": 0.0})
+                    trials.append({"id": tid, "subject": subj, "surface": sname, "speed_mm_s": v,
+                                   "repetition": r})
+    if truth_dir is not None:
+        truth_dir.mkdir(parents=True, exist_ok=True)
+        (truth_dir / "study.json").write_text(json.dumps(
+            {"subjects": {s: {"mu": mu} for s, mu in SUBJECTS.items()}}))
+    store.write_run({
+        "study": str(truth_dir.parent) if truth_dir is not None else "synthetic",
+        "parameters": {"video": {}, "forces": {}}, "params_sha256": "synthetic",
+        "versions": {"fingerfriction": "test"},
+        "surfaces": {s: get_surface(s).to_dict() for s in SURFACES},
+        "trials": trials,
+        "truth": str(truth_dir) if truth_dir is not None else None,
+    })
+    return truth

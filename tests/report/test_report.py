@@ -1,0 +1,107 @@
+"""Report: figures, tables and the self-contained HTML of fingerfriction.report."""
+
+from __future__ import annotations
+
+import base64
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fingerfriction.report import make_report
+from fingerfriction.report.data import load_report_data
+from fingerfriction.report.figures import FIGURES
+from fingerfriction.results import ResultsStore
+
+
+@pytest.fixture(scope="module")
+def report(synthetic_results):
+    results, truth = synthetic_results
+    return make_report(results), results, truth
+
+
+def test_every_figure_written_as_png_and_svg(report):
+    rep, results, _ = report
+    for stem, *_ in FIGURES:
+        png = results / "report" / f"{stem}.png"
+        svg = results / "report" / f"{stem}.svg"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", stem
+        assert b"<svg" in svg.read_bytes()[:2000], stem
+
+
+def test_html_is_self_contained(report):
+    rep, results, _ = report
+    html = rep.html.read_text()
+    imgs = re.findall(r'<img src="([^"]+)"', html)
+    assert len(imgs) == len(FIGURES)
+    for src in imgs:  # every image embedded, none refers to a file next to the report
+        assert src.startswith("data:image/png;base64,")
+        assert base64.b64decode(src.split(",", 1)[1])[:4] == b"\x89PNG"
+    assert "<link" not in html and "<script src" not in html
+
+
+def test_blind_spots_found_where_the_contact_never_was(report):
+    rep, _, truth = report
+    bs = rep.blindspots
+    for name, (a, b) in truth["gaps"].items():
+        row = bs[bs["surface"] == name]
+        assert len(row) == 1
+        assert row["start_mm"].iloc[0] == pytest.approx(a, abs=1e-9)
+        assert row["width_mm"].iloc[0] == pytest.approx(b - a, abs=1e-9)
+
+
+def test_table1_and_truth_tables(report):
+    rep, results, truth = report
+    t1 = rep.table1
+    assert t1 is not None
+    # 2 subjects + both, x 2 surfaces; forces are Eq. (4) plus 2 mN noise: strong correlation.
+    assert len(t1) == 6
+    assert (t1["rho"] > 0.9).all() and t1["significant"].all()
+    for ext in ("csv", "md", "tex"):
+        assert (results / "report" / f"table1.{ext}").stat().st_size > 0
+    mu = rep.truth["mu"].set_index("subject")
+    assert mu.loc["1", "mu_true"] == 0.55 and mu.loc["2", "mu_true"] == 0.60
+    assert np.all(np.abs(mu["error"]) <= 0.03)
+
+
+def test_fit_recovers_parameters(synthetic_results):
+    results, truth = synthetic_results
+    df = pd.read_csv(results / "fit" / "trials.csv", dtype={"subject": str})
+    assert df["success"].all()
+    for row in df[df["surface"] == "bump-2mm"].itertuples():  # p1 is well identified on a bump
+        p = truth["p"][row.trial]
+        assert row.p1 == pytest.approx(p.p1, rel=0.1), row.trial
+    model = pd.read_parquet(results / "fit" / "model" / f"{df['trial'].iloc[0]}.parquet")
+    assert {"x_mm", "F_T_N", "F_hat_N", "F_int_N", "F_def_N"} <= set(model.columns)
+    # Eq. (1): the two parts add up to the model force.
+    np.testing.assert_allclose(model["F_int_N"] + model["F_def_N"], model["F_model_N"], atol=1e-12)
+
+
+def test_report_before_fit_leaves_out_model_figures(tmp_path):
+    from report_synthetic import write_synthetic_results
+
+    write_synthetic_results(tmp_path / "r")
+    rep = make_report(tmp_path / "r")
+    assert rep.table1 is None
+    names = {p.name for p in rep.files}
+    assert "fig3_occupancy.png" in names and "fig6_model.png" not in names
+    assert "fingerfriction fit" in rep.html.read_text()
+
+
+def test_failed_trials_listed(tmp_path):
+    from report_synthetic import write_synthetic_results
+
+    write_synthetic_results(tmp_path / "r")
+    store = ResultsStore(tmp_path / "r")
+    tid = store.trial_ids()[0]
+    store.write_failure(tid, "ValueError: video truncated\nat frame 12", {})
+    data = load_report_data(tmp_path / "r")
+    assert (tid, "ValueError: video truncated at frame 12") in data.failed
+    html = make_report(tmp_path / "r").html.read_text()
+    assert tid in html and "video truncated at frame 12" in html
+
+
+def test_not_a_results_folder(tmp_path):
+    with pytest.raises(ValueError, match="not a results folder"):
+        make_report(tmp_path)
