@@ -320,3 +320,50 @@ def test_cli_predict(tmp_path):
     assert bad.exit_code == 2 and "at most 0.723 rad" in bad.output and "Traceback" not in bad.output
     bad = CliRunner().invoke(app, ["predict", "--surface", "nope-4mm", "--subject", "1"])
     assert bad.exit_code == 2 and "unknown surface 'nope-4mm'" in bad.output
+
+
+# ------------------------------------------------------------------ results store (pipeline)
+def _synthetic_results(tmp_path):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parent / "report" / "report_synthetic.py"
+    spec = importlib.util.spec_from_file_location("ff_report_synthetic", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    root = tmp_path / "results"
+    mod.write_synthetic_results(root)
+    return root
+
+
+@pytest.mark.slow
+def test_params_from_pipeline_fit_and_validate_results(tmp_path):
+    from fingerfriction.pipeline import fit
+    from fingerfriction.predict import validate_results
+
+    root = _synthetic_results(tmp_path)
+    fit(root, progress=False, median_kernel=1)
+    trials = pd.read_csv(root / "fit" / "trials.csv", dtype={"subject": str})
+    fj = json.loads((root / "fit" / "fit.json").read_text())
+    for src in (root, root / "fit", root / "fit" / "fit.json"):
+        p = load_params(src, "2")
+        sel = trials[trials["subject"] == "2"]
+        assert p == FrictionParams(fj["mu"]["2"], sel["p0"].median(), sel["p1"].median())
+    with pytest.raises(ValueError, match=r"no fitted mu for subject '3'"):
+        load_params(root, "3")
+    res = validate_results(root, forward_step=0.05)
+    df = pd.read_csv(root / "fit" / "loso.csv")
+    assert len(df) == 2 * 3 and set(df["surface"]) == {"bump-2mm", "step-down-4mm"}
+    assert np.all(np.isfinite(df["rho_in_sample"])) and np.all(np.isfinite(df["rho_out_of_sample"]))
+    # in-sample rho is the study's Table 1 (same grid and options as the recorded fit)
+    from fingerfriction.fit import FitOptions, fit_trials, mu_grid
+    from fingerfriction.predict import trials_from_results
+    from fingerfriction.stats import correlation_table
+
+    g = fj["mu_grid"]
+    grid = mu_grid(g["start"], g["stop"], g["step"])
+    opts = FitOptions(**fj["options"])
+    t1 = correlation_table(fit_trials(trials_from_results(root), grid=grid, options=opts))
+    got = res.table.set_index(["subject", "surface"])["rho_in_sample"]
+    ref = t1.set_index(["subject", "shape"])["rho"]
+    assert got["1", "bump-2mm"] == pytest.approx(ref["1", "Bump"], abs=1e-12)

@@ -468,6 +468,32 @@ def render_cmd(
         console.print(f"  {kind:8s} {path}", highlight=False)
 
 
+@app.command("validate")
+def validate_cmd(
+    results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
+    out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps."),
+) -> None:
+    """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
+    its geometry alone (no video), rho next to the in-sample Table 1."""
+    from rich.table import Table
+
+    from .predict import validate_results
+
+    try:
+        res = validate_results(results, out=out, forward_step=step)
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc))
+    t = Table(title="out-of-sample validation (leave one surface out)")
+    for col in ("subject", "surface", "trials", "rho in sample", "rho held-out params, video",
+                "rho out of sample"):
+        t.add_column(col, justify="right" if col.startswith(("rho", "trials")) else "left")
+    for r in res.table.itertuples():
+        t.add_row(str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
+                  f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
+    console.print(t)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fingerfriction`` console script."""
     try:

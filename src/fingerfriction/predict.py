@@ -84,6 +84,8 @@ __all__ = [
     "predict_from_regions",
     "OutOfSample",
     "leave_one_surface_out",
+    "trials_from_results",
+    "validate_results",
 ]
 
 log = logging.getLogger(__name__)
@@ -377,6 +379,31 @@ def _params_from_mapping(d: dict, subject, where: str) -> FrictionParams:
     raise ValueError(f"{where}: subject {subject!r} entry needs 'p0' and 'p1' or a non-empty 'trials' list")
 
 
+def _params_from_pipeline_fit(d: dict, subject, path: str) -> FrictionParams:
+    """``fingerfriction fit`` output: mu per subject in fit.json, p0/p1 per trial in the
+    trials.csv beside it; the subject's medians over its successful trials are used."""
+    import pandas as pd
+
+    mus = d["mu"]
+    key = str(subject)
+    if key not in mus:
+        raise ValueError(f"{path}: no fitted mu for subject {subject!r}; the fit has subjects {sorted(mus)}")
+    tcsv = os.path.join(os.path.dirname(path), "trials.csv")
+    try:
+        t = pd.read_csv(tcsv, dtype={"subject": str})
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{tcsv}: cannot read the per-trial fits ({exc})") from None
+    missing = {"subject", "p0", "p1"} - set(t.columns)
+    if missing:
+        raise ValueError(f"{tcsv}: missing column(s) {sorted(missing)}")
+    sel = t[t["subject"] == key]
+    if "success" in sel.columns:
+        sel = sel[sel["success"].astype(str).str.lower() == "true"]
+    if sel.empty:
+        raise ValueError(f"{tcsv}: no successful trial fit for subject {subject!r}")
+    return FrictionParams(mu=float(mus[key]), p0=float(sel["p0"].median()), p1=float(sel["p1"].median()))
+
+
 def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
     """Read Eq. (4) parameters from a JSON file.
 
@@ -384,7 +411,9 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
     object ``{"subjects": {"1": {"mu", "p0", "p1"}}}`` (or without the ``subjects``
     level); or a fit output with per-trial values ``{"subjects": {"1": {"mu": ...,
     "trials": [{"p0": ..., "p1": ...}, ...]}}}``, whose subject-level ``p0, p1`` are the
-    medians over trials (a prediction has no trial of its own to fit).
+    medians over trials (a prediction has no trial of its own to fit); or the output of
+    ``fingerfriction fit`` (``RESULTS``, ``RESULTS/fit`` or ``RESULTS/fit/fit.json``: mu
+    per subject, p0 and p1 medians over the subject's successful trials in ``trials.csv``).
 
     Raises
     ------
@@ -392,6 +421,13 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
         Naming the file and what is missing or malformed.
     """
     path = os.fspath(path)
+    if os.path.isdir(path):  # a results folder or its fit/ folder
+        for cand in (os.path.join(path, "fit", "fit.json"), os.path.join(path, "fit.json")):
+            if os.path.exists(cand):
+                path = cand
+                break
+        else:
+            raise ValueError(f"{path}: a folder without fit/fit.json; run 'fingerfriction fit' first")
     try:
         with open(path, encoding="utf-8") as fh:
             d = json.load(fh)
@@ -401,6 +437,8 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
         raise ValueError(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(d, dict):
         raise ValueError(f"{path}: expected a JSON object, got {type(d).__name__}")
+    if isinstance(d.get("mu"), dict):
+        return _params_from_pipeline_fit(d, subject, path)
     try:
         return _params_from_mapping(d, subject, path)
     except (TypeError, KeyError) as exc:
@@ -954,3 +992,79 @@ def _loso_row(subject, surf: Surface, trials, ins, out, video, params) -> dict:
         "p0": params.p0 if params else math.nan,
         "p1": params.p1 if params else math.nan,
     }
+
+
+# ---------------------------------------------------------------------------- results store
+def trials_from_results(results: str | os.PathLike) -> list:
+    """Per-trial data of an analysed study (``fingerfriction analyze`` results folder).
+
+    Builds one :class:`fingerfriction.fit.Trial` per successfully analysed trial exactly
+    as ``fingerfriction fit`` does (:func:`fingerfriction.pipeline.fit`): forces on the
+    0.01 mm grid from ``forces.parquet``, video regions mapped onto the grid with
+    :func:`fingerfriction.pipeline.regions_on_grid`, surface from the run record.
+
+    Raises
+    ------
+    ValueError
+        If the folder has no analysed trial.
+    """
+    from .fit import Trial
+    from .pipeline import regions_on_grid
+    from .results import ResultsStore, regions_from_table
+
+    store = ResultsStore(results)
+    run = store.read_run()
+    surfaces = {k: surface_from_spec(v) for k, v in run.get("surfaces", {}).items()}
+    trials, skipped = [], []
+    for m in run.get("trials", []):
+        tid = m["id"]
+        if (store.status(tid) or {}).get("status") != "ok":
+            continue
+        try:
+            fr = store.read_frames(tid)
+            fo = store.read_forces(tid)
+            x = fo["x_mm"].to_numpy(float)
+            F = fo["F_T_N"].to_numpy(float)
+            good = np.isfinite(F)
+            reg = regions_on_grid(fr["x_mm"].to_numpy(float), regions_from_table(fr), x)
+            trials.append(Trial(x=x[good], force=F[good], regions=reg[good], surface=surfaces[m["surface"]],
+                                subject=str(m["subject"]), labels={"trial": tid, "surface": m["surface"]}))
+        except (ValueError, KeyError, OSError) as exc:
+            skipped.append((tid, str(exc)))
+    for tid, why in skipped:
+        log.warning("trial %s skipped: %s", tid, why)
+    if not trials:
+        raise ValueError(f"{os.fspath(results)!r} has no analysed trial to validate")
+    return trials
+
+
+def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | None = None,
+                     forward_step: float = 0.01) -> OutOfSample:
+    """Leave-one-surface-out validation of an analysed study; writes ``loso.csv``.
+
+    Uses the ``mu`` grid and fit options recorded by ``fingerfriction fit`` in
+    ``RESULTS/fit/fit.json`` when present (so ``rho_in_sample`` is the study's Table 1),
+    else the defaults. The table goes to ``out`` (default ``RESULTS/fit/loso.csv``).
+    This is the function the report calls.
+    """
+    from .fit import FitOptions, mu_grid
+
+    root = os.fspath(results)
+    grid, options = None, None
+    fj = os.path.join(root, "fit", "fit.json")
+    if os.path.exists(fj):
+        with open(fj, encoding="utf-8") as fh:
+            rec = json.load(fh)
+        g = rec.get("mu_grid") or {}
+        if {"start", "stop", "step"} <= set(g):
+            grid = mu_grid(g["start"], g["stop"], g["step"])
+        o = rec.get("options")
+        if isinstance(o, dict):
+            known = set(FitOptions.__dataclass_fields__)
+            options = FitOptions(**{k: v for k, v in o.items() if k in known})
+    res = leave_one_surface_out(trials_from_results(root), grid=grid, options=options,
+                                forward_step=forward_step)
+    target = out if out is not None else os.path.join(root, "fit", "loso.csv")
+    os.makedirs(os.path.dirname(os.path.abspath(os.fspath(target))), exist_ok=True)
+    res.write_csv(target)
+    return res
