@@ -299,8 +299,8 @@ def flat_contact_length(subject, *, load: float = DEFAULT_LOAD_N) -> float:
     return _flat_length(finger, float(load))
 
 
-def _rise_basis(surface: Surface, finger, load: float, step: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per-position Eq. (4) basis (p0, p1 columns) on a surface, minus its flat level."""
+def _calibration_sweep(surface: Surface, finger, load: float, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Finger positions (mm) and forward-model regions of a calibration sweep."""
     lo, hi = sweep_window(surface)
     x = np.arange(lo, hi + 0.5 * step, step)
     regions = forward_regions(surface, finger, x, load=load)
@@ -315,7 +315,7 @@ def _default_params_cached(key, finger, load: float, step: float) -> FrictionPar
     peaks = []
     for name in _P1_CALIBRATION_SURFACES:
         s = get_surface(name)
-        x, regions = _rise_basis(s, finger, load, step)
+        x, regions = _calibration_sweep(s, finger, load, step)
         peaks.append(float(np.max(FrictionModel(s).basis(regions, mu)[:, 1])))
     m = float(np.mean(peaks))
     if not m > 0:
