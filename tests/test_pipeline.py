@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fingerfriction.pipeline import AnalysisParams, analyze, fit, regions_on_grid
+from fingerfriction.pipeline import DEMO_WINDOW_MM, AnalysisParams, analyze, fit, regions_on_grid
 from fingerfriction.results import (
     ResultsStore,
     atomic_write_parquet,
@@ -30,6 +30,9 @@ from fingerfriction.results import (
 )
 
 SRC = Path(__file__).resolve().parents[1] / "src"
+# The simulated camera tracks x(t) over about +-10.3 mm only: a 20 mm force window (see
+# fingerfriction.pipeline.DEMO_WINDOW_MM) instead of the paper's 26 mm.
+SIM = AnalysisParams(forces={"window_mm": DEMO_WINDOW_MM})
 
 
 # --------------------------------------------------------------------------------------
@@ -176,10 +179,10 @@ def test_bad_options(tmp_path):
 
 
 def make_tiny_study(out: Path) -> Path:
-    """1 subject x 1 surface x 2 speeds x 2 repetitions = 4 trials, simulated."""
+    """1 subject x 1 surface x 1 speed (120 mm/s, the shortest slides) x 4 repetitions."""
     from fingerfriction.sim import SimOptions, simulate_study
 
-    simulate_study(out, SimOptions(reps=2, subjects=("1",), surfaces=("bump-2mm",), speeds=(80.0, 120.0),
+    simulate_study(out, SimOptions(reps=4, subjects=("1",), surfaces=("bump-2mm",), speeds=(120.0,),
                                    seed=3), workers=1)
     return out
 
@@ -192,7 +195,7 @@ def tiny_study(tmp_path_factory):
 @pytest.fixture(scope="module")
 def clean_results(tiny_study, tmp_path_factory):
     out = tmp_path_factory.mktemp("clean") / "results"
-    res = analyze(tiny_study, out, n_workers=2, progress=False)
+    res = analyze(tiny_study, out, n_workers=2, progress=False, params=SIM)
     return res, out
 
 
@@ -229,8 +232,9 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
         assert run["inputs"][tid]["force"]["sha256"] == _digest(tiny_study / t["force"]["path"])
         fr, fo = store.read_frames(tid), store.read_forces(tid)
         assert len(fr) == t["video"]["n_frames"]
-        assert np.isfinite(fr["x_mm"]).mean() > 0.9
-        assert (fr["n_regions"] > 0).mean() > 0.5
+        assert np.isfinite(fr["x_mm"]).sum() > 100  # tracked frames (the rest are flagged, with reasons)
+        assert (fr["flag"] == "").sum() == np.isfinite(fr["x_mm"]).sum()
+        assert (fr["n_regions"] > 0).sum() > 100
         assert np.diff(fo["x_mm"]).min() > 0 and np.isfinite(fo["F_T_N"]).all()
     # the fit and the report on top
     summary = fit(out, progress=False)
@@ -260,14 +264,14 @@ def test_interrupted_run_resumes_without_loss_or_recomputation(tiny_study, tmp_p
             raise Stop  # the user presses Ctrl-C after k trials
 
     with pytest.raises(Stop):
-        analyze(tiny_study, out, n_workers=1, progress=False, callback=stop_after_k)
+        analyze(tiny_study, out, n_workers=1, progress=False, params=SIM, callback=stop_after_k)
     store = ResultsStore(out)
     assert sorted(t for t in ids if (store.status(t) or {}).get("status") == "ok") == sorted(done)
     assert store.read_run()["state"] == "interrupted"
     before = {tid: _fingerprint(out, tid) for tid in done}
 
     seen = []
-    res = analyze(tiny_study, out, n_workers=1, progress=False, callback=seen.append)
+    res = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM, callback=seen.append)
     assert res.n_skipped == k and res.n_computed == len(ids) - k and res.n_failed == 0
     assert sorted(o.trial_id for o in seen if o.status == "skipped") == sorted(done)
     assert sorted(o.trial_id for o in seen if o.status == "ok") == sorted(set(ids) - set(done))
@@ -277,11 +281,10 @@ def test_interrupted_run_resumes_without_loss_or_recomputation(tiny_study, tmp_p
     assert [r["interrupted"] for r in runs] == [True, False]
     assert [r["computed"] for r in runs] == [k, len(ids) - k]
 
-    # a third run recomputes nothing; --force recomputes everything
-    again = analyze(tiny_study, out, n_workers=1, progress=False)
+    # a third run recomputes nothing (and starts no cluster); other parameters recompute
+    again = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM)
     assert again.n_computed == 0 and again.n_skipped == len(ids) and again.scheduler == "none"
-    forced = analyze(tiny_study, out, n_workers=1, force=True, progress=False)
-    assert forced.n_computed == len(ids) and forced.n_skipped == 0
+    assert not store.is_finished(ids[0], "digest of other parameters")
 
 
 @pytest.mark.slow
@@ -295,7 +298,7 @@ def test_corrupt_trial_is_reported_and_the_others_are_intact(tiny_study, clean_r
     data = video.read_bytes()
     video.write_bytes(data[: len(data) // 3])  # a truncated video file
 
-    res = analyze(study, tmp_path / "results", n_workers=2, progress=False)
+    res = analyze(study, tmp_path / "results", n_workers=2, progress=False, params=SIM)
     assert res.n_failed == 1 and res.n_computed == 3
     (tid, reason), = res.failures
     assert tid == bad["id"] and reason and "\n" not in reason
@@ -352,9 +355,12 @@ def test_run_on_a_separate_dask_scheduler_and_worker(tiny_study, clean_results, 
                 time.sleep(0.5)
         assert [w["name"] for w in workers.values()] == ["external-worker"]
 
-        res = analyze(tiny_study, tmp_path / "results", scheduler=addr, progress=False)
+        # on a copy of the local cluster's results, with force: everything is recomputed
+        shutil.copytree(clean, tmp_path / "results")
+        res = analyze(tiny_study, tmp_path / "results", scheduler=addr, force=True, progress=False,
+                      params=SIM)
         assert res.scheduler == addr and res.n_workers == 1
-        assert res.n_computed == 4 and res.n_failed == 0, res.failures
+        assert res.n_computed == 4 and res.n_skipped == 0 and res.n_failed == 0, res.failures
         assert ResultsStore(tmp_path / "results").read_run()["runs"][-1]["scheduler"] == addr
         for tid in _trial_ids(tiny_study):  # same results as on the local cluster
             pd.testing.assert_frame_equal(ResultsStore(tmp_path / "results").read_frames(tid),

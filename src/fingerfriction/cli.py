@@ -300,12 +300,16 @@ def analyze_cmd(
                                   "e.g. tcp://10.0.0.5:8786 (default: a local cluster on all cores)."),
     workers: int = typer.Option(None, "--workers", "-j", min=1, help="Local workers (default: all cores)."),
     force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
+    window_mm: float = typer.Option(None, "--window-mm", help="Force position window in mm, centred on the "
+                                    "feature (default: the paper's 26 mm)."),
 ) -> None:
     """Every trial through video analysis and force processing, in parallel (resumable)."""
-    from .pipeline import analyze
+    from .pipeline import AnalysisParams, analyze
 
     try:
-        res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True)
+        params = AnalysisParams(forces={} if window_mm is None else {"window_mm": window_mm})
+        res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True,
+                      params=params)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     _print_failures(res.failures)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import os
 import platform
 import sys
@@ -131,17 +132,22 @@ def _force_params(opts: Mapping) -> dict:
         raise ValueError(f"force option: {exc}") from None
 
 
-def _video_params(opts: Mapping) -> dict:
-    from . import video
+def _video_options(opts: Mapping, calibration_frame: int | None = None):
+    from .video import AnalysisOptions
 
-    cls = getattr(video, "VideoParams", None)
-    if cls is None:
-        return dict(opts)
+    kw = dict(opts)
+    if calibration_frame is not None and "calibration_frame" not in kw:
+        kw["calibration_frame"] = int(calibration_frame)
     try:
-        obj = cls(**dict(opts))
-    except TypeError as exc:
+        return AnalysisOptions(**kw)
+    except TypeError as exc:  # unknown keyword
         raise ValueError(f"video option: {exc}") from None
-    return obj.to_dict() if hasattr(obj, "to_dict") else dataclasses.asdict(obj)
+
+
+def _video_params(opts: Mapping) -> dict:
+    d = dataclasses.asdict(_video_options(opts))
+    d.pop("calibration_frame", None)  # per trial, from the manifest
+    return d
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,29 +247,61 @@ def _resolve(study_dir: Path, rel: str, what: str) -> Path:
     return Path(resolve_path(study_dir, rel, where=what))
 
 
-def _run_video(study_dir: Path, trial: dict, surface_spec: dict, options: dict) -> dict:
-    """Video stage adapter: returns t_s, x_mm, regions, flags, frame, info."""
-    from . import video
+def _frame_reasons(flags: np.ndarray) -> list[str]:
+    """One string per frame: '' for a good frame, else its flag reasons joined by '; '."""
+    from .video import FLAG_REASONS, FrameFlag
 
-    res = video.analyze_trial(study_dir, trial, surface_spec, **options)
-    return {
-        "t_s": np.asarray(res.t_s, dtype=float),
-        "x_mm": np.asarray(res.x_mm, dtype=float),
-        "regions": np.asarray(res.regions, dtype=float),
-        "flags": list(res.flags),
-        "frame": np.asarray(getattr(res, "frame", np.arange(len(res.t_s)))),
-        "info": dict(getattr(res, "info", {}) or {}),
-    }
+    text = {}
+    for v in np.unique(flags):
+        f = FrameFlag(int(v))
+        text[int(v)] = "; ".join(FLAG_REASONS[b] for b in FrameFlag if b in f)
+    return [text[int(v)] for v in flags]
 
 
-def _run_forces(study_dir: Path, trial: dict, surface_spec: dict, video_out: dict, options: dict):
+def _run_video(study_dir: Path, trial: dict, surface_spec: dict, options: Mapping) -> dict:
+    """Video stage (:func:`fingerfriction.video.analyze_video`) on one trial.
+
+    Returns t_s, x_mm, regions, flags (one string per frame), frame, info. Raises
+    ``ValueError`` for a video that is unusable as a whole: unreadable, truncated (fewer
+    frames than the manifest announces, or a decoding error), or without a single
+    tracked frame.
+    """
+    from .surfaces import surface_from_spec
+    from .video import analyze_video
+
+    v = trial["video"]
+    path = _resolve(study_dir, v["path"], "video.path")
+    surface = surface_from_spec(surface_spec) if surface_spec else None
+    H = float((trial.get("calibration") or {}).get("surface_height_mm", math.nan))
+    if not math.isfinite(H) and surface is not None:
+        H = surface.max_height
+    opts = _video_options(options, v.get("calibration_frame"))
+    res = analyze_video(path, H, surface=surface, options=opts)
+    if res.truncated:
+        raise ValueError(f"video {v['path']}: {res.message}")
+    n_expected = v.get("n_frames")
+    if n_expected is not None and res.n_frames != int(n_expected):
+        raise ValueError(f"video {v['path']} has {res.n_frames} frames, the manifest says {n_expected}")
+    if not res.success:
+        raise ValueError(f"video {v['path']}: no frame could be tracked ({res.message})")
+    fps = float(v.get("fps") or res.fps)
+    k = np.arange(res.n_frames)
+    info = {"message": res.message, "mm_per_px": res.mm_per_px, "threshold": res.threshold,
+            "area_px": res.area_px, "reference_frame": res.reference_frame,
+            "flag_counts": res.flag_counts(), "timings": res.timings}
+    return {"t_s": float(v.get("t0_s", 0.0)) + k / fps, "x_mm": np.asarray(res.x, dtype=float),
+            "regions": np.asarray(res.regions, dtype=float), "flags": _frame_reasons(res.flags),
+            "frame": k, "info": info}
+
+
+def _run_forces(study_dir: Path, trial: dict, surface_spec: dict, video_out: dict, options: Mapping):
     """Force stage adapter: the trial's F_T(x) table and diagnostics."""
     from . import forces
 
     manifest = {"trials": [trial], "surfaces": {trial.get("surface"): surface_spec}}
     prof = forces.process_trial(
         study_dir, manifest, trial["id"], video_out["x_mm"],
-        params=forces.ForceProcessingParams(**options), regions=video_out["regions"], on_error="raise",
+        params=forces.ForceProcessingParams(**dict(options)), regions=video_out["regions"], on_error="raise",
     )
     info = {"flags": [f"{f.code}: {f.message}" for f in prof.flags],
             "flat_segment_mm": list(prof.flat_segment_mm), "message": prof.message}
@@ -300,9 +338,8 @@ def process_trial(study_dir: str | os.PathLike, trial, params: AnalysisParams | 
     study_dir = Path(study_dir)
     rec = _trial_dict(trial)
     tid = rec.get("id")
-    resolved = params.resolved()
-    v = _run_video(study_dir, rec, surface_spec or {}, resolved["video"])
-    forces_df, f_info = _run_forces(study_dir, rec, surface_spec or {}, v, resolved["forces"])
+    v = _run_video(study_dir, rec, surface_spec or {}, params.video)
+    forces_df, f_info = _run_forces(study_dir, rec, surface_spec or {}, v, params.forces)
     frames = frames_table(v["t_s"], v["x_mm"], v["regions"], v["flags"], frame=v["frame"])
     n_flag = int(sum(1 for s in v["flags"] if s))
     info = {"video": v["info"], "forces": f_info, "n_frames": len(frames), "n_flagged_frames": n_flag,
@@ -498,8 +535,9 @@ def analyze(
     store = ResultsStore(out)
     for tid in ids:
         store.trial_dir(tid)  # validates the id before anything runs
-    pdict = params.resolved()
+    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
     pdigest = params_digest(pdict)
+    raw = {"video": dict(params.video), "forces": dict(params.forces)}
     t_start = time.perf_counter()
     started = _now()
 
@@ -555,7 +593,7 @@ def analyze(
                 futures = {}
                 for t in todo:
                     fut = client.submit(_run_trial, str(study_dir), t, surfaces.get(t.get("surface"), {}),
-                                        pdict, key=f"fingerfriction-trial-{t['id']}-{pdigest[:12]}",
+                                        raw, key=f"fingerfriction-trial-{t['id']}-{pdigest[:12]}",
                                         pure=False, retries=0)
                     futures[fut] = t
                 for fut in as_completed(futures):
@@ -816,6 +854,13 @@ def fit(
 DEMO_REPS = 1
 FULL_REPS = 5
 
+#: Force window of the demo in mm. The paper's is 26 mm, but the simulated camera sees
+#: 1280 px x 23 um = 29.4 mm, and the centroid of C_f (about 7 mm wide at 0.4 mm above a
+#: 2 mm bump) can only be tracked while C_f is whole inside the crop: about -10.3 to
+#: +10.3 mm (measured on simulated trials). The force processing needs x(t) over the
+#: whole window, so the demo uses 20 mm.
+DEMO_WINDOW_MM = 20.0
+
 
 @dataclass(frozen=True)
 class DemoResult:
@@ -891,7 +936,8 @@ def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None,
         close()
     times["simulate"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    ares = analyze(study, results, n_workers=n_workers, progress=progress)
+    ares = analyze(study, results, n_workers=n_workers, progress=progress,
+                   params=AnalysisParams(forces={"window_mm": DEMO_WINDOW_MM}))
     times["analyze"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     fres = fit(results, progress=progress)
