@@ -63,6 +63,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .blindspots import BlindSpots, Occupancy, blind_spots, occupancy
+from .mechanics import GEOMETRIC_TOL
 from .model import FrictionModel, FrictionParams
 from .regions import as_regions, n_regions
 from .surfaces import SURFACE_NAMES, Surface, get_surface, surface_from_spec
@@ -90,8 +91,9 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-#: The paper's contact criterion (3 px at about 23 um/px), in mm.
-GEOM_TOL_MM = 0.070
+#: The paper's contact criterion (3 px at about 23 um/px), in mm: the forward model's
+#: geometric tolerance, used by every sweep of this module.
+GEOM_TOL_MM = GEOMETRIC_TOL
 #: The prescribed normal force of the study, in N (Methods "Procedure").
 DEFAULT_LOAD_N = 0.3
 #: Per-subject coefficients of friction found by the paper's grid search.

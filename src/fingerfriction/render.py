@@ -27,7 +27,9 @@ With the default parameters (``p0 = F_N / L_flat``, see :func:`~fingerfriction.p
 set ``mu`` instantly and uniformly under the whole contact; a real display's bandwidth
 and its attainable range ``[mu_min, mu_max]`` limit what it can render: commands outside
 ``mu_range`` are clipped with a warning (a negative ``F_T`` cannot be rendered by
-friction at all).
+friction at all). Fitted parameters need not satisfy ``p0 L_flat = F_N`` (the fit sees
+drift-corrected forces); the command is then exact for the fitted model of the display,
+and a warning says that it departs from Amontons' ``mu_cmd F_N``.
 
 Queries
 -------
@@ -146,6 +148,16 @@ class HapticRenderer:
             raise TypeError(f"display must be a DisplayModel, got {type(display).__name__}")
         self.prediction = prediction
         self.display = display
+        ratio = display.effective_normal_force / display.normal_force
+        if not 0.8 <= ratio <= 1.25:
+            # Fitted p0 need not satisfy p0 L_flat = F_N (the fit sees drift-corrected forces);
+            # the command is still exact for the model, but the display is then assumed to
+            # follow the fitted Eq. (4), not Amontons' law at F_N.
+            log.warning(
+                "p0 * L_flat = %.3g N differs from the display's normal force %.3g N: mu_cmd assumes the "
+                "display's lateral force is mu_cmd * p0 * L_flat (Eq. 4 on flat ground), not mu_cmd * F_N",
+                display.effective_normal_force, display.normal_force,
+            )
         xp = prediction.positions
         n = int(math.floor((xp[-1] - xp[0]) / resolution + 1e-9)) + 1
         if n < 2:
