@@ -62,7 +62,7 @@ def test_blind_spots_consistent_with_contact_sweep(bump3, spec):
     inside any geometric region, bounded by contacted points, and contained in the
     (wider) gaps of the mechanical contact of the same sweep. The steeper bump must have
     blind spots (so the checks below are not vacuous)."""
-    p = bump3 if spec == "bump:W=3,H=0.5" else predict(spec, 1, PARAMS, step=STEP)
+    p = bump3 if spec == "bump:W=3,H=0.5" else predict(spec, 1, PARAMS, step=0.1)
     if spec == "bump:W=3,H=0.8":
         assert len(p.blind_spots) >= 1
     res = sweep(p.surface, SUBJECTS[1], p.positions, load=0.3)

@@ -22,7 +22,7 @@ SPEC = "bump:W=3,H=0.5"
 @pytest.fixture(scope="module")
 def renderer():
     p0 = 0.3 / flat_contact_length(1)  # flat-ground friction mu * 0.3 N
-    return HapticRenderer.for_surface(SPEC, 1, FrictionParams(0.55, p0, 0.1), step=0.02)
+    return HapticRenderer.for_surface(SPEC, 1, FrictionParams(0.55, p0, 0.1), step=0.05)
 
 
 def _flat():
