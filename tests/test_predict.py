@@ -339,7 +339,6 @@ def _synthetic_results(tmp_path):
 @pytest.mark.slow
 def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     from fingerfriction.pipeline import fit
-    from fingerfriction.predict import validate_results
 
     root = _synthetic_results(tmp_path)
     fit(root, progress=False, median_kernel=1)
@@ -351,8 +350,14 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
         assert p == FrictionParams(fj["mu"]["2"], sel["p0"].median(), sel["p1"].median())
     with pytest.raises(ValueError, match=r"no fitted mu for subject '3'"):
         load_params(root, "3")
-    res = validate_results(root, forward_step=0.05)
-    df = pd.read_csv(root / "fit" / "loso.csv")
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+
+    r = CliRunner().invoke(app, ["validate", str(root), "--step", "0.05"])
+    assert r.exit_code == 0, r.output
+    assert "out-of-sample validation" in r.output
+    df = pd.read_csv(root / "fit" / "loso.csv", dtype={"subject": str})
     assert len(df) == 2 * 3 and set(df["surface"]) == {"bump-2mm", "step-down-4mm"}
     assert np.all(np.isfinite(df["rho_in_sample"])) and np.all(np.isfinite(df["rho_out_of_sample"]))
     # in-sample rho is the study's Table 1 (same grid and options as the recorded fit)
@@ -364,6 +369,8 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     grid = mu_grid(g["start"], g["stop"], g["step"])
     opts = FitOptions(**fj["options"])
     t1 = correlation_table(fit_trials(trials_from_results(root), grid=grid, options=opts))
-    got = res.table.set_index(["subject", "surface"])["rho_in_sample"]
+    got = df.set_index(["subject", "surface"])["rho_in_sample"]
     ref = t1.set_index(["subject", "shape"])["rho"]
-    assert got["1", "bump-2mm"] == pytest.approx(ref["1", "Bump"], abs=1e-12)
+    assert got["1", "bump-2mm"] == pytest.approx(ref["1", "Bump"], abs=1e-6)
+    bad = CliRunner().invoke(app, ["validate", str(tmp_path / "nowhere")])
+    assert bad.exit_code == 2 and "Traceback" not in bad.output
