@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -271,7 +272,6 @@ def test_loso_noisy_study_and_wrong_finger(forward_study):
     keep rho near the in-sample value; a forward model with the wrong finger (10x stiffer)
     loses most of it on the bump: the validation measures the geometry, not the fit."""
     from fingerfriction.fit import FitOptions
-    from fingerfriction.mechanics import FingerParams
     from fingerfriction.predict import leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=2, noise=0.1, param_sd=0.15, seed=3)
@@ -279,9 +279,10 @@ def test_loso_noisy_study_and_wrong_finger(forward_study):
     good = leave_one_surface_out(trials, options=opts, forward_step=LOSO_STEP).table
     assert np.all(good["rho_out_of_sample"] > 0.9)
     assert np.all(good["rho_out_of_sample"] <= good["rho_in_sample"] + 0.01)
-    stiff = FingerParams(radius=8.0, modulus=1.0, width=10.0)
-    bad = leave_one_surface_out(trials, options=opts, forward_step=LOSO_STEP,
-                                fingers={"S1": stiff, "S2": stiff}).table
+    # the wrong finger: each subject's own, ten times stiffer
+    wrong = {s: dataclasses.replace(SUBJECTS[int(s[-1])], modulus=10 * SUBJECTS[int(s[-1])].modulus)
+             for s in LOSO_MU}
+    bad = leave_one_surface_out(trials, options=opts, forward_step=LOSO_STEP, fingers=wrong).table
     bump = (bad["surface"] == "bump-2mm") & (bad["subject"] == "Both subjects")
     rho_bad = float(bad.loc[bump, "rho_out_of_sample"].iloc[0])
     assert rho_bad < float(good.loc[bump, "rho_out_of_sample"].iloc[0]) - 0.3
