@@ -10,7 +10,11 @@ fronto-parallel video. Its undeformed lower outline, relative to its *centre*, i
   centre: the circle's (or ellipse's) centre, i.e. the abscissa of the lowest point of
   the undeformed outline. A user-given profile is placed so its own ``x = 0`` sits at
   ``x_finger``.
-* circle: ``s(u) = R - sqrt(R^2 - u^2)``, defined for ``|u| < R``;
+* circle: ``s(u) = R - sqrt(R^2 - u^2)``, defined for ``|u| < R``; with a
+  ``flat_length`` ``L > 0`` the two halves of the circle are moved apart by ``L`` and
+  joined by a flat bottom (a "stadium": ``s(u) = 0`` for ``|u| <= L/2``, the circle of
+  ``|u| - L/2`` beyond), the shape of a finger pad flattened by the load; ``x_finger`` is
+  then the middle of the flat;
 * ellipse: horizontal semi-axis ``R`` and vertical semi-axis ``b``:
   ``s(u) = b (1 - sqrt(1 - u^2 / R^2))``; curvature radius at the bottom ``R^2 / b``;
 * profile: samples ``(u_i, s_i)`` in mm, linearly interpolated.
@@ -68,6 +72,9 @@ class FingerParams:
         Undeformed outline (default circle).
     semi_height : float, optional
         Ellipse only: vertical semi-axis ``b`` in mm.
+    flat_length : float, optional
+        Circle only: length in mm of a flat bottom inserted between the two halves of the
+        circle (default 0: a plain circle).
     profile : (2, m) sequence, optional
         Profile only: ``(u, s)`` samples in mm, ``u`` strictly increasing and spanning 0,
         ``s`` finite, ``s(0) = 0`` after interpolation is not required (the minimum is
@@ -78,6 +85,14 @@ class FingerParams:
     poisson : float, optional
         Poisson ratio of the tissue, used only with a layer (default 0.5: incompressible,
         as the paper assumes for its finger tracking). In ``[0, 0.5]``.
+    skin_modulus, skin_thickness : float, optional
+        A stiff skin sheet (stratum corneum, epidermis, dermis) of plane-strain modulus
+        ``E_s`` (MPa) and thickness ``h_s`` (mm) lying on the soft pulp (``modulus``):
+        a plate of bending stiffness ``B = E_s h_s^3 / 12`` (N mm) on the elastic
+        half-space (Biot 1937), whose response turns into that of a half-space of modulus
+        ``E* + E_s`` at wavelengths shorter than the sheet (see
+        :mod:`~fingerfriction.mechanics.bem`). Both or neither; not combinable with
+        ``layer_thickness``.
     name : str, optional
         A label.
 
@@ -93,9 +108,12 @@ class FingerParams:
     width: float
     shape: Shape = "circle"
     semi_height: float | None = None
+    flat_length: float = 0.0
     profile: tuple[tuple[float, ...], tuple[float, ...]] | None = None
     layer_thickness: float | None = None
     poisson: float = 0.5
+    skin_modulus: float | None = None
+    skin_thickness: float | None = None
     name: str = ""
 
     def __post_init__(self) -> None:
@@ -107,10 +125,34 @@ class FingerParams:
         object.__setattr__(
             self, "layer_thickness", _num("layer_thickness", self.layer_thickness, "mm", allow_none=True)
         )
+        object.__setattr__(
+            self, "skin_modulus", _num("skin_modulus", self.skin_modulus, "MPa", allow_none=True)
+        )
+        object.__setattr__(
+            self, "skin_thickness", _num("skin_thickness", self.skin_thickness, "mm", allow_none=True)
+        )
+        if (self.skin_modulus is None) != (self.skin_thickness is None):
+            raise ValueError(
+                "FingerParams: give both skin_modulus (MPa) and skin_thickness (mm) or neither; "
+                f"got skin_modulus={self.skin_modulus!r}, skin_thickness={self.skin_thickness!r}"
+            )
+        if self.has_skin and self.layer_thickness is not None:
+            raise ValueError(
+                "FingerParams: a skin sheet and layer_thickness cannot be combined; "
+                f"got skin_thickness={self.skin_thickness!r}, layer_thickness={self.layer_thickness!r}"
+            )
         nu = _num("poisson", self.poisson, "(dimensionless)", positive=False)
         if not 0.0 <= nu <= 0.5:
             raise ValueError(f"FingerParams.poisson must be in [0, 0.5], got {self.poisson!r}")
         object.__setattr__(self, "poisson", nu)
+        fl = _num("flat_length", self.flat_length, "mm", positive=False)
+        if fl < 0:
+            raise ValueError(f"FingerParams.flat_length must be >= 0 mm, got {self.flat_length!r}")
+        if fl > 0 and self.shape != "circle":
+            raise ValueError(
+                f"FingerParams.flat_length is only used with shape='circle', got shape={self.shape!r}"
+            )
+        object.__setattr__(self, "flat_length", fl)
         if self.shape == "ellipse":
             if self.semi_height is None:
                 raise ValueError("FingerParams.semi_height (mm) is required for shape='ellipse'")
@@ -155,6 +197,18 @@ class FingerParams:
                 f"FingerParams.profile is only used with shape='profile', got shape={self.shape!r}"
             )
 
+    @property
+    def has_skin(self) -> bool:
+        """True when the finger has a stiff skin sheet over the pulp."""
+        return self.skin_modulus is not None
+
+    @property
+    def skin_bending(self) -> float:
+        """Bending stiffness per unit width of the skin sheet, ``E_s h_s^3 / 12`` (N mm); 0 without."""
+        if not self.has_skin:
+            return 0.0
+        return float(self.skin_modulus) * float(self.skin_thickness) ** 3 / 12.0  # type: ignore[arg-type]
+
     # ------------------------------------------------------------------ geometry
     @property
     def half_extent(self) -> float:
@@ -162,13 +216,13 @@ class FingerParams:
         if self.shape == "profile":
             u = self.profile[0]  # type: ignore[index]
             return float(min(-u[0], u[-1]))
-        return self.radius
+        return self.radius + 0.5 * self.flat_length
 
     @property
     def tip_radius(self) -> float:
         """Radius of curvature (mm) of the outline at its lowest point (profile: fitted)."""
         if self.shape == "circle":
-            return self.radius
+            return self.radius if self.flat_length == 0 else math.inf
         if self.shape == "ellipse":
             return self.radius**2 / float(self.semi_height)  # type: ignore[arg-type]
         u = np.linspace(-0.5, 0.5, 21) * min(self.half_extent, 2.0)
@@ -196,7 +250,8 @@ class FingerParams:
             )
         if self.shape == "circle":
             R = self.radius
-            return R - np.sqrt(np.clip(R * R - u * u, 0.0, None))
+            v = np.clip(np.abs(u) - 0.5 * self.flat_length, 0.0, None)
+            return R - np.sqrt(np.clip(R * R - v * v, 0.0, None))
         if self.shape == "ellipse":
             a, b = self.radius, float(self.semi_height)  # type: ignore[arg-type]
             return b * (1.0 - np.sqrt(np.clip(1.0 - (u / a) ** 2, 0.0, None)))

@@ -214,9 +214,17 @@ def sweep(
     ps = np.empty((m, solver.n)) if keep_profiles else None
     msgs: list[str] = []
     prev = None
+    prev2 = None
+    opts = {"load": F, "tol": tol, "max_iter": max_iter, "gap_tol": gap_tol, "check": False}
     for i, xf in enumerate(pos):
-        opts = {"load": F, "tol": tol, "max_iter": max_iter, "gap_tol": gap_tol, "check": False}
-        sol = solver.solve(surface, xf, x0=prev, **opts)
+        guess = None
+        if prev is not None:
+            guess = prev.pressure
+            if prev2 is not None and abs((xf - prev.x_finger) - (prev.x_finger - prev2.x_finger)) < 1e-9:
+                # Equal steps: extrapolate linearly (the error of the guess drops from O(step)
+                # to O(step^2); measured 22 -> see benchmarks/contact.py).
+                guess = np.maximum(2.0 * prev.pressure - prev2.pressure, 0.0)
+        sol = solver.solve(surface, xf, x0=guess, **opts)
         if not sol.success and prev is not None:
             sol = solver.solve(surface, xf, **opts)  # retry cold
         mech_rows.append(sol.mechanical_regions)
@@ -228,6 +236,7 @@ def sweep(
         if keep_profiles:
             ys[i] = sol.finger_y  # type: ignore[index]
             ps[i] = sol.pressure  # type: ignore[index]
+        prev2 = prev if sol.success else None
         prev = sol if sol.success else None
     if msgs:
         log.warning("%d of %d sweep positions did not converge; first: %s", len(msgs), m, msgs[0])
