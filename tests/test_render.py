@@ -135,6 +135,8 @@ def test_bad_input(renderer, tmp_path):
         renderer.write_command(tmp_path / "c.wav", 80, 1000.5)
     with pytest.raises(ValueError, match=r"DisplayModel.p0 must be > 0"):
         DisplayModel(normal_force=0.3, p0=0.0, flat_length=4.0)
+    with pytest.raises(ValueError, match=r"positions must be finite \(mm\); got nan at flat index 1"):
+        renderer.query_many([0.0, np.nan])
     with pytest.raises(ValueError, match="sidecar"):
         read_command(tmp_path / "missing.wav")
 
