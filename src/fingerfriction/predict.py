@@ -849,6 +849,42 @@ class OutOfSample:
         _atomic_write(p, lambda tmp: self.table.to_csv(tmp, index=False, float_format="%.6g"))
         return p
 
+    def write_figure(self, path: str | os.PathLike) -> str:
+        """PNG: per held-out surface and subject, measured (grey) and predicted (blue)
+        forces of every held-out trial as compared (N), with rho in and out of sample."""
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        keys = sorted(self.estimates, key=lambda k: (str(k[1]), str(k[0])))
+        surfaces = list(dict.fromkeys(k[1] for k in keys))
+        subjects = sorted({k[0] for k in keys})
+        size = (2.6 * len(surfaces), 2.2 * len(subjects))
+        fig, axes = plt.subplots(len(subjects), len(surfaces), figsize=size, squeeze=False, sharex=True)
+        rows = {(r.subject, r.surface): r for r in self.table.itertuples()}
+        for i, subj in enumerate(subjects):
+            for j, surf in enumerate(surfaces):
+                ax = axes[i][j]
+                for x, m, g in self.estimates.get((subj, surf), []):
+                    ax.plot(x, 1e3 * m, color="0.6", lw=0.6)
+                    ax.plot(x, 1e3 * g, color="C0", lw=0.9)
+                r = rows.get((subj, surf))
+                if r is not None:
+                    ax.set_title(f"subject {subj}, {surf}\nrho in {r.rho_in_sample:.2f} / "
+                                 f"out {r.rho_out_of_sample:.2f}", fontsize=8)
+                ax.tick_params(labelsize=7)
+                if j == 0:
+                    ax.set_ylabel("F (mN)", fontsize=8)
+                if i == len(subjects) - 1:
+                    ax.set_xlabel("x (mm)", fontsize=8)
+        fig.suptitle("held-out surfaces: measured (grey) vs predicted from geometry alone (blue)", fontsize=9)
+        fig.tight_layout()
+        p = os.fspath(path)
+        _atomic_write(p, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+        plt.close(fig)
+        return p
+
 
 def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load: float = DEFAULT_LOAD_N,
                           forward_step: float = 0.01, contact: str = "geometric") -> OutOfSample:
@@ -1046,7 +1082,8 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
 
     Uses the ``mu`` grid and fit options recorded by ``fingerfriction fit`` in
     ``RESULTS/fit/fit.json`` when present (so ``rho_in_sample`` is the study's Table 1),
-    else the defaults. The table goes to ``out`` (default ``RESULTS/fit/loso.csv``).
+    else the defaults. The table goes to ``out`` (default ``RESULTS/fit/loso.csv``) and a
+    figure of the held-out trials beside it (``loso.png``).
     This is the function the report calls.
     """
     from .fit import FitOptions, mu_grid
@@ -1066,7 +1103,8 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
             options = FitOptions(**{k: v for k, v in o.items() if k in known})
     res = leave_one_surface_out(trials_from_results(root), grid=grid, options=options,
                                 forward_step=forward_step)
-    target = out if out is not None else os.path.join(root, "fit", "loso.csv")
-    os.makedirs(os.path.dirname(os.path.abspath(os.fspath(target))), exist_ok=True)
+    target = os.fspath(out) if out is not None else os.path.join(root, "fit", "loso.csv")
+    os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
     res.write_csv(target)
+    res.write_figure(os.path.splitext(target)[0] + ".png")
     return res
