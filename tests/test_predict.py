@@ -182,6 +182,9 @@ def test_load_params_forms(tmp_path):
     subjects = {"1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}, "2": {"mu": 0.6, "p0": 1, "p1": 2}}
     b.write_text(json.dumps({"subjects": subjects}))
     assert load_params(b, 2) == FrictionParams(0.6, 1.0, 2.0)
+    b2 = tmp_path / "b2.json"
+    b2.write_text(json.dumps({"S1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}}))  # foundation-style labels
+    assert load_params(b2, 1) == FrictionParams(0.5, 0.1, 0.2)
     c = tmp_path / "c.json"
     trials = [{"p0": v, "p1": 10 * v} for v in (0.1, 0.3, 0.2)]
     c.write_text(json.dumps({"subjects": {"1": {"mu": 0.55, "trials": trials}}}))

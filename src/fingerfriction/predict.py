@@ -351,6 +351,15 @@ def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05)
     return _default_params_cached(key, finger, float(load), float(step))
 
 
+def _subject_keys(subject) -> list:
+    """Keys a subject may have in a parameters file: '1', 1, 'S1', 's1'."""
+    keys = [str(subject), subject]
+    digits = "".join(c for c in str(subject) if c.isdigit())
+    if digits:
+        keys += [digits, f"S{digits}", f"s{digits}"]
+    return [k for k in keys if isinstance(k, (str, int))]
+
+
 def _params_from_mapping(d: dict, subject, where: str) -> FrictionParams:
     """FrictionParams from a JSON object (see :func:`load_params` for the accepted forms)."""
     if {"mu", "p0", "p1"} <= set(d):
@@ -358,7 +367,7 @@ def _params_from_mapping(d: dict, subject, where: str) -> FrictionParams:
     subjects = d.get("subjects", d)
     if not isinstance(subjects, dict):
         raise ValueError(f"{where}: 'subjects' must be an object keyed by subject")
-    entry = subjects.get(str(subject), subjects.get(subject) if not isinstance(subject, str) else None)
+    entry = next((subjects[k] for k in _subject_keys(subject) if k in subjects), None)
     if entry is None:
         raise ValueError(
             f"{where}: no parameters for subject {subject!r}; the file has {sorted(map(str, subjects))}. "
@@ -387,8 +396,8 @@ def _params_from_pipeline_fit(d: dict, subject, path: str) -> FrictionParams:
     import pandas as pd
 
     mus = d["mu"]
-    key = str(subject)
-    if key not in mus:
+    key = next((k for k in _subject_keys(subject) if k in mus), None)
+    if key is None:
         raise ValueError(f"{path}: no fitted mu for subject {subject!r}; the fit has subjects {sorted(mus)}")
     tcsv = os.path.join(os.path.dirname(path), "trials.csv")
     try:
