@@ -68,8 +68,13 @@ def _rich_table(df, title: str):
     t = Table(title=title)
     for c in df.columns:
         t.add_column(str(c))
+    def cell(col, v):
+        if col == "p" and isinstance(v, float):
+            return "< 1e-300" if v == 0 else f"{v:.2g}"  # p underflows to 0 for large ensembles
+        return f"{v:.3g}" if isinstance(v, float) else str(v)
+
     for row in df.itertuples(index=False):
-        t.add_row(*[f"{v:.3g}" if isinstance(v, float) else str(v) for v in row])
+        t.add_row(*[cell(c, v) for c, v in zip(df.columns, row, strict=True)])
     return t
 
 

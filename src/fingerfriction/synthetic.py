@@ -42,7 +42,7 @@ def finger_contact_regions(
     radius: float = 8.0,
     pad: float = 3.0,
     pixel: float = 0.02,
-    half_window: float = 8.0,
+    half_window: float = 6.0,
     n_max: int = 4,
 ) -> np.ndarray:
     """Contact regions of a rigid flat-bottomed finger pad pressed into a relief.
