@@ -395,3 +395,32 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     assert got["1", "bump-2mm"] == pytest.approx(ref["1", "Bump"], abs=1e-6)
     bad = CliRunner().invoke(app, ["validate", str(tmp_path / "nowhere")])
     assert bad.exit_code == 2 and "Traceback" not in bad.output
+
+
+def test_loso_short_window_falls_back_to_video_flat_segment():
+    """In a window where the forward finger touches the feature from the first position,
+    the detrend positions come from the video flat segment, and the table says so."""
+    from fingerfriction.fit import FitOptions, Trial, flat_detrend, flat_segment_mask
+    from fingerfriction.mechanics import FingerParams
+    from fingerfriction.model import FrictionModel
+    from fingerfriction.predict import forward_regions, leave_one_surface_out
+
+    x = np.round(-8.0 + 0.2 * np.arange(81), 9)
+    rng = np.random.default_rng(1)
+    trials = []
+    video_finger = FingerParams(radius=8.0, modulus=0.1, width=10.0)  # a smaller finger "filmed"
+    for subj in ("1", "2"):
+        f = SUBJECTS[int(subj)]
+        for name in ("bump-2mm", "step-up-2mm", "bump-4mm"):
+            s = get_surface(name)
+            reg = forward_regions(s, video_finger, x)
+            B = FrictionModel(s).basis(reg, 0.55)
+            F = 0.02 * B[:, 0] + 0.1 * B[:, 1] + rng.normal(scale=1e-3, size=x.size)
+            F = flat_detrend(x, F, flat_segment_mask(reg, s))
+            trials.append(Trial(x, F, reg, s, subj))
+            assert np.count_nonzero(flat_segment_mask(forward_regions(s, f, x), s)) < 2  # the premise
+    res = leave_one_surface_out(trials, options=FitOptions(median_kernel=1), forward_step=0.2)
+    t = res.table
+    per = t[t["subject"] != "Both subjects"]
+    assert np.all(per["n_video_flat_segment"] == per["n_trials"])
+    assert np.all(np.isfinite(t["rho_out_of_sample"]))

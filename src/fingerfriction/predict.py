@@ -808,17 +808,20 @@ def _finger_for_label(label: str, fingers):
 
 
 def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regions: np.ndarray,
-                       params: FrictionParams, options, model: FrictionModel | None = None):
+                       params: FrictionParams, options, model: FrictionModel | None = None,
+                       mask: np.ndarray | None = None):
     """Measured and model series as the fit compares them (fit.py's processing), for fixed
     parameters: median filter on the per-frame integrals S, K, Q, then the same linear
-    detrend over the flat segment (defined by ``regions``) applied to both."""
+    detrend over the flat segment (``mask``, by default defined by ``regions``) applied
+    to both."""
     from .fit import flat_detrend, flat_segment_mask, median_filter
 
     model = model or FrictionModel(surface)
     b0 = model.basis(regions, 0.0)
     b1 = model.basis(regions, 1.0)
     raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
-    mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
+    if mask is None:
+        mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
     mu = params.mu
     T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
     p = np.array([params.p0, params.p1])
@@ -844,6 +847,9 @@ class OutOfSample:
         median p0 and p1, forward-model regions, no video); ``rho_heldout_params_video``
         separates the two losses (held-out parameters on the video regions).
         ``mu, p0, p1`` are the subject's training parameters (NaN on the pooled rows).
+        ``n_video_flat_segment``: held-out trials whose detrend positions came from the
+        video flat segment because the forward-model contact reached the feature from the
+        trial's first position (0 when the prediction used no video at all).
     estimates : dict
         ``(subject, surface) -> list of (x, measured, predicted)`` per held-out trial, as
         compared (N).
@@ -907,7 +913,8 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
     training trials' ``p0`` and ``p1`` (a held-out trial cannot have its own ``p0, p1``:
     fitting them would need its contact, i.e. its video). Measured and predicted forces
     are compared exactly as the fit compares them (median filter, flat-segment detrend;
-    the flat segment is taken from the forward-model regions) and correlated per
+    the flat segment is taken from the forward-model regions, or, when the window holds
+    none, from the video, counted in ``n_video_flat_segment``) and correlated per
     condition as in Table 1 (:func:`fingerfriction.stats.ensemble_correlation`).
 
     Parameters
@@ -944,7 +951,7 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
     """
     import pandas as pd
 
-    from .fit import FitOptions, Trial, fit_trials
+    from .fit import FitOptions, Trial, fit_trials, flat_segment_mask
     from .stats import BOTH, correlation_table, ensemble_correlation
 
     trials = list(trials)
@@ -968,6 +975,7 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
 
     rows = []
     estimates: dict = {}
+    fallback: dict = {}
     for name, surf in surfaces.items():
         train = [t for t in trials if t.surface.name != name]
         test = [t for t in trials if t.surface.name == name]
@@ -993,7 +1001,15 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
             meas, pred, vmeas, vpred, per = [], [], [], [], []
             for t in ttest:
                 idx = np.clip(np.rint((t.x - lo) / forward_step).astype(int), 0, xs.size - 1)
-                m, g = _compared_estimate(surf, t.x, t.force, fwd[idx], params, options, model)
+                mask = flat_segment_mask(fwd[idx], surf, margin=options.flat_margin)
+                if np.count_nonzero(mask) < 2:
+                    # The forward finger touches the feature (within 70 um) from the first
+                    # position of the trial's window: no flat segment to put measurement and
+                    # model on the same footing. Fall back to the trial's own (video) flat
+                    # segment, used only to choose the detrend positions; counted in the table.
+                    mask = flat_segment_mask(t.regions, surf, margin=options.flat_margin)
+                    fallback[(subj, name)] = fallback.get((subj, name), 0) + 1
+                m, g = _compared_estimate(surf, t.x, t.force, fwd[idx], params, options, model, mask)
                 vm, vg = _compared_estimate(surf, t.x, t.force, t.regions, params, options, model)
                 meas.append(m)
                 pred.append(g)
@@ -1010,6 +1026,15 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
         rows.append(_loso_row(BOTH, surf, test, ins, ensemble_correlation(pooled_m, pooled_g),
                               ensemble_correlation(pooled_vm, pooled_v), None))
     table = pd.DataFrame(rows)
+    table["n_video_flat_segment"] = [
+        fallback.get((r.subject, r.surface), 0) if r.subject != BOTH
+        else sum(v for (s_, n_), v in fallback.items() if n_ == r.surface)
+        for r in table.itertuples()
+    ]
+    if fallback:
+        log.warning("%d held-out trial(s) had no flat segment under the forward model's contact; "
+                    "their detrend used the video flat segment (column n_video_flat_segment)",
+                    sum(fallback.values()))
     # Table 1's order: subjects then both pooled; scale; Bump, Step Up, Step Down.
     sub_order = {s: i for i, s in enumerate(subjects + [BOTH])}
     shape_order = {"Bump": 0, "Step Up": 1, "Step Down": 2}
