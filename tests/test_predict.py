@@ -397,9 +397,10 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     assert bad.exit_code == 2 and "Traceback" not in bad.output
 
 
-def test_loso_short_window_falls_back_to_video_flat_segment():
-    """In a window where the forward finger touches the feature from the first position,
-    the detrend positions come from the video flat segment, and the table says so."""
+def test_loso_short_window_without_forward_flat_segment():
+    """In a window where the forward finger touches the feature (within 70 um) from the
+    first positions, the prediction needs no flat segment of its own: its footing is the
+    forward model's exact flat-ground level."""
     from fingerfriction.fit import FitOptions, Trial, flat_detrend, flat_segment_mask
     from fingerfriction.mechanics import FingerParams
     from fingerfriction.model import FrictionModel
@@ -421,6 +422,11 @@ def test_loso_short_window_falls_back_to_video_flat_segment():
             assert np.count_nonzero(flat_segment_mask(forward_regions(s, f, x), s)) < 2  # the premise
     res = leave_one_surface_out(trials, options=FitOptions(median_kernel=1), forward_step=0.2)
     t = res.table
-    per = t[t["subject"] != "Both subjects"]
-    assert np.all(per["n_video_flat_segment"] == per["n_trials"])
     assert np.all(np.isfinite(t["rho_out_of_sample"]))
+    # the footing is the exact flat level, not a line: predicted - (Eq. 4 - mu p0 L_flat) = 0
+    x_, measured, predicted = res.estimates["1", "bump-2mm"][0]
+    row = t[(t["subject"] == "1") & (t["surface"] == "bump-2mm")].iloc[0]
+    reg = forward_regions(get_surface("bump-2mm"), SUBJECTS[1], x_)
+    eq4 = FrictionModel(get_surface("bump-2mm")).forces(reg, FrictionParams(row.mu, row.p0, row.p1)).total
+    level = row.mu * row.p0 * flat_contact_length(1)
+    np.testing.assert_allclose(predicted, eq4 - level, rtol=0, atol=1e-6)

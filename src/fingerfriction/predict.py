@@ -808,20 +808,17 @@ def _finger_for_label(label: str, fingers):
 
 
 def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regions: np.ndarray,
-                       params: FrictionParams, options, model: FrictionModel | None = None,
-                       mask: np.ndarray | None = None):
+                       params: FrictionParams, options, model: FrictionModel | None = None):
     """Measured and model series as the fit compares them (fit.py's processing), for fixed
     parameters: median filter on the per-frame integrals S, K, Q, then the same linear
-    detrend over the flat segment (``mask``, by default defined by ``regions``) applied
-    to both."""
+    detrend over the flat segment defined by ``regions`` applied to both."""
     from .fit import flat_detrend, flat_segment_mask, median_filter
 
     model = model or FrictionModel(surface)
     b0 = model.basis(regions, 0.0)
     b1 = model.basis(regions, 1.0)
     raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
-    if mask is None:
-        mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
+    mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
     mu = params.mu
     T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
     p = np.array([params.p0, params.p1])
@@ -830,6 +827,36 @@ def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regio
     else:
         est = flat_detrend(x, median_filter(raw @ (T @ p), options.median_kernel), mask)
     return flat_detrend(x, force, mask), est
+
+
+def _predicted_estimate(surface: Surface, force: np.ndarray, regions: np.ndarray, params: FrictionParams,
+                        options, flat_level: float, model: FrictionModel):
+    """Measured force as given and the prediction minus its flat-ground level (N); the
+    model is median-filtered like the fit's (per-frame integrals S, K, Q in 'basis' mode)."""
+    from .fit import median_filter
+
+    b0 = model.basis(regions, 0.0)
+    b1 = model.basis(regions, 1.0)
+    raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
+    mu = params.mu
+    T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
+    p = np.array([params.p0, params.p1])
+    if options.median_on == "basis":
+        est = median_filter(raw, options.median_kernel) @ (T @ p)
+    else:
+        est = median_filter(raw @ (T @ p), options.median_kernel)
+    return np.asarray(force, dtype=float), est - flat_level
+
+
+@functools.lru_cache(maxsize=16)
+def _flat_length_kind(finger, load: float, contact: str) -> float:
+    """Flat-ground contact length (mm) of the given kind."""
+    if contact == "geometric":
+        return _flat_length(finger, load)
+    from .regions import region_lengths
+
+    r = forward_regions(_flat_surface(), finger, np.array([0.0]), load=load, contact=contact)
+    return float(np.nansum(region_lengths(r)))
 
 
 @dataclass(frozen=True)
@@ -847,9 +874,6 @@ class OutOfSample:
         median p0 and p1, forward-model regions, no video); ``rho_heldout_params_video``
         separates the two losses (held-out parameters on the video regions).
         ``mu, p0, p1`` are the subject's training parameters (NaN on the pooled rows).
-        ``n_video_flat_segment``: held-out trials whose detrend positions came from the
-        video flat segment because the forward-model contact reached the feature from the
-        trial's first position (0 when the prediction used no video at all).
     estimates : dict
         ``(subject, surface) -> list of (x, measured, predicted)`` per held-out trial, as
         compared (N).
@@ -912,10 +936,19 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
     positions (no video) into Eq. (4) with the subject's ``mu`` and the **median** of its
     training trials' ``p0`` and ``p1`` (a held-out trial cannot have its own ``p0, p1``:
     fitting them would need its contact, i.e. its video). Measured and predicted forces
-    are compared exactly as the fit compares them (median filter, flat-segment detrend;
-    the flat segment is taken from the forward-model regions, or, when the window holds
-    none, from the video, counted in ``n_video_flat_segment``) and correlated per
-    condition as in Table 1 (:func:`fingerfriction.stats.ensemble_correlation`).
+    are correlated per condition as in Table 1
+    (:func:`fingerfriction.stats.ensemble_correlation`, which detrends every trial).
+
+    How the two are put on the same footing: the measured force is taken as the
+    analysis delivers it (drift-corrected, near zero on flat ground); the prediction is
+    Eq. (4) on the forward regions, median-filtered like the fit's basis, minus its exact
+    flat-ground level ``mu p0 L_flat`` (forward model on flat ground). The fit's own
+    footing, a line fitted over the positions where all contact lies before the feature,
+    is not used for the prediction: with the forward finger that stretch can be a
+    fraction of a millimetre (the 70 um contact reaches a raised feature several mm
+    ahead of the finger), and the extrapolated line then dominates the series (measured:
+    rho of -0.8 instead of +0.9 on a simulated study). The ``rho_heldout_params_video``
+    column keeps the fit's footing (video regions and their flat segment).
 
     Parameters
     ----------
@@ -951,7 +984,7 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
     """
     import pandas as pd
 
-    from .fit import FitOptions, Trial, fit_trials, flat_segment_mask
+    from .fit import FitOptions, Trial, fit_trials
     from .stats import BOTH, correlation_table, ensemble_correlation
 
     trials = list(trials)
@@ -975,7 +1008,6 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
 
     rows = []
     estimates: dict = {}
-    fallback: dict = {}
     for name, surf in surfaces.items():
         train = [t for t in trials if t.surface.name != name]
         test = [t for t in trials if t.surface.name == name]
@@ -998,18 +1030,11 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
             hi = max(float(t.x[-1]) for t in ttest)
             xs = lo + forward_step * np.arange(int(math.ceil((hi - lo) / forward_step - 1e-9)) + 1)
             fwd = forward_regions(surf, finger, xs, load=load, contact=contact)
+            flat_level = params.mu * params.p0 * _flat_length_kind(finger, float(load), contact)
             meas, pred, vmeas, vpred, per = [], [], [], [], []
             for t in ttest:
                 idx = np.clip(np.rint((t.x - lo) / forward_step).astype(int), 0, xs.size - 1)
-                mask = flat_segment_mask(fwd[idx], surf, margin=options.flat_margin)
-                if np.count_nonzero(mask) < 2:
-                    # The forward finger touches the feature (within 70 um) from the first
-                    # position of the trial's window: no flat segment to put measurement and
-                    # model on the same footing. Fall back to the trial's own (video) flat
-                    # segment, used only to choose the detrend positions; counted in the table.
-                    mask = flat_segment_mask(t.regions, surf, margin=options.flat_margin)
-                    fallback[(subj, name)] = fallback.get((subj, name), 0) + 1
-                m, g = _compared_estimate(surf, t.x, t.force, fwd[idx], params, options, model, mask)
+                m, g = _predicted_estimate(surf, t.force, fwd[idx], params, options, flat_level, model)
                 vm, vg = _compared_estimate(surf, t.x, t.force, t.regions, params, options, model)
                 meas.append(m)
                 pred.append(g)
@@ -1026,15 +1051,6 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
         rows.append(_loso_row(BOTH, surf, test, ins, ensemble_correlation(pooled_m, pooled_g),
                               ensemble_correlation(pooled_vm, pooled_v), None))
     table = pd.DataFrame(rows)
-    table["n_video_flat_segment"] = [
-        fallback.get((r.subject, r.surface), 0) if r.subject != BOTH
-        else sum(v for (s_, n_), v in fallback.items() if n_ == r.surface)
-        for r in table.itertuples()
-    ]
-    if fallback:
-        log.warning("%d held-out trial(s) had no flat segment under the forward model's contact; "
-                    "their detrend used the video flat segment (column n_video_flat_segment)",
-                    sum(fallback.values()))
     # Table 1's order: subjects then both pooled; scale; Bump, Step Up, Step Down.
     sub_order = {s: i for i, s in enumerate(subjects + [BOTH])}
     shape_order = {"Bump": 0, "Step Up": 1, "Step Down": 2}
