@@ -944,11 +944,13 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
     Eq. (4) on the forward regions, median-filtered like the fit's basis, minus its exact
     flat-ground level ``mu p0 L_flat`` (forward model on flat ground). The fit's own
     footing, a line fitted over the positions where all contact lies before the feature,
-    is not used for the prediction: with the forward finger that stretch can be a
-    fraction of a millimetre (the 70 um contact reaches a raised feature several mm
-    ahead of the finger), and the extrapolated line then dominates the series (measured:
-    rho of -0.8 instead of +0.9 on a simulated study). The ``rho_heldout_params_video``
-    column keeps the fit's footing (video regions and their flat segment).
+    is not used for the prediction: with the forward finger that stretch can be empty or a
+    fraction of a millimetre (the 70 um contact reaches a raised feature several mm ahead
+    of the finger), which either fails or extrapolates a meaningless line into the
+    predicted series. (rho itself does not depend on any linear footing: the Table 1
+    correlation detrends every trial linearly; the footing matters for the series that
+    are stored and plotted.) The ``rho_heldout_params_video`` column keeps the fit's
+    footing (video regions and their flat segment).
 
     Parameters
     ----------
