@@ -266,13 +266,69 @@ def simulate_cmd(
 # ---------------------------------------------------------------------------------------
 
 
+@app.command("overlay")
+def overlay_cmd(
+    study: str = typer.Argument(..., help="Study folder (or its manifest.json)."),
+    trial: str = typer.Argument(..., help="Trial id, as in the manifest."),
+    out: str = typer.Option(None, "--out", help="Output .mp4 or .gif (default: <trial>-overlay.mp4)."),
+    start: int = typer.Option(0, "--start", help="First frame."),
+    stop: int = typer.Option(None, "--stop", help="Stop before this frame (default: the last)."),
+    step: int = typer.Option(1, "--step", help="Draw every STEP-th frame."),
+    fps: float = typer.Option(30.0, "--fps", help="Playback frame rate of the output (Hz)."),
+    level: float = typer.Option(None, "--level", help="Threshold gray level (default: Otsu)."),
+    scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop."),
+) -> None:
+    """Write a video of a trial's frames with the traced contours and contact regions drawn."""
+    from .study import ManifestError, load_manifest
+    from .video import AnalysisOptions
+    from .video.overlay import write_overlay
+
+    try:
+        st = load_manifest(study)
+        tr = st.trial(trial)
+        opts = AnalysisOptions(level=level, calibration_frame=tr.video.calibration_frame)
+        info = write_overlay(
+            st.path(tr.video.path), tr.calibration["surface_height_mm"], out or f"{trial}-overlay.mp4",
+            surface=st.surface(tr.surface), options=opts, start=start, stop=stop, step=step, fps=fps,
+            scale=scale,
+        )
+    except KeyError as exc:
+        fail(str(exc.args[0]) if exc.args else str(exc))
+    except (ValueError, OSError, ManifestError) as exc:
+        fail(str(exc))
+    console.print(f"[green]wrote[/] {info.path}: {info.n_frames} frames ({info.n_flagged} flagged)")
+
+
+
 # ---------------------------------------------------------------------------------------
 # forces (force processing, fingerfriction.forces)
 # ---------------------------------------------------------------------------------------
 
 
-def _frame_positions(study: str, trial: dict, positions: str | None, from_truth: bool):
-    """Per-frame finger positions (mm) for the forces command: a file, or the study's truth."""
+def _frame_positions(study: str, manifest: dict, trial: dict, positions: str | None, from_truth: bool,
+                     from_video: bool):
+    """Per-frame finger positions (mm) and contact regions (or None) for the forces command:
+    a file, the video analysis, or the study's truth."""
+    import numpy as np
+
+    from .forces.readers import study_path
+
+    if sum((positions is not None, from_truth, from_video)) > 1:
+        raise ValueError("give only one of --positions, --from-video, --from-truth")
+    if from_video:
+        from .surfaces import surface_from_spec
+        from .video import AnalysisOptions, analyze_video
+
+        v = trial["video"]
+        surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
+        H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
+        opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)))
+        res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
+        return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
+    return _positions_only(study, trial, positions, from_truth), None
+
+
+def _positions_only(study: str, trial: dict, positions: str | None, from_truth: bool):
     import numpy as np
 
     from .forces.readers import study_path
@@ -293,8 +349,8 @@ def _frame_positions(study: str, trial: dict, positions: str | None, from_truth:
         with np.load(path, allow_pickle=False) as z:
             return np.asarray(z["x_finger_video"], dtype=float)
     raise ValueError(
-        "finger positions are needed: --positions FILE (x_mm per video frame, from the video "
-        "analysis; .csv with column x_mm or .npy) or --from-truth (simulated studies)"
+        "finger positions are needed: --from-video (run the video analysis), --positions FILE "
+        "(x_mm per video frame; .csv with column x_mm or .npy) or --from-truth (simulated studies)"
     )
 
 
@@ -304,6 +360,7 @@ def forces_cmd(
     trial: str = typer.Argument(..., help="trial id"),
     out: str = typer.Option(None, "--out", help="write F_T(x) to this CSV (x_mm, F_T_N, F_N_N, n_samples)"),
     positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
+    from_video: bool = typer.Option(False, "--from-video", help="x(t) and contact regions from the video"),
     from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
     highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none"),
     notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches"),
@@ -321,17 +378,20 @@ def forces_cmd(
         rec = next((t for t in manifest.get("trials", []) if t.get("id") == trial), None)
         if rec is None:
             raise ValueError(f"no trial {trial!r} in {study}/manifest.json")
-        x = _frame_positions(study, rec, positions, from_truth)
+        x, regions = _frame_positions(study, manifest, rec, positions, from_truth, from_video)
         params = ForceProcessingParams(sensor_highpass_hz=highpass_hz or None, notch_q=notch_q)
-        prof = process_trial(study, manifest, trial, x, params=params, on_error="flag")
+        prof = process_trial(study, manifest, trial, x, params=params, regions=regions, on_error="flag")
         if out is not None:
             prof.write_csv(out)
     except (ValueError, OSError, KeyError) as exc:
         fail(str(exc).strip("'\""))
         return
+    from rich.markup import escape
+
     for f in prof.flags:
         colour = "red" if f.severity == "error" else "yellow"
-        console.print(f"[{colour}]{f.severity}[/] [{f.code}] {f.message}", highlight=False)
+        tag = escape(f"[{f.code}]")
+        console.print(f"[{colour}]{f.severity}[/] {tag} {escape(f.message)}", highlight=False)
     if not prof.success:
         fail(prof.message)
     ok = np.isfinite(prof.f_t)

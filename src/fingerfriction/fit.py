@@ -364,6 +364,12 @@ class FitOptions:
         estimate (the literal reading of Methods; nonlinear).
     flat_margin : float
         Clearance in mm between the flat segment and the feature start (default 0).
+    detrend : bool
+        Apply the same flat-segment linear detrend to model and measurement (default True:
+        the right choice for drift-corrected measurements, see point 1 above). False
+        compares absolute forces, for data whose flat-ground level is real (no drift
+        correction, e.g. a simulated or DC-coupled sensor): the flat level ``p0 mu L`` then
+        pins ``p0`` directly and per-trial estimates are several times tighter.
     xatol, fatol : float
         Nelder-Mead tolerances on the *relative* parameters (default 1e-6) and on the
         objective (default 1e-10).
@@ -375,6 +381,7 @@ class FitOptions:
     median_kernel: int = 11
     median_on: str = "basis"
     flat_margin: float = 0.0
+    detrend: bool = True
     xatol: float = 1e-6
     fatol: float = 1e-10
     maxiter: int = 2000
@@ -510,7 +517,8 @@ class _Design:
         b1 = model.basis(trial.regions, 1.0)
         raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q
         self.mask = flat_segment_mask(trial.regions, trial.surface, margin=options.flat_margin)
-        if np.count_nonzero(self.mask) < 2:
+        self.detrend = bool(options.detrend)
+        if self.detrend and np.count_nonzero(self.mask) < 2:
             raise ValueError(
                 f"trial ({trial.subject}, {trial.surface.name}, {trial.labels}): flat segment has "
                 f"{int(np.count_nonzero(self.mask))} positions where all contact lies left of the "
@@ -523,8 +531,8 @@ class _Design:
         self.raw = raw
         # P: filtered (median on each of S, K, Q), detrended basis. In 'basis' mode it is
         # the model exactly; in 'estimate' mode it is the closed form's linear surrogate.
-        self.P = flat_detrend(self.x, median_filter(raw, self.k), self.mask)
-        self.F = flat_detrend(self.x, trial.force, self.mask)
+        self.P = self._detrend(median_filter(raw, self.k))
+        self.F = self._detrend(np.asarray(trial.force, dtype=float))
         self.n = trial.n
         self.A = self.P.T @ self.P
         self.b = self.P.T @ self.F
@@ -548,7 +556,10 @@ class _Design:
         if self.median_on == "basis":
             return self.P @ (self.T(mu) @ p)
         f = self.raw @ (self.T(mu) @ p)
-        return flat_detrend(self.x, median_filter(f, self.k), self.mask)
+        return self._detrend(median_filter(f, self.k))
+
+    def _detrend(self, y: np.ndarray) -> np.ndarray:
+        return flat_detrend(self.x, y, self.mask) if self.detrend else y
 
     def lstsq_curve(self, mus: np.ndarray):
         """Closed-form p and conventional NMSE for every mu (vectorised)."""

@@ -86,11 +86,13 @@ def test_forces_command_writes_csv(study, tmp_path, capsys):
     assert err < 0.02
 
 
-def test_forces_command_positions_file(study, tmp_path):
+def test_forces_command_positions_file(study, tmp_path, capsys):
     d, xv = study
     pos = tmp_path / "x.csv"
-    pd.DataFrame({"x_mm": xv}).to_csv(pos, index=False)
+    lost = np.where(np.abs(xv) > 9.5, np.nan, xv)
+    pd.DataFrame({"x_mm": lost}).to_csv(pos, index=False)
     assert run([str(d), "t1", "--positions", str(pos)]) == 0
+    assert "[extrapolated] x(t) was tracked over" in capsys.readouterr().out
 
 
 def test_forces_command_user_errors(study, tmp_path, capsys):
@@ -99,6 +101,8 @@ def test_forces_command_user_errors(study, tmp_path, capsys):
     assert "no trial 'nope'" in capsys.readouterr().err
     assert run([str(d), "t1"]) == 2
     assert "finger positions are needed" in capsys.readouterr().err
+    assert run([str(d), "t1", "--from-truth", "--from-video"]) == 2
+    assert "give only one of" in capsys.readouterr().err
     short = tmp_path / "x.npy"
     np.save(short, np.where(xv > 3, np.nan, xv))
     assert run([str(d), "t1", "--positions", str(short)]) == 2

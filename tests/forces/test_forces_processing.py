@@ -5,6 +5,7 @@ resampling and every bad-input case."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ from fingerfriction.forces import (
     design_lowpass,
     design_notch,
     detect_baseline,
+    extrapolate_positions,
     find_clipping,
     fit_baseline,
     fit_linear_drift,
@@ -222,8 +224,15 @@ def test_compensate_highpass_inverts_the_sensor_exactly():
 def test_fit_baseline_ignores_mains():
     t = 0.37 + np.arange(1000) / FS  # 0.1 s: five 50 Hz periods
     y = 0.004 * t - 0.002 + 0.003 * np.sin(2 * np.pi * 50 * t + 1) + 0.001 * np.cos(2 * np.pi * 300 * t)
-    a, b = fit_baseline(t, y, np.ones(t.size, bool))
-    assert a == pytest.approx(0.004, abs=1e-9) and b == pytest.approx(-0.002, abs=1e-9)
+    fit = fit_baseline(t, y, np.ones(t.size, bool))
+    assert fit.slope == pytest.approx(0.004, abs=1e-9) and fit.intercept == pytest.approx(-0.002, abs=1e-9)
+    np.testing.assert_allclose(fit.amplitudes(), [0.003, 0.0, 0.001], atol=1e-9)
+    t2 = np.linspace(0, 2, 5000)  # the fitted interference extrapolates exactly (stable mains)
+    np.testing.assert_allclose(
+        fit.mains(t2),
+        0.003 * np.sin(2 * np.pi * 50 * t2 + 1) + 0.001 * np.cos(2 * np.pi * 300 * t2),
+        atol=1e-9,
+    )
     a_plain, _ = fit_linear_drift(t, y)
     assert abs(a_plain - 0.004) > 1e-3  # a plain line fit is biased by the hum
     with pytest.raises(ValueError, match="at least 16 samples in mask, got 3"):
@@ -394,28 +403,49 @@ def test_process_forces_recovers_the_profile_in_position():
     assert prof.x.size == 2601
     assert _rms_error(prof) < 0.02
     steps = [h["step"] for h in prof.history]
-    assert steps == [
-        "decompose",
-        "remove_baseline",
-        "notch",
-        "lowpass",
-        "compensate_highpass",
-        "remove_drift",
-    ]
+    assert steps == ["decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_drift"]
     assert prof.history[1]["t_s"][1] == pytest.approx(0.1, abs=0.01)  # rest until the touch
+    # mains fitted on the baseline: F_T carries (1 - 1.2) / sqrt(2) of the 3 mN hum at 50 Hz
+    assert prof.history[1]["mains_subtracted_hz"] == [50.0, 150.0, 300.0]
+    assert prof.history[1]["F_T_mains_amplitude_N"][0] == pytest.approx(0.003 * 0.2 / np.sqrt(2), rel=0.05)
     assert prof.x[np.argmax(prof.f_t)] == pytest.approx(-0.6, abs=0.03)
 
 
 def test_paper_procedure_without_highpass_compensation():
-    """sensor_highpass_hz=None is the paper's procedure: right for a sensor without high-pass,
-    badly wrong for a 5 Hz piezo chain (why the compensation is on by default)."""
-    paper = ForceProcessingParams(sensor_highpass_hz=None)
+    """sensor_highpass_hz=None, mains="notch" is the paper's procedure: right for a sensor
+    without high-pass, badly wrong for a 5 Hz piezo chain (why the compensation is on by
+    default)."""
+    paper = ForceProcessingParams(sensor_highpass_hz=None, mains="notch")
     rec, tv, xv = synthetic_trial(highpass=0)
     prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=paper)
     assert [h["step"] for h in prof.history] == ["decompose", "notch", "lowpass", "remove_drift"]
     assert _rms_error(prof) < 0.02
     rec, tv, xv = synthetic_trial(highpass=5.0)
     assert _rms_error(process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=paper)) > 0.1
+
+
+def test_mains_options():
+    rec, tv, xv = synthetic_trial()
+    for mains, steps in (
+        (
+            "notch",
+            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"],
+        ),
+        ("both", ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"]),
+    ):
+        prof = process_forces(
+            rec, tv, xv, feature_extent_mm=(-1, 1), params=ForceProcessingParams(mains=mains)
+        )
+        assert [h["step"] for h in prof.history] == steps
+        assert prof.history[1]["mains_subtracted_hz"] == ([] if mains == "notch" else [50.0, 150.0, 300.0])
+        assert _rms_error(prof) < 0.02
+    # no baseline: the fit falls back to the notch, flagged
+    p = ForceProcessingParams(baseline=None)
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1, 1), params=p)
+    assert [f.code for f in prof.flags] == ["no-baseline", "mains-notch"]
+    assert "notch" in [h["step"] for h in prof.history]
+    with pytest.raises(ValueError, match="mains must be 'fit', 'notch' or 'both', got 'hum'"):
+        ForceProcessingParams(mains="hum")
 
 
 def test_no_baseline_is_flagged():
@@ -448,6 +478,30 @@ def test_flat_segment_options():
         ForceDataError, match=r"\[-13.000, -12.500\] mm\) spans 0.4\d+ mm of finger travel .*min_flat_mm=1"
     ):
         process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=wide)
+
+
+def test_flat_segment_from_contact_regions():
+    """Contact regions (one 16 mm contact centred on the finger): the flat frames are those whose
+    contact ends before the feature at -1 mm, i.e. x < -9 mm, inside the window from -13 mm."""
+    rec, tv, xv = synthetic_trial()
+    regions = np.stack([xv - 8.0, xv + 8.0], axis=-1)[:, None, :]
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=regions)
+    assert prof.flat_segment_mm[0] == pytest.approx(-13.0, abs=0.01)
+    assert prof.flat_segment_mm[1] == pytest.approx(-9.0, abs=0.1)
+    assert prof.history[-1]["segment"].startswith("contact regions entirely before the feature")
+    assert _rms_error(prof) < 0.02
+    # frames without regions (not tracked, e.g. near the edge of the field of view) fall back
+    # on the position criterion, so the segment still starts at the window's left end
+    untracked = np.where((np.abs(xv) > 9.5)[:, None, None], np.nan, regions)
+    prof2 = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=untracked)
+    assert prof2.flat_segment_mm[0] == pytest.approx(-13.0, abs=0.01)
+    assert prof2.flat_segment_mm[1] == pytest.approx(-9.0, abs=0.1)
+    # a shorter contact (6 mm half width) leaves the flat ground later: the segment follows it
+    short = np.stack([xv - 6.0, xv + 6.0], axis=-1)[:, None, :]
+    prof3 = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=short)
+    assert prof3.flat_segment_mm[1] == pytest.approx(-7.0, abs=0.1)
+    with pytest.raises(ValueError, match="regions has 3 frames but t_frames has"):
+        process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), regions=regions[:3])
 
 
 def test_profile_csv_round_trip(tmp_path):
@@ -535,11 +589,46 @@ def test_finger_never_reaches_the_window():
     rec, tv, xv = synthetic_trial()
     short = np.where(xv > 4.0, np.nan, xv)  # the slide stops (or tracking is lost) at x = 4 mm
     with pytest.raises(
-        ForceDataError, match=r"span \[-22.000, 4.000\] mm, which does not cover the 26 mm window"
+        ForceDataError,
+        match=r"span \[-22.000, 8.000\] mm, which does not cover the 26 mm window.*extrapolate_mm=4 mm",
     ):
         process_forces(rec, tv, short, feature_extent_mm=(-1.0, 1.0))
     prof = process_forces(rec, tv, np.full_like(xv, np.nan), feature_extent_mm=(-1.0, 1.0), on_error="flag")
     assert not prof.success and prof.flags[0].code == "no-finger"
+
+
+def test_positions_extrapolated_beyond_the_tracked_frames():
+    """A video that loses the finger outside [-9.5, 9.5] mm: x(t) is extended at constant
+    speed (exact for the synthetic constant-speed slide), with a warning."""
+    rec, tv, xv = synthetic_trial()
+    lost = np.where(np.abs(xv) > 9.5, np.nan, xv)
+    prof = process_forces(rec, tv, lost, feature_extent_mm=(-1.0, 1.0))
+    assert prof.success and [f.code for f in prof.flags] == ["extrapolated"]
+    assert re.search(r"by 3.9\d mm before and 4.00 mm after", prof.flags[0].message)
+    assert _rms_error(prof) < 0.02
+    x, (before, after) = extrapolate_positions(tv, lost, max_mm=4.0)
+    ok = np.isfinite(x)
+    np.testing.assert_allclose(x[ok], xv[ok], atol=1e-9)
+    assert before == pytest.approx(4.0, abs=0.1) and after == pytest.approx(4.0, abs=0.1)
+    with pytest.raises(ForceDataError, match=r"span \[-11.\d+, 11.\d+\] mm, .*extrapolate_mm=2 mm"):
+        process_forces(
+            rec, tv, lost, feature_extent_mm=(-1, 1), params=ForceProcessingParams(extrapolate_mm=2)
+        )
+
+
+def test_rest_inside_the_flat_segment_is_flagged():
+    """A finger that pauses for 100 ms at -11 mm, inside the flat segment."""
+    rec, tv, xv = synthetic_trial()
+    k = int(np.argmax(xv >= -11.0))
+    x = np.concatenate([xv[:k], np.full(100, xv[k]), xv[k:]])[: xv.size]
+    prof = process_forces(rec, tv, x, feature_extent_mm=(-1.0, 1.0))
+    flag = [f for f in prof.flags if f.code == "flat-rest"]
+    assert flag and "at rest" in flag[0].message
+    assert "flat-rest" not in [f.code for f in process_forces(rec, tv, xv, feature_extent_mm=(-1, 1)).flags]
+    # a longer pause: the frames reach the window's end only after the force record ends
+    x = np.concatenate([xv[:k], np.full(150, xv[k]), xv[k:]])[: xv.size]
+    with pytest.raises(ForceDataError, match=r"at the force sample times, the finger positions cover"):
+        process_forces(rec, tv, x, feature_extent_mm=(-1.0, 1.0))
 
 
 def test_reversal_and_stall_are_flagged():

@@ -1,10 +1,11 @@
 import numpy as np
 import pytest
-from synth import render
 
 from fingerfriction.surfaces import RaisedCosine
 from fingerfriction.video.binarize import Crop, central_crop, otsu_level
 from fingerfriction.video.calibrate import calibrate
+
+from .synth import render
 
 
 @pytest.mark.parametrize("shape", ["bump", "step-up", "step-down"])

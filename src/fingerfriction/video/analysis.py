@@ -37,7 +37,7 @@ from .calibrate import Calibration, calibrate
 from .contact import contact_distance, contact_regions
 from .contours import finger_zone, lower_envelope, trace_finger
 from .readers import VideoReader, open_video
-from .tracking import area_below_line, centroid_below_line, line_for_area
+from .tracking import area_below_line, centroid_below_line, chord_midpoint, line_for_area
 
 __all__ = ["FrameFlag", "FLAG_REASONS", "AnalysisOptions", "FrameAnalyzer", "VideoResult",
            "analyze_video"]
@@ -94,6 +94,14 @@ class AnalysisOptions:
         Shortest finger contour (pixels) accepted; shorter ones are noise.
     n_max_regions : int
         Most contact regions expected in a frame.
+    chord_height_mm : float
+        Height above the feature's top of the chord whose midpoint gives the alternative
+        position ``x_chord`` (not in the paper; 2 mm: higher is less affected by the
+        deformation near the contact but leaves the field of view sooner).
+    position : {'cf-centroid', 'chord'}
+        What :attr:`VideoResult.x` holds: the paper's centroid of C_f (default) or the
+        chord midpoint (frames whose chord is cut by the crop are then flagged
+        OUT_OF_VIEW). Both are always returned as ``x_cf`` and ``x_chord``.
     """
 
     crop: Crop | None = None
@@ -105,6 +113,8 @@ class AnalysisOptions:
     calibration_frame: int = 0
     min_finger_points: int = 20
     n_max_regions: int = 8
+    chord_height_mm: float = 2.0
+    position: str = "cf-centroid"
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.contact_tol_px) and self.contact_tol_px > 0):
@@ -119,6 +129,10 @@ class AnalysisOptions:
             raise ValueError(f"calibration_frame must be >= 0, got {self.calibration_frame!r}")
         if int(self.n_max_regions) < 1:
             raise ValueError(f"n_max_regions must be >= 1, got {self.n_max_regions!r}")
+        if self.position not in ("cf-centroid", "chord"):
+            raise ValueError(f"position must be 'cf-centroid' or 'chord', got {self.position!r}")
+        if not (math.isfinite(self.chord_height_mm) and self.chord_height_mm > 0):
+            raise ValueError(f"chord_height_mm must be > 0 mm, got {self.chord_height_mm!r}")
         if self.level is not None and not math.isfinite(float(self.level)):
             raise ValueError(f"level must be a finite gray level, got {self.level!r}")
 
@@ -132,8 +146,14 @@ class VideoResult:
     path : str
         The video.
     x : (n_frames,) ndarray
-        Finger position x(t) in mm, surface coordinates (centroid of C_f); NaN where
-        flagged.
+        Finger position x(t) in mm, surface coordinates: ``x_cf`` or ``x_chord`` as
+        chosen by ``AnalysisOptions.position``; NaN where flagged.
+    x_cf : (n_frames,) ndarray
+        Centroid of C_f in mm (the paper's definition); NaN where flagged.
+    x_chord : (n_frames,) ndarray
+        Alternative position (not in the paper): midpoint of the finger's chord
+        ``chord_height_mm`` above the feature's top, in mm; NaN where flagged or where
+        the chord is cut by the crop.
     regions : (n_frames, n_max, 2) ndarray
         Contact regions C_i in mm (:mod:`fingerfriction.regions`); no regions (all NaN)
         in flagged frames.
@@ -163,6 +183,8 @@ class VideoResult:
 
     path: str
     x: np.ndarray = field(repr=False)
+    x_cf: np.ndarray = field(repr=False)
+    x_chord: np.ndarray = field(repr=False)
     regions: np.ndarray = field(repr=False)
     flags: np.ndarray = field(repr=False)
     line_row: np.ndarray = field(repr=False)
@@ -220,7 +242,8 @@ class VideoResult:
         path = os.fspath(path)
         tmp = path + ".tmp.npz"
         cal = self.calibration
-        np.savez(tmp, x=self.x, regions=self.regions, flags=self.flags, line_row=self.line_row,
+        np.savez(tmp, x=self.x, x_cf=self.x_cf, x_chord=self.x_chord, regions=self.regions, flags=self.flags,
+                 line_row=self.line_row,
                  area_px=self.area_px, reference_frame=self.reference_frame,
                  mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
                  surface_x_mm=cal.x_mm, surface_h_mm=cal.h_hat_mm,
@@ -257,7 +280,10 @@ class FrameAnalyzer:
         self.zone_last = fd - 2
         self.s = calibration.surface_row.astype(float)
         self.buf = np.empty((self.zone_rows, w), np.uint8)
+        # rows from which the zone mask differs from "all rows": only there is it applied
+        self.band_start = int(max(int(fd.min()) - 2, 0))
         self.line0 = calibration.top_row - options.line_offset_mm / calibration.mm_per_px
+        self.chord_row = calibration.top_row - options.chord_height_mm / calibration.mm_per_px
         self.area: float | None = None
         self.reference_frame = -1
         self.n_frames_seen = 0
@@ -280,43 +306,60 @@ class FrameAnalyzer:
         crop = self.cal.crop.apply(frames)
         k = crop.shape[0]
         w = self.width
+        zr = self.zone_rows
         level = self.cal.level
-        env = np.full((k, w), -1, dtype=np.int64)
         flags = np.zeros(k, np.uint8)
         eight = crop.dtype == np.uint8
         lvl8 = int(math.floor(level))
-        boolbuf = np.empty((self.zone_rows, w), bool)
+        # Each frame's finger zone is copied to a small contiguous buffer first: OpenCV
+        # copies strided inputs internally, and the gathers below stay in cache.
+        gray = np.empty((zr + 1, w), crop.dtype)
+        gflat = gray.reshape(-1)
+        boolbuf = np.empty((zr, w), bool)
+        b0 = self.band_start
+        zone_band = self.zone[b0:]
+        min_pts = self.opt.min_finger_points
+        env = np.full((k, w), -1, np.int64)
+        g0 = np.zeros((k, w), crop.dtype)
+        g1 = np.zeros((k, w), crop.dtype)
+        colidx = np.arange(w)
         for t in range(k):
-            img = crop[t, : self.zone_rows]
+            np.copyto(gray, crop[t, : zr + 1])
             if eight:
-                cv2.threshold(img, lvl8, 255, cv2.THRESH_BINARY_INV, dst=self.buf)
-                cv2.bitwise_and(self.buf, self.zone, dst=self.buf)
                 binimg = self.buf
+                cv2.threshold(gray[:zr], lvl8, 255, cv2.THRESH_BINARY_INV, dst=binimg)
+                band = binimg[b0:]
+                cv2.bitwise_and(band, zone_band, dst=band)
             else:
-                np.less_equal(img, level, out=boolbuf)
-                np.logical_and(boolbuf, self.zone_bool, out=boolbuf)
+                np.less_equal(gray[:zr], level, out=boolbuf)
+                np.logical_and(boolbuf[b0:], self.zone_bool[b0:], out=boolbuf[b0:])
                 binimg = boolbuf.view(np.uint8)
-            nz = cv2.countNonZero(binimg)
-            if nz > 0.98 * self.zone_count:
-                flags[t] = int(FrameFlag.NO_CONTOUR)
-                continue
-            fc = trace_finger(binimg, min_points=self.opt.min_finger_points) if nz else None
+            fc = trace_finger(binimg, min_points=min_pts)
             if fc is None:
                 flags[t] = int(FrameFlag.FINGER_MISSING)
                 continue
-            env[t] = lower_envelope(fc.points, w)
+            e = lower_envelope(fc.points, w)
+            env[t] = e
+            idx = np.maximum(e, 0) * w + colidx
+            np.take(gflat, idx, out=g0[t])
+            np.take(gflat, idx + w, out=g1[t])
+        # Sub-pixel outline, vectorised over the chunk: where the gray level crosses the
+        # threshold between the last finger pixel and the bright pixel below it.
         has = env >= 0
-        yb = np.where(has, env, 0)
-        tt = np.arange(k)[:, None]
-        cc = np.arange(w)[None, :]
-        g0 = crop[tt, yb, cc].astype(np.float32)
-        g1 = crop[tt, yb + 1, cc].astype(np.float32)
+        a0 = g0.astype(np.float32)
+        a1 = g1.astype(np.float32)
         with np.errstate(invalid="ignore", divide="ignore"):
-            frac = np.where(g1 > g0, (level - g0) / (g1 - g0), 0.5)
-        f = yb + np.clip(frac, 0.0, 1.0)
-        touch = (yb >= self.zone_last[None, :]) & (g1 <= level)
-        f = np.where(touch, self.s[None, :], np.minimum(f, self.s[None, :]))
+            frac = np.where(a1 > a0, (level - a0) / (a1 - a0), 0.5)
+        s = self.s[None, :]
+        f = np.minimum(env + np.clip(frac, 0.0, 1.0), s)
+        touch = has & (env >= self.zone_last[None, :]) & (a1 <= level)
+        f = np.where(touch, s, f)
         f[~has] = np.nan
+        # Dark down to the surface in nearly every column: the threshold leaves no finger
+        # contour to speak of (frame too dark or level too high).
+        nocont = (flags == 0) & (np.count_nonzero(touch, axis=1) > 0.98 * w)
+        flags[nocont] = int(FrameFlag.NO_CONTOUR)
+        f[nocont] = np.nan
         return f, flags
 
     def analyze_chunk(self, start: int, frames: np.ndarray) -> dict:
@@ -325,7 +368,7 @@ class FrameAnalyzer:
         Returns
         -------
         dict
-            ``x`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
+            ``x``, ``x_cf``, ``x_chord`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
             ``line_row`` (k,) px, ``f`` (k, width) outline rows.
         """
         opt, cal = self.opt, self.cal
@@ -347,11 +390,15 @@ class FrameAnalyzer:
                     log.info("reference area A = %.1f px^2 in frame %d", a, self.reference_frame)
                     break
         line = np.full(k, np.nan)
-        if self.area is None:
-            flags[flags == 0] |= int(FrameFlag.NO_REFERENCE)
-        else:
-            before = idx < self.reference_frame
-            flags[(flags == 0) & before] |= int(FrameFlag.NO_REFERENCE)
+        pre = (flags == 0) & ((self.area is None) | (idx < self.reference_frame))
+        if pre.any():
+            # Before the reference frame: C_f (at the initial line) cut by the crop's side
+            # is "out of view"; anything else has no reference area yet.
+            cut0 = ((np.nan_to_num(f[:, 0], nan=-np.inf) > self.line0)
+                    | (np.nan_to_num(f[:, w - 1], nan=-np.inf) > self.line0))
+            flags[pre & cut0] |= int(FrameFlag.OUT_OF_VIEW)
+            flags[pre & ~cut0] |= int(FrameFlag.NO_REFERENCE)
+        if self.area is not None:
             ok = flags == 0
             if ok.any():
                 line[ok] = line_for_area(f[ok], self.area)
@@ -361,19 +408,30 @@ class FrameAnalyzer:
                                   | (np.nan_to_num(f[:, w - 1], nan=-np.inf) > line))
             flags[cut] |= int(FrameFlag.OUT_OF_VIEW)
         good = flags == 0
-        line[~good] = np.nan
         xcol = centroid_below_line(f, np.where(good, line, np.inf))
-        x = np.where(good, cal.col_to_mm(xcol), np.nan)
+        x_cf = np.where(good, cal.col_to_mm(xcol), np.nan)
+        x_chord = np.where(good, cal.col_to_mm(chord_midpoint(f, self.chord_row)), np.nan)
+        if opt.position == "chord":
+            cut = good & np.isnan(x_chord)
+            flags[cut] |= int(FrameFlag.OUT_OF_VIEW)
+            good = flags == 0
+            x_cf[~good] = np.nan
+            x = x_chord
+        else:
+            x = x_cf
+        line[~good] = np.nan
         fg = np.where(good[:, None], f, np.nan)
         d = contact_distance(fg, self.s, metric=opt.contact_metric, tol_px=opt.contact_tol_px)
         regions = contact_regions(d, opt.contact_tol_px, cal.col_to_mm, n_max=opt.n_max_regions)
         self.n_frames_seen += k
-        return {"x": x, "regions": regions, "flags": flags, "line_row": line, "f": f}
+        return {"x": x, "x_cf": x_cf, "x_chord": x_chord, "regions": regions, "flags": flags,
+                "line_row": line, "f": f}
 
 
 def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = None,
                   options: AnalysisOptions | None = None, calibration: Calibration | None = None,
-                  start: int = 0, stop: int | None = None) -> VideoResult:
+                  start: int = 0, stop: int | None = None,
+                  n_frames: int | None = None) -> VideoResult:
     """Analyse one video: x(t), contact regions and per-frame flags.
 
     Parameters
@@ -389,6 +447,9 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         Reuse a calibration instead of computing it from ``options.calibration_frame``.
     start, stop : int
         Frame range to analyse (default: all).
+    n_frames : int, optional
+        Frame count the video should have (the manifest's ``video.n_frames``); frames
+        the file does not hold are flagged CORRUPT and the result marked truncated.
 
     Returns
     -------
@@ -406,7 +467,15 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         n = reader.n_frames
         if n == 0:
             raise ValueError(f"{reader.path}: the video has no frames")
-        stop = n if stop is None else min(int(stop), n)
+        expected = n if n_frames is None else int(n_frames)
+        if n_frames is not None and expected < n:
+            log.warning("%s holds %d frames, more than the %d expected; analysing %d",
+                        reader.path, n, expected, expected)
+        total = expected
+        stop = total if stop is None else min(int(stop), total)
+        if not 0 <= start < stop:
+            raise ValueError(f"{reader.path}: frame range [{start}, {stop}) is empty or outside "
+                             f"the video's {total} frames")
         if calibration is None:
             if opt.calibration_frame >= n:
                 raise ValueError(f"{reader.path}: calibration_frame {opt.calibration_frame} is beyond "
@@ -420,6 +489,8 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         an = FrameAnalyzer(calibration, opt, reader.shape)
         m = stop - start
         x = np.full(m, np.nan)
+        x_cf = np.full(m, np.nan)
+        x_chord = np.full(m, np.nan)
         line = np.full(m, np.nan)
         flags = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
         regions = np.full((m, opt.n_max_regions, 2), np.nan)
@@ -431,11 +502,15 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
             t_dec += t1 - t0
             r = an.analyze_chunk(i0, frames)
             s = slice(i0 - start, i0 - start + frames.shape[0])
-            x[s], line[s], flags[s], regions[s] = r["x"], r["line_row"], r["flags"], r["regions"]
+            x[s], x_cf[s], x_chord[s], line[s] = r["x"], r["x_cf"], r["x_chord"], r["line_row"]
+            flags[s], regions[s] = r["flags"], r["regions"]
             t0 = time.perf_counter()
             t_an += t0 - t1
             n_an += frames.shape[0]
-        truncated = reader.truncated
+        truncated = reader.truncated or stop > n
+        if stop > n and not reader.truncated:
+            reader.error = f"the file holds {n} frames, {expected} expected"
+            reader.n_read = n
     finally:
         if own:
             reader.close()
@@ -447,7 +522,8 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         msg += f"; video truncated after frame {reader.n_read - 1}: {reader.error}"
     timings = {"decode_s": t_dec, "analysis_s": t_an,
                "frames_per_s": n_an / t_an if t_an > 0 else float("nan")}
-    return VideoResult(path=reader.path, x=x, regions=regions, flags=flags, line_row=line,
+    return VideoResult(path=reader.path, x=x, x_cf=x_cf, x_chord=x_chord, regions=regions, flags=flags,
+                       line_row=line,
                        area_px=float(an.area) if an.area is not None else float("nan"),
                        reference_frame=an.reference_frame, calibration=calibration, fps=reader.fps,
                        contact_tol_px=opt.contact_tol_px, contact_metric=opt.contact_metric,

@@ -1,19 +1,21 @@
 """Contact regions C_i from the finger and surface outlines (Methods, "Image analysis").
 
 "A pair of points separated by a distance of 3 pixels (i.e. 70 um) or less was
-considered to be in contact." For each column's point of the finger's lower outline
-``(c, f[c])`` this module computes its distance to the surface outline ``(c', s[c'])``
-(sub-pixel rows from the calibration frame):
+considered to be in contact." The regions are wanted in surface coordinates, so for each
+column's point of the surface outline ``(c, s[c])`` (sub-pixel rows from the calibration
+frame) this module computes its distance to the finger's lower outline ``f``:
 
-* ``metric='euclidean'`` (the paper's): ``min_j sqrt(j^2 + (s[c+j] - f[c])^2)`` over
-  neighbouring columns ``|j| <= ceil(tol) + 1``;
-* ``metric='vertical'``: the vertical gap ``s[c] - f[c]``, the definition a simulator
-  uses when it thresholds ``gap(x) = finger(x) - h(x)``.
+* ``metric='euclidean'`` (the paper's): the distance from the surface point to the finger
+  silhouette, ``min_j sqrt(j^2 + max(s[c] - f[c+j], 0)^2)`` over neighbouring columns
+  ``|j| <= ceil(tol) + 1``;
+* ``metric='vertical'``: the vertical gap ``s[c] - f[c]``.
 
-The lowest finger pixel of a column is the one nearest the surface: the surface
-silhouette is closed under moving down, so the distance to it can only decrease going
-down a column. Hence testing the lower outline is equivalent to testing every finger
-contour point (checked in the tests against a brute-force pairwise test).
+Why the lower outline suffices: the finger silhouette is closed under moving up (it comes
+from above), so the point of a finger column nearest to a surface point is its lowest
+point, or the point level with it when the column reaches lower; and the surface
+silhouette is closed under moving down, so a column's top surface point is its nearest to
+the finger. Testing these points is therefore equivalent to testing every pair of finger
+and surface contour points (checked in the tests against a brute-force pairwise test).
 
 Contact columns form runs; each run becomes one region ``[a_i, b_i]`` whose ends are
 interpolated where the distance crosses the tolerance, then mapped to surface mm.
@@ -30,7 +32,7 @@ __all__ = ["contact_distance", "contact_regions"]
 
 def contact_distance(f: np.ndarray, s: np.ndarray, *, metric: str = "euclidean",
                      tol_px: float = 3.0) -> np.ndarray:
-    """Distance in px from each column's finger outline point to the surface outline.
+    """Distance in px from each column's surface outline point to the finger.
 
     Parameters
     ----------
@@ -45,29 +47,39 @@ def contact_distance(f: np.ndarray, s: np.ndarray, *, metric: str = "euclidean",
     Returns
     -------
     (n_frames, width) ndarray
-        Distance in px (0 where the finger touches or overlaps), NaN where no finger.
+        Distance in px (0 where the finger touches), NaN where the finger is absent from
+        the column (vertical) or from every column within the search window (euclidean).
     """
     f = np.atleast_2d(np.asarray(f, dtype=float))
     s = np.asarray(s, dtype=float)
-    if metric == "vertical":
-        return np.maximum(s[None, :] - f, 0.0)
-    if metric != "euclidean":
+    if metric not in ("euclidean", "vertical"):
         raise ValueError(f"metric must be 'euclidean' or 'vertical', got {metric!r}")
-    J = int(math.ceil(tol_px)) + 1
     d = np.maximum(s[None, :] - f, 0.0)
-    # Only points whose vertical gap is below 2 tol (or the slope bound) can be within tol
-    # of a neighbouring column; the others keep their vertical gap (> tol either way).
-    ti, ci = np.nonzero(d <= 2.0 * tol_px + J)
+    if metric == "vertical":
+        return d
+    J = int(math.ceil(tol_px)) + 1
+    n, w = f.shape
+    # Only surface points with a finger column within reach can be in contact; compute
+    # the neighbourhood minimum there (sparse), elsewhere keep the vertical gap.
+    dd = np.where(np.isnan(d), np.inf, d)
+    near = np.zeros((n, w), bool)
+    lim = 2.0 * tol_px + J
+    for j in range(-J, J + 1):
+        lo, hi = max(0, -j), min(w, w - j)
+        near[:, lo:hi] |= dd[:, lo + j:hi + j] <= lim
+    ti, ci = np.nonzero(near)
     if ti.size:
-        fv = f[ti, ci]
-        best = d[ti, ci]
-        spad = np.concatenate([np.full(J, np.inf), s, np.full(J, np.inf)])
+        best = dd[ti, ci]
+        fpad = np.concatenate([np.full((n, J), np.nan), f, np.full((n, J), np.nan)], axis=1)
+        sc = s[ci]
         for j in range(-J, J + 1):
             if j == 0:
                 continue
-            dy = np.maximum(spad[ci + J + j] - fv, 0.0)
-            np.minimum(best, np.sqrt(j * j + dy * dy), out=best)
-        d[ti, ci] = best
+            fj = fpad[ti, ci + J + j]
+            dy = np.maximum(sc - fj, 0.0)
+            dist = np.sqrt(j * j + dy * dy)
+            np.minimum(best, np.where(np.isnan(fj), np.inf, dist), out=best)
+        d[ti, ci] = np.where(np.isfinite(best), best, np.nan)
     return d
 
 

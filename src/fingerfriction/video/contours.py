@@ -125,15 +125,21 @@ def lower_envelope(points: np.ndarray, width: int) -> np.ndarray:
     Parameters
     ----------
     points : (n, 2) int ndarray
-        Contour points ``(col, row)``, rows below 2**20.
+        Contour points ``(col, row)``, both in ``[0, 32768)``.
     width : int
         Number of columns.
     """
-    # One sort of the packed key col * 2**20 + row puts each column's lowest point last
-    # in its group; 4x faster than np.maximum.at on a typical 2,000-point finger contour.
-    key = np.sort(points[:, 0].astype(np.int64) * (1 << 20) + points[:, 1])
-    col = key >> 20
-    last = np.flatnonzero(np.append(col[1:] != col[:-1], True))
+    # One sort of the packed key col * 2**16 + row (int32) puts each column's lowest point
+    # last in its group; several times faster than np.maximum.at on a 2,000-point contour.
+    pts = np.asarray(points, dtype=np.int32)
+    if pts.size and (pts.max() >= 1 << 15 or pts.min() < 0):
+        raise ValueError("contour coordinates must be in [0, 32768) px")
+    key = (pts[:, 0] << 16) | pts[:, 1]
+    key.sort()
+    col = key >> 16
+    last = np.flatnonzero(col[1:] != col[:-1])
     env = np.full(width, -1, dtype=np.int64)
-    env[col[last]] = key[last] & ((1 << 20) - 1)
+    if key.size:
+        env[col[last]] = key[last] & 0xFFFF
+        env[col[-1]] = key[-1] & 0xFFFF
     return env

@@ -87,3 +87,45 @@ def centroid_below_line(f: np.ndarray, r) -> np.ndarray:
     cols = np.arange(f.shape[1], dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(tot > 0, wgt @ cols / tot, np.nan)
+
+
+def chord_midpoint(f: np.ndarray, row: float) -> np.ndarray:
+    """Midpoint column of the finger's chord at a horizontal row (an alternative x(t)).
+
+    The outline crosses ``row`` once on each side of the finger; the crossings are
+    interpolated linearly between columns and their midpoint returned. Far enough above
+    the contact, the finger's sides are not deformed by the relief, so the midpoint
+    follows the finger's centre without the deformation-dependent shift of the C_f
+    centroid (this is not in the paper; see the benchmark for both).
+
+    Parameters
+    ----------
+    f : (n_frames, width) float ndarray
+        Lower-outline rows, NaN where there is no finger.
+    row : float
+        The chord's row (px, crop coordinates).
+
+    Returns
+    -------
+    (n_frames,) ndarray
+        Midpoint column; NaN where the outline does not reach ``row`` or the chord is cut
+        by the crop's side.
+    """
+    f = np.atleast_2d(np.asarray(f, dtype=float))
+    n, w = f.shape
+    below = np.nan_to_num(f, nan=-np.inf) > row
+    anyb = below.any(axis=1)
+    a = np.argmax(below, axis=1)
+    b = w - 1 - np.argmax(below[:, ::-1], axis=1)
+    ok = anyb & (a > 0) & (b < w - 1)
+    a = np.where(ok, a, 1)
+    b = np.where(ok, b, w - 2)
+    t = np.arange(n)
+    fa0 = np.nan_to_num(f[t, a - 1], nan=-1.0)
+    fa = f[t, a]
+    fb = f[t, b]
+    fb1 = np.nan_to_num(f[t, b + 1], nan=-1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        left = a - 1 + (row - fa0) / (fa - fa0)
+        right = b + (fb - row) / (fb - fb1)
+    return np.where(ok, 0.5 * (left + right), np.nan)

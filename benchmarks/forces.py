@@ -1,0 +1,305 @@
+"""Accuracy and throughput of the force processing on a simulated study.
+
+For every trial, the recovered ``F_T(x)`` (``fingerfriction.forces.process_trial``: the
+recorded channels, the finger positions per video frame) is compared with the *true*
+tangential force of the simulator (``truth/<trial>.npz``) brought onto the same grid by the
+same *linear* processing the recovered force went through:
+
+* the truth ``F_T(t)`` has no sensor high-pass, no drift, no mains and no noise; the
+  sensor-inversion steps (baseline drift, high-pass compensation) therefore do not apply
+  to it;
+* the same zero-phase notch and low-pass filters are applied (they are part of what
+  ``F_T(x)`` means: the force in the 0-500 Hz band, without 50/150/300 Hz);
+* the same flat-segment linear fit is removed: the recovered force is relative to its
+  trend over the flat segment (which removes the drift *and* the true flat-ground friction
+  level), so the truth is taken relative to its own trend over the same finger positions;
+* it is mapped onto positions with the true finger position at each force sample
+  (``x_finger_force``), while the recovered force uses the per-frame positions
+  (``x_finger_video``, or the video analysis' x(t) with ``--x-source video``) interpolated
+  onto the force clock through the manifest's clock offsets.
+
+Error: RMS over the 26 mm window of (recovered - reference), in % of the reference's
+peak-to-peak. Criterion (issue 6): below 5 % on every surface and speed. Also printed:
+the paper's procedure as written (no high-pass compensation), the error against the
+unfiltered truth, the sensitivity to a +-5 % error in the assumed sensor cut-off, and the
+throughput (trials/s) with its ratio to a bare reference measured in the same run (reading
+the file and one zero-phase low-pass of both channels).
+
+Usage::
+
+    python benchmarks/forces.py [STUDY] [--x-source truth|video] [--limit N]
+
+STUDY defaults to /work/studies/full, else the study with most trials in /work/studies.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from fingerfriction.forces import (
+    ForceDataError,
+    ForceProcessingParams,
+    frame_times,
+    lowpass_filter,
+    notch_filter,
+    process_trial,
+    read_trial_forces,
+    remove_linear_drift,
+    resample_to_positions,
+)
+from fingerfriction.forces.readers import study_path
+
+STUDIES = Path("/work/studies")
+
+
+def pick_study(arg: str | None) -> Path:
+    if arg:
+        return Path(arg)
+    if (STUDIES / "full" / "manifest.json").exists():
+        return STUDIES / "full"
+    best, n_best = None, -1
+    for m in sorted(STUDIES.glob("*/manifest.json")):
+        try:
+            n = len(json.loads(m.read_text()).get("trials", []))
+        except (OSError, ValueError):
+            continue
+        if n > n_best:
+            best, n_best = m.parent, n
+    if best is None:
+        sys.exit(f"no study found in {STUDIES}; pass one")
+    return best
+
+
+def reference_profile(
+    truth, prof, params: ForceProcessingParams, fs: float, *, notch: bool, lowpass: bool = True
+):
+    """The true F_T on the profile's grid, with the same linear processing (see module doc)."""
+    t = np.asarray(truth["t_force"], float)
+    x = np.asarray(truth["x_finger_force"], float)
+    ft = np.asarray(truth["F_T"], float)
+    if notch and params.notch_hz:
+        ft = notch_filter(ft, fs, params.notch_hz, q=params.notch_q)
+    if lowpass and params.lowpass_hz is not None:
+        ft = lowpass_filter(ft, fs, params.lowpass_hz, order=params.lowpass_order)
+    # the same force samples as the recovered profile's drift fit (same clock: checked in main)
+    mask = prof.flat_mask
+    ft, _ = remove_linear_drift(t, ft, mask)
+    return resample_to_positions(x, ft, window=prof.window_mm, resolution=params.resolution_mm).values
+
+
+def rel_rms(a, ref) -> float:
+    return float(np.sqrt(np.mean((a - ref) ** 2)) / np.ptp(ref))
+
+
+def video_positions(study: Path, manifest: dict, trial: dict) -> tuple[np.ndarray, np.ndarray]:
+    """x(t) and contact regions per frame from the video analysis (``fingerfriction.video``)."""
+    from fingerfriction.surfaces import surface_from_spec
+    from fingerfriction.video import AnalysisOptions, analyze_video
+
+    v = trial["video"]
+    surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
+    H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
+    opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)))
+    res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
+    return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("study", nargs="?")
+    ap.add_argument("--x-source", choices=("truth", "video"), default="truth")
+    ap.add_argument("--limit", type=int, default=None, help="process only the first N trials")
+    ap.add_argument(
+        "--regions",
+        action="store_true",
+        help="flat segment from contact regions (truth regions_geom, or the video's with --x-source video)",
+    )
+    ap.add_argument("--notch-q", type=float, default=None, help="notch quality factor")
+    args = ap.parse_args(argv)
+    study = pick_study(args.study)
+    manifest = json.loads((study / "manifest.json").read_text())
+    trials = manifest["trials"][: args.limit] if args.limit else manifest["trials"]
+    print(f"study: {study} ({len(manifest['trials'])} trials, {len(trials)} processed)")
+    source = "truth x_finger_video" if args.x_source == "truth" else "video analysis x(t)"
+    print(
+        f"finger positions: {source}; flat segment from {'contact regions' if args.regions else 'positions'}"
+    )
+
+    kw = {} if args.notch_q is None else {"notch_q": args.notch_q}
+    default = ForceProcessingParams(**kw)
+    fc = default.sensor_highpass_hz
+    print(
+        f"defaults: mains={default.mains!r} at {list(default.notch_hz)} Hz, "
+        f"low-pass {default.lowpass_hz:g} Hz, "
+        f"sensor high-pass compensated at {fc:g} Hz; notch variants use Q={default.notch_q:g}"
+    )
+    # name: (params, whether the reference gets the notch too)
+    variants = {
+        "notch": (ForceProcessingParams(mains="notch", **kw), False),
+        "notch_ll": (ForceProcessingParams(mains="notch", **kw), True),
+        "paper": (ForceProcessingParams(sensor_highpass_hz=None, mains="notch", **kw), True),
+        "fc-5%": (ForceProcessingParams(sensor_highpass_hz=0.95 * fc, **kw), False),
+        "fc+5%": (ForceProcessingParams(sensor_highpass_hz=1.05 * fc, **kw), False),
+    }
+    rows = []
+    t_proc = t_ref = 0.0
+    failures = []
+    max_sync = 0.0
+    t_video = 0.0
+    video_err = []
+    for tr in trials:
+        tid = tr["id"]
+        with np.load(study_path(study, tr["truth"], "truth"), allow_pickle=False) as z:
+            truth = {
+                k: z[k]
+                for k in ("t_force", "x_finger_force", "F_T", "t_video", "x_finger_video", "regions_geom")
+            }
+        # the manifest's clocks must reproduce the truth's sample and frame times
+        tv = frame_times(tr)
+        fs = float(tr["force"]["fs_hz"])
+        tf = float(tr["force"].get("t0_s", 0.0)) + np.arange(truth["t_force"].size) / fs
+        max_sync = max(max_sync, np.max(np.abs(tv - truth["t_video"])), np.max(np.abs(tf - truth["t_force"])))
+        if args.x_source == "truth":
+            x_frames, regions = truth["x_finger_video"], truth["regions_geom"]
+        else:
+            tv0 = time.perf_counter()
+            x_frames, regions = video_positions(study, manifest, tr)
+            t_video += time.perf_counter() - tv0
+            xt = truth["x_finger_video"]
+            inwin = np.isfinite(x_frames) & np.isfinite(xt) & (np.abs(xt) <= 13)
+            d = x_frames[inwin] - xt[inwin]
+            video_err.append((tid, float(np.median(d)), float(np.sqrt(np.mean(d**2))), int((~inwin).sum())))
+
+        t0 = time.perf_counter()
+        try:
+            prof = process_trial(
+                study, manifest, tid, x_frames, params=default, regions=regions if args.regions else None
+            )
+        except (ForceDataError, ValueError) as exc:
+            failures.append((tid, str(exc)))
+            continue
+        t1 = time.perf_counter()
+        # bare reference: read the file and low-pass both channels once
+        rec = read_trial_forces(study, tr)
+        lowpass_filter(np.vstack([rec.f1, rec.f2]), rec.fs_hz, 500.0)
+        t2 = time.perf_counter()
+        t_proc += t1 - t0
+        t_ref += t2 - t1
+
+        ref = reference_profile(truth, prof, default, fs, notch=False)
+        if args.x_source == "video":
+            # the error a perfect force chain would make with these positions: the true F_T
+            # (same filters and flat-segment fit) mapped with the video's x(t) instead of the true x
+            t_true = np.asarray(truth["t_force"], float)
+            ft_ref = lowpass_filter(np.asarray(truth["F_T"], float), fs, default.lowpass_hz)
+            ft_ref, _ = remove_linear_drift(t_true, ft_ref, prof.flat_mask)
+            via_video = resample_to_positions(prof.x_at_samples, ft_ref, window=prof.window_mm).values
+        ref_raw = reference_profile(truth, prof, default, fs, notch=False, lowpass=False)
+        row = {
+            "id": tid,
+            "surface": tr["surface"],
+            "speed": float(tr["speed_mm_s"]),
+            "err": rel_rms(prof.f_t, ref),
+            "err_raw": rel_rms(prof.f_t, ref_raw),
+            "ptp_mN": 1e3 * float(np.ptp(ref)),
+            "flags": ",".join(f.code for f in prof.flags),
+        }
+        if args.x_source == "video":
+            row["pos_only"] = rel_rms(via_video, ref)
+        cache = {}
+        for name, (p, ref_notch) in variants.items():
+            try:
+                if id(p) not in cache:
+                    cache[id(p)] = process_trial(
+                        study, manifest, tid, x_frames, params=p, regions=regions if args.regions else None
+                    )
+                pv = cache[id(p)]
+                row[name] = rel_rms(pv.f_t, reference_profile(truth, pv, p, fs, notch=ref_notch))
+            except (ForceDataError, ValueError):
+                row[name] = np.nan
+        rows.append(row)
+
+    print(f"clock check: manifest times vs truth t_force/t_video, max |diff| = {max_sync:.2e} s")
+    if video_err:
+        med = np.array([v[1] for v in video_err])
+        rms = np.array([v[2] for v in video_err])
+        print(
+            "video x(t) vs true finger centre inside the window: "
+            f"median offset {np.median(med) * 1e3:+.1f} um "
+            f"(trials from {med.min() * 1e3:+.1f} to {med.max() * 1e3:+.1f}), RMS difference up to "
+            f"{rms.max() * 1e3:.1f} um; video analysis {t_video / len(video_err):.2f} s per trial"
+        )
+    if failures:
+        print(f"\n{len(failures)} trial(s) refused:")
+        for tid, msg in failures:
+            print(f"  {tid}: {msg}")
+    if not rows:
+        return 1
+    groups = defaultdict(list)
+    for r in rows:
+        groups[(r["surface"], r["speed"])].append(r)
+    print(
+        "\nRMS error of F_T(x) over the window, in % of the reference's peak-to-peak; criterion "
+        "(issue 6): default < 5 % on every trial.\n"
+        "  default: mains fitted on the baseline + 500 Hz low-pass + high-pass compensation, vs the\n"
+        "           truth low-passed at 500 Hz, flat-segment trend removed (the primary figure);\n"
+        "  no LP:   the same result vs the truth without the low-pass;\n"
+        "  notch:   mains removed by the paper's notch filters instead, vs the same truth;\n"
+        "  notch=:  the notch variant vs the truth through the same notch (like with like);\n"
+        "  paper:   the paper's procedure as written (notch, low-pass, flat-segment fit; no\n"
+        "           high-pass compensation) vs the truth through the same filters;\n"
+        "  fc-5%/+5%: the default with the assumed sensor cut-off off by -5 % / +5 %."
+    )
+    hdr = (
+        f"{'surface':<16}{'speed':>6}{'n':>4}{'ptp mN':>8}{'mean %':>8}{'max %':>7}{'no LP':>7}"
+        f"{'notch':>7}{'notch=':>7}{'paper':>7}{'fc-5%':>7}{'fc+5%':>7}  ok"
+    )
+    print(hdr)
+    print("-" * len(hdr))
+    all_ok = True
+    for (surf, v), rs in sorted(groups.items()):
+        e = np.array([r["err"] for r in rs]) * 100
+        ok = bool(np.all(e < 5.0))
+        all_ok &= ok
+        mx = {k: 100 * np.nanmax([r[k] for r in rs]) for k in ("err_raw", *variants)}
+        print(
+            f"{surf:<16}{v:>6.0f}{len(rs):>4}{np.mean([r['ptp_mN'] for r in rs]):>8.1f}{e.mean():>8.2f}"
+            f"{e.max():>7.2f}{mx['err_raw']:>7.2f}{mx['notch']:>7.2f}{mx['notch_ll']:>7.2f}{mx['paper']:>7.1f}"
+            f"{mx['fc-5%']:>7.2f}{mx['fc+5%']:>7.2f}  {'yes' if ok else 'NO'}"
+        )
+    if args.x_source == "video":
+        print("\nerror due to the positions alone (true F_T mapped with the video x(t) vs the true x):")
+        for (surf, v), rs in sorted(groups.items()):
+            print(f"  {surf:<16}{v:>6.0f}  max {100 * max(r['pos_only'] for r in rs):6.2f} %")
+    worst = max(rows, key=lambda r: r["err"])
+    print(
+        f"\nworst case: {worst['id']} ({worst['surface']}, {worst['speed']:g} mm/s): "
+        f"{100 * worst['err']:.2f} % of {worst['ptp_mN']:.1f} mN peak-to-peak"
+        + (f"; flags: {worst['flags']}" if worst["flags"] else "")
+    )
+    flagged = [r for r in rows if r["flags"]]
+    print(f"trials with warnings: {len(flagged)} of {len(rows)}")
+    print(f"criterion met on every surface and speed: {'yes' if all_ok and not failures else 'NO'}")
+    for k in ("notch", "notch_ll", "paper", "fc-5%", "fc+5%"):
+        vals = np.array([r[k] for r in rows]) * 100
+        print(
+            f"  {k:>8}: max {np.nanmax(vals):6.2f} %, "
+            f"trials over 5 %: {int(np.sum(vals >= 5))} of {len(rows)}"
+        )
+    n = len(rows)
+    print(
+        f"\nthroughput: {n / t_proc:.1f} trials/s (read + process, one core); bare reference "
+        f"(read + one low-pass) {n / t_ref:.1f} trials/s; ratio {t_proc / t_ref:.1f}x the reference time"
+    )
+    return 0 if all_ok and not failures else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,237 @@
+"""Video analysis benchmark: speed (frames/s per core) and accuracy on a simulated study.
+
+Usage::
+
+    python benchmarks/video.py [--study DIR] [--max-trials N] [--speed-frames N]
+
+Speed: the analysis of decoded frames (``FrameAnalyzer.analyze_chunk``: threshold, contour
+tracing, outline, C_f tracking, contact regions) in frames/s on one core (OpenCV limited to
+one thread), next to OpenCV's threshold + findContours alone on the same crops (the floor),
+and the decode rate of every supported format for the same frames.
+
+Accuracy, against the simulator's ground truth (``truth/<trial>.npz``):
+
+* x(t): RMS error after removing one constant offset per trial, over frames with a
+  position, and the worst frame; for the paper's C_f centroid and the chord midpoint;
+* contact region end points vs ``regions_geom`` (frames where the region count agrees);
+* the number of contact regions per frame;
+* blind-spot widths (``fingerfriction.blindspots``) from our regions vs from the truth,
+  per surface over all its trials (Fig. 3);
+* for both contact metrics (euclidean: the paper's; vertical: the simulator's gap).
+
+Default study: /work/studies/full if present, else the study with most trials under
+/work/studies; the one used is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core: numpy/OpenCV single-threaded
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from fingerfriction.blindspots import blind_spots
+from fingerfriction.regions import n_regions
+from fingerfriction.study import load_manifest
+from fingerfriction.video import AnalysisOptions, FrameAnalyzer, analyze_video, calibrate, open_video
+from fingerfriction.video.writers import write_video
+
+
+def pick_study(arg: str | None) -> Path:
+    if arg:
+        return Path(arg)
+    root = Path("/work/studies")
+    if (root / "full" / "manifest.json").exists():
+        return root / "full"
+    best, n = None, -1
+    for m in sorted(root.glob("*/manifest.json")):
+        try:
+            k = len(json.loads(m.read_text())["trials"])
+        except (OSError, ValueError, KeyError):
+            continue
+        if k > n:
+            best, n = m.parent, k
+    if best is None:
+        sys.exit("no study found under /work/studies; pass --study DIR")
+    return best
+
+
+def _stack(regions: list[np.ndarray]) -> np.ndarray:
+    """Concatenate region arrays of different slot counts (NaN padding)."""
+    k = max(r.shape[1] for r in regions)
+    return np.concatenate([np.pad(r, ((0, 0), (0, k - r.shape[1]), (0, 0)), constant_values=np.nan)
+                           for r in regions])
+
+
+def speed(study, n_frames: int) -> None:
+    cv2.setNumThreads(1)
+    tr = study.trials[0]
+    path = study.path(tr.video.path)
+    with open_video(path) as r:
+        # frames from the middle of the trial: the finger is in view and in contact there
+        mid = max((r.n_frames - n_frames) // 2, 1)
+        frame0 = r.read_frame(tr.video.calibration_frame)
+        frames = np.concatenate([c.copy() for _, c in r.iter_chunks(128, start=mid, stop=mid + n_frames)])
+    surf = study.surface(tr.surface)
+    cal = calibrate(frame0, tr.calibration["surface_height_mm"], surface=surf)
+    crops = np.ascontiguousarray(cal.crop.apply(frames))
+    k = len(frames)
+    print(f"\n== speed: {k} frames (from {mid}) of {tr.id} ({frames.shape[2]}x{frames.shape[1]}, "
+          f"crop {cal.crop.width}x{cal.crop.height}), one core (cv2.setNumThreads(1))")
+
+    def floor():
+        buf = np.empty(crops.shape[1:], np.uint8)
+        for c in crops:
+            cv2.threshold(c, cal.level, 255, cv2.THRESH_BINARY_INV, dst=buf)
+            cv2.findContours(buf, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+
+    def analysis():
+        an = FrameAnalyzer(cal, AnalysisOptions(), frames.shape[1:])
+        for i in range(0, k, 128):
+            an.analyze_chunk(i, frames[i:i + 128])
+
+    def best_of(fn, reps=3):
+        """frames/s from CPU time (per core, robust to other load) and from wall time."""
+        cpu, wall = [], []
+        for _ in range(reps):
+            c0, w0 = time.process_time(), time.perf_counter()
+            fn()
+            cpu.append(time.process_time() - c0)
+            wall.append(time.perf_counter() - w0)
+        return k / min(cpu), k / min(wall)
+
+    load = os.getloadavg()[0]
+    print(f"  (load average {load:.1f} on {os.cpu_count()} cores: wall-clock rates are shared; "
+          "CPU-time rates are per core)")
+    (f_floor, w_floor), (f_an, w_an) = best_of(floor), best_of(analysis)
+    print(f"  OpenCV threshold + findContours alone (floor): {f_floor:8.0f} frames/s per core "
+          f"(wall {w_floor:.0f})")
+    print(f"  full analysis (outline, C_f, x, contact)      : {f_an:8.0f} frames/s per core "
+          f"(wall {w_an:.0f}); {f_an / f_floor:.2f} x the floor; target >= 2000")
+    print(f"  -> 300,000 frames on 2 cores: {300000 / (2 * f_an):.0f} s of analysis")
+    print("  decode rate (same frames, full 1280x720, one thread):")
+    with tempfile.TemporaryDirectory() as tmp:
+        for fmt, ext in (("tiff", "tif"), ("ffv1-mkv", "mkv"), ("avi", "avi"), ("mp4", "mp4"),
+                         ("cine", "cine")):
+            p = os.path.join(tmp, f"v.{ext}")
+            write_video(p, frames, fmt=fmt, crf=18 if fmt == "mp4" else 0)
+            size = os.path.getsize(p) / k / 1e3
+
+            def dec(p=p):
+                with open_video(p) as r:
+                    for _ in r.iter_chunks(64):
+                        pass
+            note = " (H.264 crf 18, lossy)" if fmt == "mp4" else ""
+            c, wl = best_of(dec, 2)
+            print(f"    {fmt:9s}: {c:8.0f} frames/s per core (wall {wl:5.0f}), {size:7.1f} kB/frame{note}")
+
+
+def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical")) -> None:
+    trials = list(study.trials)[:max_trials] if max_trials else list(study.trials)
+    print(f"\n== accuracy on {len(trials)} trials of {study.root}")
+    for metric in metrics:
+        print(f"\n-- contact metric: {metric}" + (
+            " (the paper's: distance between outline points; the simulator's regions_geom uses "
+            "the same perpendicular distance)" if metric == "euclidean" else " (vertical gap)"))
+        rows = []
+        per_surface: dict[str, tuple[list, list]] = {}
+        all_ep, n_same, n_tot = [], 0, 0
+        worst = (0.0, None)
+        for tr in trials:
+            z = np.load(study.path(tr.truth))
+            tol_px = float(z["geom_tol_mm"] / z["mm_per_px"])
+            opt = AnalysisOptions(contact_metric=metric, contact_tol_px=tol_px)
+            res = analyze_video(study.path(tr.video.path), tr.calibration["surface_height_mm"],
+                                surface=study.surface(tr.surface), options=opt,
+                                n_frames=tr.video.n_frames)
+            xt = z["x_finger_video"]
+            v = (res.flags == 0) & np.isfinite(xt)
+            e = res.x_cf[v] - xt[v]
+            e -= e.mean()
+            ec = res.x_chord[v] - xt[v]
+            okc = np.isfinite(ec)
+            ec = ec[okc] - ec[okc].mean()
+            i = int(np.argmax(np.abs(e)))
+            fr = int(np.flatnonzero(v)[i])
+            if abs(e[i]) > abs(worst[0]):
+                worst = (float(e[i]), (tr.id, fr, float(xt[fr])))
+            nt = n_regions(z["regions_geom"][v])
+            nm = n_regions(res.regions[v])
+            same = nt == nm
+            n_same += int(same.sum())
+            n_tot += int(v.sum())
+            T = z["regions_geom"][v][same]
+            M = res.regions[v][same]
+            kk = min(T.shape[1], M.shape[1])
+            d = np.abs(M[:, :kk] - T[:, :kk]) / z["mm_per_px"]
+            all_ep.append(d[np.isfinite(d)])
+            s = per_surface.setdefault(tr.surface, ([], []))
+            s[0].append(z["regions_geom"][v])
+            s[1].append(res.regions[v])
+            cal = res.calibration
+            rows.append((tr.id, v.sum(), int(z["has_finger"].sum()), np.sqrt(np.mean(e**2)), e[i], fr,
+                         np.sqrt(np.mean(ec**2)) if ec.size else np.nan, same.mean(),
+                         100 * (cal.mm_per_px / float(z["mm_per_px"]) - 1), cal.x0_px - float(z["x0_px"]),
+                         res.timings["frames_per_s"]))
+        print(f"  {'trial':26s} {'tracked':>11s} {'x rms':>7s} {'worst':>7s} {'@frame':>6s} "
+              f"{'chord':>7s} {'n ok':>6s} {'scale%':>7s} {'x0 px':>6s}")
+        for r in rows:
+            print(f"  {r[0]:26s} {r[1]:5d}/{r[2]:5d} {r[3]:7.4f} {r[4]:7.3f} {r[5]:6d} {r[6]:7.4f} "
+                  f"{r[7]:6.3f} {r[8]:7.3f} {r[9]:6.2f}")
+        rms = np.array([r[3] for r in rows])
+        rmsc = np.array([r[6] for r in rows])
+        ep = np.concatenate(all_ep) if all_ep else np.zeros(0)
+        print(f"  x(t), C_f centroid (paper): RMS per trial max {rms.max():.4f} mm, median "
+              f"{np.median(rms):.4f} mm (target < 0.05); worst frame {worst[0]:+.3f} mm "
+              f"({worst[1][0]}, frame {worst[1][1]}, x = {worst[1][2]:.2f} mm)")
+        print(f"  x(t), chord midpoint     : RMS per trial max {np.nanmax(rmsc):.4f} mm, median "
+              f"{np.nanmedian(rmsc):.4f} mm")
+        print(f"  frames with a position   : {sum(r[1] for r in rows)} of "
+              f"{sum(r[2] for r in rows)} finger frames (others flagged, mostly C_f out of view)")
+        print(f"  number of regions right  : {n_same / max(n_tot, 1):.4%} of {n_tot} frames (target >= 99%)")
+        if ep.size:
+            print(f"  end points (frames with right count): max {ep.max():.2f} px, 99th pct "
+                  f"{np.percentile(ep, 99):.2f} px, {np.mean(ep <= 3):.4%} within 3 px (target: all)")
+        print("  blind spots per surface (all its trials), widths in mm: truth vs ours")
+        for name, (T, M) in per_surface.items():
+            bt = blind_spots(_stack(T))
+            bm = blind_spots(_stack(M))
+            wt, wm = bt.widths, bm.widths
+            if len(wt) == len(wm):
+                diff = np.abs(wt - wm).max(initial=0.0)
+                verdict = f"max diff {diff:.3f} mm" + (" OK" if diff <= 0.05 else " (> 0.05)")
+            else:
+                verdict = f"count differs ({len(wt)} vs {len(wm)})"
+            print(f"    {name:14s} truth {np.round(wt, 3).tolist()}  ours {np.round(wm, 3).tolist()}  "
+                  f"{verdict}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--study")
+    ap.add_argument("--max-trials", type=int, default=None)
+    ap.add_argument("--speed-frames", type=int, default=256)
+    ap.add_argument("--skip-speed", action="store_true")
+    ap.add_argument("--skip-accuracy", action="store_true")
+    ap.add_argument("--metrics", default="euclidean,vertical",
+                    help="contact metrics to evaluate, comma-separated")
+    a = ap.parse_args()
+    root = pick_study(a.study)
+    study = load_manifest(root)
+    print(f"study: {root} ({len(study.trials)} trials)")
+    if not a.skip_speed:
+        speed(study, a.speed_frames)
+    if not a.skip_accuracy:
+        accuracy(study, a.max_trials, tuple(a.metrics.split(",")))
+
+
+if __name__ == "__main__":
+    main()

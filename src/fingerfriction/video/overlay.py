@@ -1,0 +1,191 @@
+"""Overlay video: frames with the traced outlines and contact regions drawn on them.
+
+So that a person can check what the analysis detected: the calibrated surface profile
+(green), the traced finger contour (light blue), the C_f line (yellow) and centroid x(t)
+(red tick), the contact regions C_i (thick red along the surface), the frame number, x
+and the flag reasons. Drawing with OpenCV, encoding with PyAV (MP4/H.264 or GIF).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass
+from fractions import Fraction
+
+import cv2
+import numpy as np
+
+from ..surfaces import Surface
+from .analysis import FLAG_REASONS, AnalysisOptions, FrameAnalyzer, FrameFlag
+from .calibrate import calibrate
+from .contours import trace_finger
+from .readers import open_video
+
+__all__ = ["write_overlay", "OverlayInfo"]
+
+log = logging.getLogger(__name__)
+
+_GREEN, _BLUE, _YELLOW, _RED = (0, 170, 0), (255, 200, 0), (0, 200, 255), (0, 0, 255)
+
+
+@dataclass(frozen=True)
+class OverlayInfo:
+    """What :func:`write_overlay` wrote.
+
+    Attributes
+    ----------
+    path : str
+        The output file.
+    n_frames : int
+        Frames written.
+    n_flagged : int
+        Of which flagged (no position).
+    """
+
+    path: str
+    n_frames: int
+    n_flagged: int
+
+
+def _trace(an: FrameAnalyzer, frame: np.ndarray):
+    crop = an.cal.crop.apply(frame)[: an.zone_rows]
+    dark = (crop <= an.cal.level).astype(np.uint8)
+    cv2.bitwise_and(dark, an.zone, dst=dark)
+    return trace_finger(dark, min_points=an.opt.min_finger_points)
+
+
+def _draw(an: FrameAnalyzer, frame: np.ndarray, index: int, res: dict, t: int) -> np.ndarray:
+    cal = an.cal
+    crop = cal.crop.apply(frame)
+    if crop.dtype != np.uint8:
+        crop = (crop.astype(np.float32) * (255.0 / max(float(crop.max()), 1.0))).astype(np.uint8)
+    img = cv2.cvtColor(np.ascontiguousarray(crop), cv2.COLOR_GRAY2BGR)
+    w = cal.crop.width
+    cols = np.arange(w)
+    surf = np.column_stack([cols, cal.surface_row]).round().astype(np.int32)
+    cv2.polylines(img, [surf], False, _GREEN, 1)
+    fc = _trace(an, frame)
+    if fc is not None:
+        cv2.polylines(img, [fc.points.astype(np.int32)], True, _BLUE, 1)
+    line = res["line_row"][t]
+    x = res["x"][t]
+    if np.isfinite(line):
+        f = res["f"][t]
+        inside = np.flatnonzero(np.nan_to_num(f, nan=-np.inf) > line)
+        if inside.size:
+            y = int(round(line))
+            cv2.line(img, (int(inside[0]), y), (int(inside[-1]), y), _YELLOW, 1)
+    if np.isfinite(x):
+        c = int(round(x / cal.mm_per_px + cal.x0_col))
+        y = int(round(line)) if np.isfinite(line) else 10
+        cv2.line(img, (c, y - 12), (c, y + 12), _RED, 2)
+    for a, b in res["regions"][t]:
+        if np.isnan(a):
+            continue
+        ca = int(np.clip(round(a / cal.mm_per_px + cal.x0_col), 0, w - 1))
+        cb = int(np.clip(round(b / cal.mm_per_px + cal.x0_col), 0, w - 1))
+        seg = surf[ca:cb + 1]
+        if len(seg) > 1:
+            cv2.polylines(img, [seg], False, _RED, 3)
+        else:
+            cv2.circle(img, (ca, int(surf[ca, 1])), 2, _RED, -1)
+    flags = FrameFlag(int(res["flags"][t]))
+    text = f"frame {index}  x = {x:+.3f} mm" if np.isfinite(x) else f"frame {index}"
+    cv2.putText(img, text, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, _RED, 1, cv2.LINE_AA)
+    if flags:
+        reason = "; ".join(FLAG_REASONS[b].split(":")[0] for b in FrameFlag if b in flags)
+        cv2.putText(img, reason, (8, 42), cv2.FONT_HERSHEY_SIMPLEX, 0.5, _RED, 1, cv2.LINE_AA)
+    return img
+
+
+def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
+                  surface: Surface | None = None, options: AnalysisOptions | None = None,
+                  start: int = 0, stop: int | None = None, step: int = 1, fps: float = 30.0,
+                  scale: float = 1.0) -> OverlayInfo:
+    """Write an MP4 (or GIF) of analysed frames with outlines and contact regions drawn.
+
+    Parameters
+    ----------
+    video : path-like
+        The trial's video.
+    surface_height_mm : float
+        Known feature height H in mm (calibration).
+    out : path-like
+        Output file, ``.mp4`` (H.264) or ``.gif``.
+    surface : Surface, optional
+        The surface shape (raised-cosine calibration fit).
+    options : AnalysisOptions, optional
+    start, stop, step : int
+        Frames ``start, start + step, ... < stop`` are drawn (all frames are analysed from
+        ``start`` so that the reference area is the same as in the analysis only when
+        ``start`` is 0).
+    fps : float
+        Playback frame rate of the output in Hz.
+    scale : float
+        Resize factor of the drawn crop.
+
+    Returns
+    -------
+    OverlayInfo
+
+    Raises
+    ------
+    ValueError
+        For an unknown output extension, bad frame range, or an unusable video.
+    """
+    import av
+
+    out = os.fspath(out)
+    ext = os.path.splitext(out)[1].lower()
+    if ext not in (".mp4", ".gif"):
+        raise ValueError(f"overlay output must end in .mp4 or .gif, got {out!r}")
+    if int(step) < 1:
+        raise ValueError(f"step must be >= 1 frame, got {step!r}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive frame rate in Hz, got {fps!r}")
+    if not (np.isfinite(scale) and 0.1 <= scale <= 4):
+        raise ValueError(f"scale must be in [0.1, 4], got {scale!r}")
+    opt = options or AnalysisOptions()
+    reader = open_video(video)
+    tmp = out + ".tmp" + ext
+    n_written = n_flagged = 0
+    try:
+        cal = calibrate(reader.read_frame(opt.calibration_frame), surface_height_mm, crop=opt.crop,
+                        level=opt.level, surface=surface)
+        an = FrameAnalyzer(cal, opt, reader.shape)
+        w = int(round(cal.crop.width * scale)) // 2 * 2
+        h = int(round(cal.crop.height * scale)) // 2 * 2
+        with av.open(tmp, "w") as container:
+            if ext == ".mp4":
+                st = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
+                st.pix_fmt = "yuv420p"
+                st.options = {"crf": "20", "preset": "veryfast"}
+            else:
+                st = container.add_stream("gif", rate=Fraction(fps).limit_denominator(1000))
+                st.pix_fmt = "rgb8"
+            st.width, st.height = w, h
+            for i0, frames in reader.iter_chunks(opt.chunk_size, start=start, stop=stop):
+                res = an.analyze_chunk(i0, frames)
+                for t in range(frames.shape[0]):
+                    if (i0 + t - start) % step:
+                        continue
+                    img = _draw(an, frames[t], i0 + t, res, t)
+                    if (w, h) != (img.shape[1], img.shape[0]):
+                        img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+                    vf = av.VideoFrame.from_ndarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB), format="rgb24")
+                    for pkt in st.encode(vf.reformat(format=st.pix_fmt)):
+                        container.mux(pkt)
+                    n_written += 1
+                    n_flagged += int(res["flags"][t] != 0)
+            for pkt in st.encode():
+                container.mux(pkt)
+        if n_written == 0:
+            raise ValueError(f"{reader.path}: no frame in the range start={start}, stop={stop}")
+        os.replace(tmp, out)
+    finally:
+        reader.close()
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    log.info("overlay: %d frames written to %s", n_written, out)
+    return OverlayInfo(path=out, n_frames=n_written, n_flagged=n_flagged)

@@ -1,0 +1,150 @@
+import numpy as np
+import pytest
+
+from fingerfriction.regions import as_regions
+from fingerfriction.surfaces import RaisedCosine
+from fingerfriction.video import AnalysisOptions, FrameFlag, analyze_video
+from fingerfriction.video.writers import write_video
+
+from .synth import render, render_video
+
+SURF = RaisedCosine("bump", 2.0)
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory):
+    """Calibration frame, 6 finger frames, a finger-free frame, a black frame, 2 frames
+    with the finger leaving the field of view on the right."""
+    xs = np.linspace(-6.5, -3.5, 6)
+    frames = list(render_video(xs, surface=SURF, noise=2.0))
+    frames.append(render(surface=SURF, noise=2.0)[0])  # finger missing
+    frames.append(np.zeros_like(frames[0]))  # all dark: no contour at this threshold
+    for x in (12.0, 14.0):  # C_f cut by the crop's right side
+        frames.append(render(surface=SURF, finger=(x, -0.15, 8.0), noise=2.0)[0])
+    path = tmp_path_factory.mktemp("v") / "trial.mkv"
+    write_video(path, np.stack(frames))
+    return path, xs
+
+
+def test_end_to_end_and_flags(video):
+    path, xs = video
+    res = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(chunk_size=4))
+    assert res.n_frames == 11 and res.success and not res.truncated
+    assert res.calibration.level_method == "otsu" and 100 < res.threshold < 150
+    assert res.mm_per_px == pytest.approx(0.023, rel=3e-3)
+    f = res.flags
+    assert f[0] & FrameFlag.CALIBRATION and f[0] & FrameFlag.FINGER_MISSING
+    assert (f[1:7] == 0).all()
+    assert f[7] == FrameFlag.FINGER_MISSING
+    assert f[8] == FrameFlag.NO_CONTOUR
+    assert (f[9:] == FrameFlag.OUT_OF_VIEW).all()
+    assert np.isnan(res.x[f != 0]).all() and np.isnan(res.regions[f != 0]).all()
+    assert np.abs(res.x[1:7] - xs).max() < 0.02
+    as_regions(res.regions)
+    assert (res.n_regions[1:7] == 1).all()  # one flat contact left of the bump
+    assert res.reasons(8) == ["threshold leaves no contour: the finger zone is (almost) all dark"]
+    assert res.reasons(3) == []
+    assert res.flag_counts() == {"CALIBRATION": 1, "FINGER_MISSING": 2, "NO_CONTOUR": 1,
+                                 "OUT_OF_VIEW": 2}
+    assert res.timings["frames_per_s"] > 0
+
+
+def test_same_result_in_every_format(video, tmp_path):
+    path, _ = video
+    ref = analyze_video(path, 0.4, surface=SURF)
+    from fingerfriction.video import open_video
+
+    with open_video(path) as r:
+        frames = np.concatenate([c.copy() for _, c in r.iter_chunks(16)])
+    for ext in ("cine", "tif"):
+        p = write_video(tmp_path / f"v.{ext}", frames)
+        res = analyze_video(p, 0.4, surface=SURF)
+        np.testing.assert_array_equal(res.flags, ref.flags)
+        np.testing.assert_allclose(res.x, ref.x, equal_nan=True)
+
+
+def test_truncated_video_flags_missing_frames(video, tmp_path):
+    path, _ = video
+    from fingerfriction.video import open_video
+
+    with open_video(path) as r:
+        frames = np.concatenate([c.copy() for _, c in r.iter_chunks(16)])
+    p = tmp_path / "cut.cine"
+    write_video(p, frames)
+    raw = p.read_bytes()
+    p.write_bytes(raw[: len(raw) - 3 * 1280 * 720 - 500])  # last 3+ images lost
+    res = analyze_video(p, 0.4, surface=SURF)
+    assert res.truncated and "truncated" in res.message
+    assert (res.flags[-4:] == FrameFlag.CORRUPT).all() and np.isnan(res.x[-4:]).all()
+    assert (res.flags[1:7] == 0).all()
+    # the manifest's frame count also reveals a file that simply holds fewer frames
+    short = tmp_path / "short.mkv"
+    write_video(short, frames[:5])
+    res = analyze_video(short, 0.4, surface=SURF, n_frames=11)
+    assert res.truncated and (res.flags[5:] == FrameFlag.CORRUPT).all()
+
+
+def test_threshold_leaving_no_contour_is_a_clear_error(video):
+    path, _ = video
+    with pytest.raises(ValueError, match=r"trial\.mkv.*calibration frame 0.*leaves no contour"):
+        analyze_video(path, 0.4, options=AnalysisOptions(level=255))
+    with pytest.raises(ValueError, match="contact_metric"):
+        AnalysisOptions(contact_metric="manhattan")
+    with pytest.raises(ValueError, match="calibration_frame 50"):
+        analyze_video(path, 0.4, options=AnalysisOptions(calibration_frame=50))
+
+
+def test_frames_with_only_a_lifted_finger_are_flagged(tmp_path):
+    """After the reference frame, a finger lifted to the top of the crop cannot enclose A."""
+    frames = [render(surface=SURF)[0], render(surface=SURF, finger=(-4.0, -0.15, 8.0))[0],
+              render(surface=SURF, finger=(-4.0, 7.6, 8.0))[0]]
+    p = write_video(tmp_path / "lift.mkv", np.stack(frames))
+    res = analyze_video(p, 0.4, surface=SURF)
+    assert res.flags[1] == 0 and res.flags[2] == FrameFlag.AREA_UNREACHABLE
+
+
+def test_result_save_is_readable_without_pickle(video, tmp_path):
+    path, _ = video
+    res = analyze_video(path, 0.4, surface=SURF)
+    out = tmp_path / "r.npz"
+    res.save(out)
+    with np.load(out, allow_pickle=False) as z:
+        np.testing.assert_array_equal(z["flags"], res.flags)
+        np.testing.assert_allclose(z["x"], res.x, equal_nan=True)
+        assert float(z["mm_per_px"]) == res.mm_per_px
+    assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_a_finger_wider_than_the_view_is_out_of_view_not_no_contour(tmp_path):
+    frames = [render(surface=SURF)[0], render(surface=SURF, finger=(-4.0, -0.15, 8.0))[0],
+              render(surface=SURF, finger=(-4.0, -0.05, 1000.0))[0]]  # flat, every column
+    p = write_video(tmp_path / "wide.mkv", np.stack(frames))
+    res = analyze_video(p, 0.4, surface=SURF)
+    assert res.flags[1] == 0 and res.flags[2] == FrameFlag.OUT_OF_VIEW
+
+
+def test_position_option_selects_the_chord_midpoint(video):
+    path, xs = video
+    cf = analyze_video(path, 0.4, surface=SURF)
+    ch = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(position="chord"))
+    np.testing.assert_array_equal(ch.x, ch.x_chord)
+    np.testing.assert_array_equal(cf.x, cf.x_cf)
+    np.testing.assert_allclose(ch.x_cf, cf.x_cf, equal_nan=True)  # C_f always computed
+    assert np.abs(ch.x[1:7] - xs).max() < 0.02
+    with pytest.raises(ValueError, match="position"):
+        AnalysisOptions(position="nose")
+
+
+def test_sixteen_bit_cine_gives_the_same_positions(tmp_path):
+    xs = np.linspace(-6.0, -4.0, 3)
+    v8 = render_video(xs, surface=SURF, noise=1.0)
+    v16 = render_video(xs, surface=SURF, noise=1.0, dtype=np.uint16)
+    assert v16.dtype == np.uint16
+    p8 = write_video(tmp_path / "a.cine", v8)
+    p16 = write_video(tmp_path / "b.cine", v16)
+    r8 = analyze_video(p8, 0.4, surface=SURF)
+    r16 = analyze_video(p16, 0.4, surface=SURF)
+    assert r16.calibration.level > 255  # Otsu on the 16-bit scale
+    assert (r16.flags == r8.flags).all()
+    np.testing.assert_allclose(r16.x[1:], xs, atol=0.02)
+    np.testing.assert_allclose(r16.x[1:], r8.x[1:], atol=0.005)
