@@ -1,6 +1,5 @@
-"""The `demo` command: synthetic trials -> fit -> Table 1 and blind spots, --out writes tables."""
+"""The `demo` command: simulate -> analyze -> fit -> report, tables printed, resumable."""
 
-import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
@@ -8,19 +7,22 @@ from fingerfriction.cli import app
 
 
 @pytest.mark.slow
-def test_demo_writes_tables(tmp_path):
-    r = CliRunner().invoke(app, ["demo", "--reps", "1", "--out", str(tmp_path / "out")])
+def test_demo_small_design_end_to_end_and_resumed(tmp_path):
+    args = ["demo", "--out", str(tmp_path / "demo"), "--subjects", "1", "--surfaces", "bump-2mm",
+            "--speeds", "120", "--reps", "1", "--workers", "2"]
+    r = CliRunner().invoke(app, args)
     assert r.exit_code == 0, r.output
-    assert "Table 1" in r.output and "blind spots" in r.output and "mu fitted" in r.output
-    t1 = pd.read_csv(tmp_path / "out" / "table1.csv")
-    assert len(t1) == 18  # (2 subjects + both) x 2 scales x 3 shapes
-    assert {"table1.md", "table1.tex", "blindspots.csv", "blindspots.md", "blindspots.tex"} <= {
-        p.name for p in (tmp_path / "out").iterdir()
-    }
+    assert "Table 1" in r.output and "Tactile blind spots" in r.output and "mu fitted" in r.output
+    assert "1 computed, 0 already done, 0 failed" in r.output
+    assert (tmp_path / "demo" / "results" / "report" / "index.html").is_file()
+    assert (tmp_path / "demo" / "study" / "manifest.json").is_file()
+    r = CliRunner().invoke(app, args)  # the second run finds everything done
+    assert r.exit_code == 0, r.output
+    assert "0 computed, 1 already done, 0 failed" in r.output
 
 
-def test_demo_bad_method_is_one_line_error():
-    r = CliRunner().invoke(app, ["demo", "--method", "bfgs"])
-    assert r.exit_code == 2
-    assert "--method must be 'lstsq' or 'nelder-mead', got 'bfgs'" in r.output
-    assert "Traceback" not in r.output
+def test_demo_bad_options_are_one_line_errors(tmp_path):
+    r = CliRunner().invoke(app, ["demo", "--out", str(tmp_path / "d"), "--speeds", "fast"])
+    assert r.exit_code == 2 and "--speeds must be numbers" in r.output and "Traceback" not in r.output
+    r = CliRunner().invoke(app, ["demo", "--out", str(tmp_path / "d"), "--surfaces", "no-such-surface"])
+    assert r.exit_code == 2 and "no-such-surface" in r.output and "Traceback" not in r.output

@@ -30,7 +30,7 @@ from fingerfriction.results import (
 )
 
 SRC = Path(__file__).resolve().parents[1] / "src"
-# The simulated camera tracks x(t) over about +-10.3 mm only: a 20 mm force window (see
+# The simulated camera tracks x(t) over about +-9.3 mm only: an 18 mm force window (see
 # fingerfriction.pipeline.DEMO_WINDOW_MM) instead of the paper's 26 mm.
 SIM = AnalysisParams(forces={"window_mm": DEMO_WINDOW_MM})
 
@@ -244,6 +244,9 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
     rep = make_report(out)
     assert rep.html.is_file() and rep.table1 is not None
     assert "mu" in rep.truth  # a simulated study: recovered next to the truth
+    assert rep.truth["mu"]["mu_true"].tolist() == [0.55]  # the simulator's subject 1
+    track = rep.truth["tracking"]
+    assert track["n_trials"].tolist() == [4] and np.all(track["x_rms_max_mm"] < 1.0)
 
 
 @pytest.mark.slow
@@ -285,6 +288,18 @@ def test_interrupted_run_resumes_without_loss_or_recomputation(tiny_study, tmp_p
     again = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM)
     assert again.n_computed == 0 and again.n_skipped == len(ids) and again.scheduler == "none"
     assert not store.is_finished(ids[0], "digest of other parameters")
+    # an input file that changed since (size or modification time) is analysed again
+    t0 = json.loads((tiny_study / "manifest.json").read_text())["trials"][0]
+    force_file = tiny_study / t0["force"]["path"]
+    st = force_file.stat()
+    try:
+        os.utime(force_file, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+        seen = []
+        changed = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM, callback=seen.append)
+    finally:
+        os.utime(force_file, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert changed.n_computed == 1 and changed.n_skipped == len(ids) - 1
+    assert [o.trial_id for o in seen if o.status == "ok"] == [t0["id"]]
 
 
 @pytest.mark.slow

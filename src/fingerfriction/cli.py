@@ -7,6 +7,7 @@ result; user errors (bad files, bad options) are caught and shown as one line, e
 from __future__ import annotations
 
 import sys
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -31,7 +32,7 @@ def fail(message: str) -> None:
 
 
 # ---------------------------------------------------------------------------------------
-# demo (foundation; the study issue turns it into simulate + analyze + fit + report)
+# demo (study pipeline: simulate + analyze + fit + report; fingerfriction.pipeline.demo)
 # ---------------------------------------------------------------------------------------
 
 
@@ -41,80 +42,52 @@ def _root() -> None:
     # A callback keeps typer in sub-command mode even while only one command exists.
 
 
-def demo_analysis(*, reps: int = 2, seed: int = 0, method: str = "lstsq", noise: float = 0.1,
-                  speeds=(40, 80, 120)) -> dict:
-    """Synthetic trials -> per-subject fit -> Table 1 and blind-spot tables.
-
-    The study-pipeline issue replaces the synthetic trials by simulate + analyze; the
-    returned dict (``trials``, ``truth``, ``fits``, ``table1``, ``blindspots``) is what the
-    printing and writing below consume.
-    """
-    from .fit import fit_trials
-    from .stats import blind_spot_table, correlation_table
-    from .synthetic import synthetic_trials
-
-    trials, truth = synthetic_trials(reps=reps, seed=seed, noise=noise, speeds=speeds)
-    fits = fit_trials(trials, method=method)
-    by_surface: dict[str, list] = {}
-    for t in trials:
-        by_surface.setdefault(t.surface.name, []).append(t.regions)
-    return {"trials": trials, "truth": truth, "fits": fits, "table1": correlation_table(fits),
-            "blindspots": blind_spot_table(by_surface)}
-
-
-def _rich_table(df, title: str):
-    from rich.table import Table
-
-    t = Table(title=title)
-    for c in df.columns:
-        t.add_column(str(c))
-    def cell(col, v):
-        if col == "p" and isinstance(v, float):
-            return "< 1e-300" if v == 0 else f"{v:.2g}"  # p underflows to 0 for large ensembles
-        return f"{v:.3g}" if isinstance(v, float) else str(v)
-
-    for row in df.itertuples(index=False):
-        t.add_row(*[cell(c, v) for c, v in zip(df.columns, row, strict=True)])
-    return t
+def _csv(values: str | None) -> tuple[str, ...] | None:
+    return None if not values else tuple(v.strip() for v in values.split(",") if v.strip())
 
 
 @app.command()
 def demo(
-    out: str = typer.Option(None, "--out", help="Directory to write table1.{csv,md,tex} and "
-                            "blindspots.{csv,md,tex} into (created if missing)."),
-    reps: int = typer.Option(2, min=1, help="Repetitions per subject x surface x speed."),
-    seed: int = typer.Option(0, help="Seed of the random generator."),
-    method: str = typer.Option("lstsq", help="p0/p1 fit: 'lstsq' (closed form) or 'nelder-mead'."),
+    out: str = typer.Option("fingerfriction-demo", "--out", "-o",
+                            help="Folder for the simulated study and its results (resumed if it exists)."),
+    full: bool = typer.Option(False, "--full", help="The paper's 180 trials (default: 36, 1 per condition)."),
+    reps: int = typer.Option(None, "--reps", min=1, help="Repetitions per condition (overrides --full)."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the virtual experiment."),
+    workers: int = typer.Option(None, "--workers", "-j", min=1, help="Worker processes (default: all)."),
+    subjects: str = typer.Option(None, hidden=True, help="Comma-separated subjects (a smaller design)."),
+    surfaces: str = typer.Option(None, hidden=True, help="Comma-separated surfaces (a smaller design)."),
+    speeds: str = typer.Option(None, hidden=True, help="Comma-separated speeds in mm/s (a smaller design)."),
 ) -> None:
-    """Fit the friction model to synthetic trials; print Table 1, blind spots and mu."""
-    import os
-
-    from .stats import write_table
+    """Simulate the built-in default study, analyze it, fit the model, write the report;
+    print Table 1 and the blind-spot table."""
+    from .pipeline import demo as run_demo
 
     try:
-        if method not in ("lstsq", "nelder-mead"):
-            raise ValueError(f"--method must be 'lstsq' or 'nelder-mead', got {method!r}")
-        if out is not None:
-            os.makedirs(out, exist_ok=True)
-        with console.status("simulating and fitting synthetic trials..."):
-            res = demo_analysis(reps=reps, seed=seed, method=method)
-        n = len(res["trials"])
-        console.print(f"{n} synthetic trials ({reps} reps x 3 speeds x 6 surfaces x 2 subjects), "
-                      f"{res['trials'][0].n} positions each, fit by {method}")
-        tab = res["table1"][["subject", "scale", "shape", "rho", "p", "n_trials"]]
-        console.print(_rich_table(tab, "Table 1: Pearson rho, measured vs model (detrended)"))
-        console.print(_rich_table(res["blindspots"], "Tactile blind spots (all trials pooled)"))
-        for s, f in res["fits"].items():
-            true_mu = res["truth"]["mu"][s]
-            status = "ok" if f.success else "[yellow]warning[/]"
-            console.print(f"{s}: mu fitted {f.mu:.2f}, true {true_mu:.2f} ({status}: {f.message})")
-        if out is not None:
-            for name in ("table1", "blindspots"):
-                for ext in ("csv", "md", "tex"):
-                    write_table(res[name], os.path.join(out, f"{name}.{ext}"))
-            console.print(f"tables written to {out}")
+        design = {}
+        for key, val in (("subjects", _csv(subjects)), ("surfaces", _csv(surfaces))):
+            if val:
+                design[key] = val
+        if speeds:
+            try:
+                design["speeds"] = tuple(float(v) for v in _csv(speeds))
+            except ValueError:
+                raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
+                    from None
+        res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers, progress=True, design=design)
     except (ValueError, OSError) as exc:
         fail(str(exc))
+    a, f = res.analysis, res.fit
+    _print_failures(a.failures)
+    _print_failures(f.failures, "fit", limit=3)
+    _print_tables(res.report)
+    for subj, mu in f.mu.items():
+        console.print(f"subject {subj}: mu fitted {mu:.2f} ({f.messages[subj]})", highlight=False)
+    t = res.elapsed_s
+    console.print(
+        f"{a.n_trials} trials: simulate {t['simulate']:.0f} s, analyze {t['analyze']:.0f} s "
+        f"({a.n_computed} computed, {a.n_skipped} already done, {a.n_failed} failed), fit {t['fit']:.0f} s, "
+        f"report {t['report']:.0f} s; total {sum(t.values()):.0f} s", highlight=False)
+    console.print(f"report: {res.report.html}", highlight=False)
 
 
 # ---------------------------------------------------------------------------------------
@@ -200,14 +173,23 @@ def _split_list(values: list[str] | None) -> list[str] | None:
 
 @app.command("simulate")
 def simulate_cmd(
-    out: str = typer.Option(..., "--out", help="Output study folder (new, empty, or the same study to resume)."),
-    reps: int = typer.Option(5, "--reps", help="Repetitions per condition (the paper: 5)."),
-    seed: int = typer.Option(0, "--seed", help="Study seed: the same seed gives byte-identical studies."),
-    surfaces: list[str] = typer.Option(None, "--surfaces", help="Surface names, e.g. bump-2mm,step-up-4mm."),
-    subjects: list[str] = typer.Option(None, "--subjects", help="Subjects: 1, 2."),
-    speeds: list[str] = typer.Option(None, "--speeds", help="Nominal speeds in mm/s, e.g. 40,80,120."),
-    workers: int = typer.Option(0, "--workers", help="Worker processes (0: all cores)."),
-    video_format: str = typer.Option("ffv1-mkv", "--video-format", help="ffv1-mkv or tiff."),
+    out: Annotated[str, typer.Option("--out", help="Output study folder (new, empty, or same study).")],
+    reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).")] = 5,
+    seed: Annotated[int, typer.Option("--seed", help="Study seed: same seed, byte-identical study.")] = 0,
+    surfaces: Annotated[
+        list[str] | None, typer.Option("--surfaces", help="Surfaces, e.g. bump-2mm,step-up-4mm (default: 6).")
+    ] = None,
+    subjects: Annotated[
+        list[str] | None, typer.Option("--subjects", help="Subjects: 1, 2 (default: both).")
+    ] = None,
+    speeds: Annotated[
+        list[str] | None, typer.Option("--speeds", help="Nominal speeds in mm/s (default 40,80,120).")
+    ] = None,
+    workers: Annotated[int, typer.Option("--workers", help="Worker processes (0: all cores).")] = 0,
+    video_format: Annotated[str, typer.Option("--video-format", help="ffv1-mkv or tiff.")] = "ffv1-mkv",
+    contact_model: Annotated[
+        str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
+    ] = "mechanics-bem",
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
     import time
@@ -217,7 +199,8 @@ def simulate_cmd(
     from .sim import SimOptions, simulate_study
     from .study import ManifestError
 
-    kw: dict = {"reps": reps, "seed": seed, "video_format": video_format}
+    kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
+                "contact_model": contact_model}
     if _split_list(surfaces):
         kw["surfaces"] = tuple(_split_list(surfaces))
     if _split_list(subjects):
@@ -413,9 +396,12 @@ def forces_cmd(
 # ---------------------------------------------------------------------------------------
 
 
-def _print_failures(failures) -> None:
-    for tid, reason in failures:
-        err_console.print(f"[red]failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
+def _print_failures(failures, what: str = "trial", limit: int | None = None) -> None:
+    failures = list(failures)
+    for tid, reason in failures[:limit]:
+        err_console.print(f"[red]{what} failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
+    if limit is not None and len(failures) > limit:
+        err_console.print(f"... and {len(failures) - limit} more {what} failures", highlight=False)
 
 
 @app.command("analyze")
@@ -462,7 +448,7 @@ def fit_cmd(
                   progress=True)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    _print_failures(res.failures)
+    _print_failures(res.failures, "fit", limit=5)
     for subj, mu in res.mu.items():
         console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
     console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {results}/fit", highlight=False)
@@ -485,8 +471,9 @@ def _print_tables(rep) -> None:
     for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):
         t.add_column(c)
     for r in rep.blindspots.itertuples(index=False):
-        t.add_row(str(r.surface), str(r.n_trials), f"{r.start_mm:.2f}", f"{r.end_mm:.2f}",
-                  f"{r.width_mm:.2f}")
+        none = r.start_mm != r.start_mm  # NaN: a surface without blind spots
+        t.add_row(str(r.surface), str(r.n_trials), "-" if none else f"{r.start_mm:.2f}",
+                  "-" if none else f"{r.end_mm:.2f}", "none" if none else f"{r.width_mm:.2f}")
     console.print(t)
     for key, df in rep.truth.items():
         t = Table(title=f"Recovered vs ground truth: {key}")

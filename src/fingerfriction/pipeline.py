@@ -200,6 +200,9 @@ class AnalyzeResult:
         ``(trial_id, reason)`` of each failure of this run.
     elapsed_s : float
         Wall time of the run in s.
+    compute_s : float
+        Wall time in s from the first trial submitted to the last result written (the run
+        without connecting to or starting the cluster).
     scheduler : str
         Scheduler address used (or ``'local'`` for a LocalCluster started here).
     n_workers : int
@@ -215,6 +218,7 @@ class AnalyzeResult:
     elapsed_s: float
     scheduler: str
     n_workers: int
+    compute_s: float = 0.0
 
     @property
     def success(self) -> bool:
@@ -355,6 +359,7 @@ def _one_line(exc: BaseException) -> str:
 def _run_trial(study_dir: str, trial: dict, surface_spec: dict, params: dict) -> dict:
     """Dask task: process one trial, never raise; return tables or a one-line reason."""
     t0 = time.perf_counter()
+    c0 = time.process_time()  # CPU of this worker process (all its threads)
     study = Path(study_dir)
     inputs: dict[str, dict] = {}
     try:
@@ -363,14 +368,16 @@ def _run_trial(study_dir: str, trial: dict, surface_spec: dict, params: dict) ->
             if not rel:
                 raise ValueError(f"trial {trial.get('id')!r}: manifest field {key}.path is missing")
             p = _resolve(study, rel, f"{key}.path")
-            inputs[key] = {"path": rel, "sha256": sha256_file(p), "bytes": p.stat().st_size}
+            st = p.stat()
+            inputs[key] = {"path": rel, "sha256": sha256_file(p), "bytes": st.st_size,
+                           "mtime_ns": st.st_mtime_ns}
         res = process_trial(study, trial, AnalysisParams(**params), surface_spec=surface_spec)
         return {"ok": True, "frames": res.frames, "forces": res.forces, "info": res.info,
-                "inputs": inputs, "elapsed_s": time.perf_counter() - t0}
+                "inputs": inputs, "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
     except Exception as exc:  # a failing trial is recorded, the others go on
         logger.debug("trial %s failed:\n%s", trial.get("id"), traceback.format_exc())
         return {"ok": False, "reason": _one_line(exc), "inputs": inputs,
-                "elapsed_s": time.perf_counter() - t0}
+                "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
 
 
 # --------------------------------------------------------------------------------------
@@ -507,6 +514,8 @@ def analyze(
         raise ValueError(f"n_workers must be a positive integer, got {n_workers!r}")
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
+    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
+    pdigest = params_digest(pdict)
     study_dir, manifest = _load_study(study)
     study_dir = study_dir.resolve()
     selected = trials
@@ -535,15 +544,13 @@ def analyze(
     store = ResultsStore(out)
     for tid in ids:
         store.trial_dir(tid)  # validates the id before anything runs
-    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
-    pdigest = params_digest(pdict)
     raw = {"video": dict(params.video), "forces": dict(params.forces)}
     t_start = time.perf_counter()
     started = _now()
 
     todo, skipped = [], []
     for t in trials:
-        if not force and store.is_finished(t["id"], pdigest):
+        if not force and store.is_finished(t["id"], pdigest) and _inputs_unchanged(study_dir, t, store):
             skipped.append(t["id"])
         else:
             todo.append(t)
@@ -569,19 +576,24 @@ def analyze(
     failures: list[tuple[str, str]] = []
     bar = _Progress(progress, len(trials), "analyze")
     sched_name, workers_used = "none", 0
+    t_submit = t_done = None
     try:
         for tid in skipped:
             bar.advance(f"{tid} (done before)")
             if callback is not None:
                 callback(TrialOutcome(tid, "skipped"))
         if todo:
+            import dask
             from distributed import Client, LocalCluster, as_completed
 
             cluster = None
             if scheduler is None:
                 nw = n_workers or os.cpu_count() or 1
-                cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+                # allowed-failures=0: a trial that kills its worker (a crash in a decoder)
+                # is reported at once instead of being retried on, and killing, the others.
+                with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                    cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
+                                           dashboard_address=None, silence_logs=logging.ERROR)
                 client = Client(cluster)
                 sched_name = "local"
             else:
@@ -591,6 +603,7 @@ def analyze(
                 workers_used = len(client.scheduler_info().get("workers", {}))
                 surfaces = manifest.get("surfaces", {})
                 futures = {}
+                t_submit = time.perf_counter()
                 for t in todo:
                     fut = client.submit(_run_trial, str(study_dir), t, surfaces.get(t.get("surface"), {}),
                                         raw, key=f"fingerfriction-trial-{t['id']}-{pdigest[:12]}",
@@ -606,6 +619,7 @@ def analyze(
                     fut.release()
                     status = {"params_sha256": pdigest, "inputs": res.get("inputs", {}),
                               "elapsed_s": round(float(res.get("elapsed_s", 0.0)), 4),
+                              "cpu_s": round(float(res.get("cpu_s", 0.0)), 4),
                               "finished": _now(),
                               "labels": {k: t.get(k) for k in _LABELS}}
                     if res["ok"]:
@@ -618,6 +632,7 @@ def analyze(
                         failures.append((tid, res["reason"]))
                         logger.warning("trial %s failed: %s", tid, res["reason"])
                         outcome = TrialOutcome(tid, "failed", res["reason"], status["elapsed_s"])
+                    t_done = time.perf_counter()
                     bar.advance(tid if res["ok"] else f"{tid} FAILED")
                     if callback is not None:
                         callback(outcome)
@@ -628,7 +643,9 @@ def analyze(
     finally:
         bar.close()
         elapsed = time.perf_counter() - t_start
+        compute = (t_done - t_submit) if (t_submit is not None and t_done is not None) else 0.0
         this_run = {"started": started, "finished": _now(), "elapsed_s": round(elapsed, 3),
+                    "compute_s": round(compute, 3),
                     "scheduler": sched_name, "n_workers": workers_used, "force": bool(force),
                     "computed": n_ok, "skipped": len(skipped), "failed": n_fail,
                     "interrupted": n_ok + n_fail + len(skipped) < len(trials)}
@@ -644,7 +661,26 @@ def analyze(
 
     return AnalyzeResult(results=store.root, n_trials=len(trials), n_computed=n_ok, n_skipped=len(skipped),
                          n_failed=n_fail, failures=tuple(failures), elapsed_s=elapsed,
-                         scheduler=sched_name, n_workers=workers_used)
+                         scheduler=sched_name, n_workers=workers_used, compute_s=compute)
+
+
+def _inputs_unchanged(study_dir: Path, trial: dict, store: ResultsStore) -> bool:
+    """True if the trial's input files have the size and modification time recorded when it
+    was analysed (a cheap check: hashing every video again would cost as much as reading it)."""
+    rec = (store.status(trial["id"]) or {}).get("inputs", {})
+    for key in ("video", "force"):
+        r = rec.get(key) or {}
+        rel = (trial.get(key) or {}).get("path")
+        if r.get("path") != rel:
+            return False
+        try:
+            st = _resolve(study_dir, rel, f"{key}.path").stat()
+        except (OSError, ValueError):
+            return False
+        if st.st_size != r.get("bytes") or st.st_mtime_ns != r.get("mtime_ns"):
+            logger.info("trial %s: %s changed since it was analysed; recomputing", trial["id"], rel)
+            return False
+    return True
 
 
 def _previous_runs(store: ResultsStore) -> list:
@@ -757,7 +793,7 @@ def fit(
     ``fit/model/<trial-id>.parquet`` (layout in :mod:`fingerfriction.results`).
     """
     from . import fit as fitmod
-    from .model import FrictionModel, FrictionParams
+    from .model import FrictionModel
     from .surfaces import surface_from_spec
 
     store = ResultsStore(results)
@@ -818,11 +854,11 @@ def fit(
             if not tf.success:
                 failures.append((tid, tf.message))
             model = models.setdefault(m["surface"], FrictionModel(tr.surface))
-            try:
-                comp = model.forces(tr.regions, FrictionParams(tf.mu, max(tf.p0, 0.0), tf.p1))
-                f_int, f_def, f_tot = comp.interfacial, comp.deformation, comp.total
-            except ValueError:
-                f_int = f_def = f_tot = np.full(tr.n, np.nan)
+            # Eq. (2)-(4) with the fitted p0, p1 as they are (FrictionParams would refuse
+            # the unphysical p0 < 0 of a failed fit; its row in trials.csv says it failed).
+            B = model.basis(tr.regions, tf.mu)
+            f_int, f_def = tf.p0 * B[:, 0], tf.p1 * B[:, 1]
+            f_tot = f_int + f_def
             df = pd.DataFrame({"x_mm": tr.x, "F_T_N": tf.measured, "F_hat_N": tf.estimate,
                                "F_model_N": f_tot, "F_int_N": f_int, "F_def_N": f_def,
                                "F_T_raw_N": tr.force})
@@ -849,17 +885,19 @@ def fit(
 # --------------------------------------------------------------------------------------
 
 #: Repetitions per condition of the demo: 1 by default (2 subjects x 6 surfaces x 3 speeds
-#: = 36 trials, every cell of Table 1 filled; chosen by measurement to finish in under
-#: 5 minutes on a 2-core machine), 5 with ``full`` (the paper's 180 trials).
+#: = 36 trials, every cell of Table 1 filled and every speed in Fig. 4), 5 with ``full``
+#: (the paper's 180 trials). Measured on this project's 2-core machine while shared (load
+#: average about 4.5): 243 s in all (simulate 185 s, analyze 48 s, fit 1 s, report 9 s).
 DEMO_REPS = 1
 FULL_REPS = 5
 
 #: Force window of the demo in mm. The paper's is 26 mm, but the simulated camera sees
-#: 1280 px x 23 um = 29.4 mm, and the centroid of C_f (about 7 mm wide at 0.4 mm above a
-#: 2 mm bump) can only be tracked while C_f is whole inside the crop: about -10.3 to
-#: +10.3 mm (measured on simulated trials). The force processing needs x(t) over the
-#: whole window, so the demo uses 20 mm.
-DEMO_WINDOW_MM = 20.0
+#: 1280 px x 23 um = 29.4 mm, and the centroid of C_f (the finger below a line 0.4 mm
+#: above the feature's top: about 7 mm wide on the 2 mm surfaces, wider on the 4 mm ones)
+#: is only tracked while C_f is whole inside the crop. Measured on simulated trials of
+#: all six surfaces: x(t) spans at least -9.3 to +9.3 mm (2 mm surfaces: +-10.3 mm). The
+#: force processing needs x(t) over the whole window, so the demo uses 18 mm.
+DEMO_WINDOW_MM = 18.0
 
 
 @dataclass(frozen=True)
@@ -895,7 +933,7 @@ def _sim_progress(enabled: bool):
 
 
 def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None, seed: int = 0,
-         n_workers: int | None = None, progress: bool = True) -> DemoResult:
+         n_workers: int | None = None, progress: bool = True, design: Mapping | None = None) -> DemoResult:
     """Simulate the built-in default study, analyse it, fit the model and write the report.
 
     Parameters
@@ -915,6 +953,9 @@ def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None,
         Worker processes for simulation and analysis (default: all cores).
     progress : bool
         Progress bars on stderr.
+    design : dict, optional
+        Overrides of the simulated design (``subjects``, ``surfaces``, ``speeds``), e.g.
+        for a smaller demo; default: the paper's 2 subjects x 6 surfaces x 3 speeds.
 
     Returns
     -------
@@ -930,7 +971,8 @@ def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None,
     t0 = time.perf_counter()
     cb, close = _sim_progress(progress)
     try:
-        simulate_study(study, SimOptions(reps=reps, seed=seed), workers=n_workers, progress=cb,
+        simulate_study(study, SimOptions(reps=reps, seed=seed, **dict(design or {})), workers=n_workers,
+                       progress=cb,
                        description="fingerfriction demo: the paper's design, simulated")
     finally:
         close()

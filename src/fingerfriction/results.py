@@ -17,13 +17,17 @@ Layout of a results folder (schema version 1)::
         subjects.csv                  subject, mu, objective
         trials.csv                    trial, subject, surface, speed, p0, p1, mu, nmse,
                                       success, message
-        model/<trial-id>.parquet      per position: x_mm, F_T_N (measured), F_hat_N,
-                                      F_int_N, F_def_N (model, Eq. 1-4)
+        model/<trial-id>.parquet      per position: x_mm; F_T_N and F_hat_N, measured and
+                                      model as compared by the fit (detrended over the
+                                      flat segment, model median-filtered); F_model_N,
+                                      F_int_N, F_def_N (raw Eq. 4 = Eq. 2 + Eq. 3);
+                                      F_T_raw_N (the stored measurement)
       report/                         written by `fingerfriction report`
         index.html                    self-contained HTML report (images embedded)
         fig3_occupancy.png/.svg, fig4_forces.png/.svg, fig6_model.png/.svg,
         figS1_lengths.png/.svg, figS3_components.png/.svg
-        table1.csv/.md/.tex, blindspots.csv/.md, truth.csv/.md (simulated studies)
+        table1.csv/.md/.tex, blindspots.csv/.md, truth_mu.csv/.md and
+        truth_blindspots.csv/.md (simulated studies)
 
 A trial is *finished* when its ``status.json`` says ``"ok"`` and was computed with the
 same analysis parameters (``params_sha256``); ``status.json`` is written after both

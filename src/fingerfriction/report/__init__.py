@@ -132,7 +132,9 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         bar.advance("tables")
 
         titles = {"mu": "Friction coefficient per subject",
-                  "blindspots": "Blind-spot widths: video analysis against the simulator's 3-px contact"}
+                  "blindspots": "Blind-spot widths: video analysis against the simulator's 3-px contact",
+                  "tracking": "Finger position x(t): RMS error against the true finger centre "
+                              "(one constant offset per trial removed)"}
         env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
                                  undefined=jinja2.StrictUndefined)
         template = env.from_string(

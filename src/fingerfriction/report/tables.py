@@ -122,9 +122,9 @@ def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
             rows.append({"subject": s, "mu_true": t, "mu_fitted": f, "error": f - t})
         out["mu"] = pd.DataFrame(rows)
     if data.truth_dir is not None:
-        rows = []
+        rows, track = [], []
         for name in data.surface_names:
-            regs = []
+            regs, rms = [], []
             for t in data.select(surface=name):
                 p = data.truth_dir / f"{t.id}.npz"
                 if not p.is_file():
@@ -132,6 +132,13 @@ def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
                 with np.load(p, allow_pickle=False) as z:
                     if "regions_geom" in z.files:
                         regs.append(np.asarray(z["regions_geom"], float))
+                    if "x_finger_video" in z.files:
+                        x_true = np.asarray(z["x_finger_video"], float)
+                        rms.append(_x_rms(t.frames["x_mm"].to_numpy(float), x_true))
+            rms = [r for r in rms if np.isfinite(r)]
+            if rms:
+                track.append({"surface": name, "n_trials": len(rms), "x_rms_median_mm": float(np.median(rms)),
+                              "x_rms_max_mm": float(np.max(rms))})
             if not regs:
                 continue
             true_bs = blind_spot_table({name: regs})
@@ -145,7 +152,22 @@ def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
                              "width_measured_mm": b, "error_mm": b - a})
         if rows:
             out["blindspots"] = pd.DataFrame(rows)
+        if track:
+            out["tracking"] = pd.DataFrame(track)
     return out
+
+
+def _x_rms(x: np.ndarray, x_true: np.ndarray) -> float:
+    """RMS in mm of the tracked x(t) against the true finger centre, over the frames where
+    both exist, after removing one constant offset (the centroid of C_f need not be the
+    finger's centre)."""
+    if x.shape != x_true.shape:
+        return math.nan
+    ok = np.isfinite(x) & np.isfinite(x_true)
+    if ok.sum() < 2:
+        return math.nan
+    d = x[ok] - x_true[ok]
+    return float(np.sqrt(np.mean((d - d.mean()) ** 2)))
 
 
 def table1_display(table: pd.DataFrame) -> pd.DataFrame:

@@ -88,7 +88,9 @@ class CameraParams:
         if self.blur_px < 0 or self.gain < 0 or self.read_noise < 0:
             raise ValueError("CameraParams: blur_px, gain and read_noise must be >= 0")
         if not 0 <= self.dark < self.bright <= 255:
-            raise ValueError(f"CameraParams: need 0 <= dark < bright <= 255 DN, got {self.dark}, {self.bright}")
+            raise ValueError(
+                f"CameraParams: need 0 <= dark < bright <= 255 DN, got {self.dark}, {self.bright}"
+            )
 
     @property
     def field_mm(self) -> tuple[float, float]:
@@ -176,7 +178,7 @@ class Camera:
             frac = yb[cols] + 0.5 - i_f
             dark = np.uint8(np.clip(round(P.dark), 0, 255))
             full = np.minimum(i_f, H)
-            for j, n in zip(cols.tolist(), full.tolist()):
+            for j, n in zip(cols.tolist(), full.tolist(), strict=True):
                 img[j, :n] = dark
             ok = i_f < H
             cj, ci = cols[ok], i_f[ok]
