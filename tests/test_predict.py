@@ -239,7 +239,7 @@ def forward_study():
     return out
 
 
-def _study_trials(forward_study, *, reps, noise, param_sd, seed=0):
+def _study_trials(forward_study, *, reps, noise, param_sd, seed=0, drift_correct=True):
     """Trials whose 'video' regions are the forward model's, forces Eq. (4) + noise,
     drift-corrected over the flat segment as a measurement would be."""
     from fingerfriction.fit import Trial, flat_detrend, flat_segment_mask
@@ -255,7 +255,8 @@ def _study_trials(forward_study, *, reps, noise, param_sd, seed=0):
             p1 = 0.1 * np.exp(param_sd * rng.normal())
             F = p0 * B[:, 0] + p1 * B[:, 1]
             F = F + rng.normal(scale=noise * F.std(), size=F.size)
-            F = flat_detrend(x, F, flat_segment_mask(reg, s))
+            if drift_correct:
+                F = flat_detrend(x, F, flat_segment_mask(reg, s))
             trials.append(Trial(x, F, reg, s, subj, {"rep": str(r)}))
     return trials
 
@@ -281,6 +282,20 @@ def test_loso_exact_on_forward_generated_study(forward_study, tmp_path):
     assert {"rho_in_sample", "rho_out_of_sample", "rho_heldout_params_video"} <= set(df.columns)
     x, measured, predicted = res.estimates["S1", "bump-2mm"][0]
     # equal up to the solver tolerance (the LOSO sweep's positions differ by rounding)
+    np.testing.assert_allclose(predicted, measured, rtol=0, atol=1e-6)
+
+
+def test_loso_absolute_forces(forward_study):
+    """FitOptions(detrend=False): absolute forces, predicted with their flat level."""
+    from fingerfriction.fit import FitOptions
+    from fingerfriction.predict import leave_one_surface_out
+
+    trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0, drift_correct=False)
+    res = leave_one_surface_out(trials, options=FitOptions(median_kernel=1, detrend=False),
+                                forward_step=LOSO_STEP)
+    np.testing.assert_allclose(res.table["rho_out_of_sample"], 1.0, atol=1e-9)
+    _, measured, predicted = res.estimates["S2", "step-up-4mm"][0]
+    assert measured[0] == pytest.approx(0.60 * 0.02 * flat_contact_length(2), rel=1e-6)  # mu p0 L_flat
     np.testing.assert_allclose(predicted, measured, rtol=0, atol=1e-6)
 
 

@@ -818,15 +818,22 @@ def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regio
     b0 = model.basis(regions, 0.0)
     b1 = model.basis(regions, 1.0)
     raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
-    mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
+    if getattr(options, "detrend", True):
+        mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
+
+        def footing(y):
+            return flat_detrend(x, y, mask)
+    else:  # absolute forces (FitOptions.detrend=False)
+        def footing(y):
+            return np.asarray(y, dtype=float)
     mu = params.mu
     T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
     p = np.array([params.p0, params.p1])
     if options.median_on == "basis":
-        est = flat_detrend(x, median_filter(raw, options.median_kernel), mask) @ (T @ p)
+        est = footing(median_filter(raw, options.median_kernel)) @ (T @ p)
     else:
-        est = flat_detrend(x, median_filter(raw @ (T @ p), options.median_kernel), mask)
-    return flat_detrend(x, force, mask), est
+        est = footing(median_filter(raw @ (T @ p), options.median_kernel))
+    return footing(force), est
 
 
 def _predicted_estimate(surface: Surface, force: np.ndarray, regions: np.ndarray, params: FrictionParams,
@@ -845,6 +852,8 @@ def _predicted_estimate(surface: Surface, force: np.ndarray, regions: np.ndarray
         est = median_filter(raw, options.median_kernel) @ (T @ p)
     else:
         est = median_filter(raw @ (T @ p), options.median_kernel)
+    if not getattr(options, "detrend", True):  # absolute forces: keep the flat level
+        flat_level = 0.0
     return np.asarray(force, dtype=float), est - flat_level
 
 
