@@ -102,7 +102,12 @@ def main() -> None:
     print(f"  tick lateness (OS scheduling, not the query) p50 / p99 / p99.9: "
           f"{l50:.1f} / {l99:.1f} / {l999:.1f} us")
     ok_rate = achieved >= 0.99 * args.rate and args.rate >= 10000
-    print(f"  target >= 10 kHz sustained, p99 < 50 us: {'MET' if ok_rate and p99 < 50 else 'NOT MET'}")
+    print(f"  target >= 10 kHz sustained (mean rate), query p99 < 50 us: "
+          f"{'MET' if ok_rate and p99 < 50 else 'NOT MET'}")
+    # Deadline adherence is the OS's part: a busy-waiting Python loop on a loaded machine
+    # is preempted for milliseconds; a display needs a real-time thread for that.
+    print(f"  every tick served within one period at p99 (OS scheduling): "
+          f"{'MET' if l99 < 1e6 / args.rate else 'NOT MET'}")
 
     xb = rng.uniform(r.x0 - 1.0, r.x[-1] + 1.0, 1_000_000)
     out = np.empty_like(xb)
