@@ -33,12 +33,14 @@ When no fitted parameters are given, :func:`default_params` documents its proven
   linear in ``p1``, so this is closed-form on the forward-model sweeps.
 
 Measured consequence (noted, not hidden): with ``p0 = F_N / L_flat`` the interfacial
-term alone already varies by tens of mN over a relief (the contact length, hence the
-model's normal force ``p0 L``, changes as the finger bridges the feature), so the total
-predicted rise is larger than 50 mN and ``F_def`` does not dominate as in the paper's
-Fig. S3. The paper's fits were made against drift-corrected forces (zero on flat
-ground), which favours a small ``p0``; a flat-friction-consistent ``p0`` is kept here
-because rendering on a display needs the model's flat-ground level to be ``mu F_N``.
+term alone varies by tens of mN, and by up to ~150 mN with the calibrated fingers on a
+3 mm bump, over a relief (the contact length, hence the model's normal force ``p0 L``,
+changes as the finger bridges the feature: Eq. 4 with a constant ``p0`` does not
+conserve the normal force), so the predicted variation is larger than 50 mN and
+``F_def`` does not dominate as in the paper's Fig. S3. The paper's fits were made
+against drift-corrected forces (zero on flat ground), which favours a small ``p0``; a
+flat-friction-consistent ``p0`` is kept here because rendering on a display needs the
+model's flat-ground level to be ``mu F_N``.
 
 These are anchored on figures the paper reports, not fitted to data: fitted parameters
 (``--params``) should be preferred whenever a study is available.
