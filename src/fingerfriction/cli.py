@@ -509,6 +509,113 @@ def report_cmd(
 # ---------------------------------------------------------------------------------------
 
 
+def _predict_inputs(params):
+    """--params: None or a JSON path (FrictionParams JSON or a fit output)."""
+    return None if params is None else str(params)
+
+
+@app.command("predict")
+def predict_cmd(
+    surface: str = typer.Option(..., "--surface", help="Name (bump-4mm), spec (bump:W=3,H=0.5) or CSV."),
+    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger)."),
+    params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
+    out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files."),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
+    contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
+    figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
+) -> None:
+    """Predict F_T(x), F_int, F_def, contact occupancy and blind spots on any relief."""
+    from rich.table import Table
+
+    from .predict import predict
+
+    try:
+        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
+        paths = pred.write(out, figures=figures)
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc))
+    p = pred.params
+    t = Table(title=f"prediction: {pred.surface.name}, subject {pred.subject} ({pred.contact} contact)")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    t.add_row("mu, p0, p1", f"{p.mu:.3g}, {p.p0:.4g} N/mm, {p.p1:.4g} N/mm")
+    t.add_row("parameters from", pred.params_source)
+    t.add_row("F_T on flat ground", f"{1e3 * pred.flat_level:.1f} mN")
+    t.add_row("F_T max / min", f"{1e3 * pred.F_T.max():.1f} / {1e3 * pred.F_T.min():.1f} mN")
+    t.add_row("F_def max", f"{1e3 * pred.F_def.max():.1f} mN")
+    t.add_row("max simultaneous contacts", str(pred.max_contacts))
+    spots = "; ".join(f"[{a:.2f}, {b:.2f}] ({b - a:.2f} mm)" for a, b in pred.blind_spots.intervals)
+    t.add_row("blind spots (mm)", spots or "none")
+    console.print(t)
+    for kind, path in paths.items():
+        console.print(f"  {kind:14s} {path}", highlight=False)
+
+
+@app.command("render")
+def render_cmd(
+    surface: str = typer.Option(..., "--surface", help="Paper surface name, spec or CSV profile."),
+    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2."),
+    out: str = typer.Option(..., "--out", help="Command signal file: .wav (float32) or .csv."),
+    params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
+    speed: float = typer.Option(80.0, "--speed", help="Sliding speed in mm/s."),
+    rate: float = typer.Option(2000.0, "--rate", help="Display update rate in Hz."),
+    normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N."),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N of the prediction."),
+    mu_min: float = typer.Option(0.0, "--mu-min", help="Lowest mu the display can produce."),
+    mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce."),
+    table: str = typer.Option(None, "--table", help="Also write the table CSV (x_mm, F_T_N, mu_cmd)."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction."),
+) -> None:
+    """Friction command for a flat friction-modulating display, as a signal in time."""
+    from .render import HapticRenderer
+
+    try:
+        r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
+                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max))
+        files = r.write_command(out, speed, rate)
+        if table:
+            files["table"] = r.write_table(table)
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc))
+    d = r.display
+    console.print(
+        f"{r.prediction.surface.name}, subject {r.prediction.subject}: "
+        f"mu_cmd {r.mu_cmd.min():.3f}..{r.mu_cmd.max():.3f}"
+        f" (lateral force = mu_cmd x {d.effective_normal_force:.3f} N = p0 x L_flat; "
+        f"{r.n_clipped} table entries clipped to [{d.mu_min:g}, {d.mu_max:g}])",
+        highlight=False,
+    )
+    for kind, path in files.items():
+        console.print(f"  {kind:8s} {path}", highlight=False)
+
+
+@app.command("validate")
+def validate_cmd(
+    results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
+    out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps."),
+) -> None:
+    """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
+    its geometry alone (no video), rho next to the in-sample Table 1."""
+    from rich.table import Table
+
+    from .predict import validate_results
+
+    try:
+        res = validate_results(results, out=out, forward_step=step)
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc))
+    t = Table(title="out-of-sample validation (leave one surface out)")
+    for col in ("subject", "surface", "trials", "rho in sample", "rho held-out params, video",
+                "rho out of sample"):
+        t.add_column(col, justify="right" if col.startswith(("rho", "trials")) else "left")
+    for r in res.table.itertuples():
+        t.add_row(str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
+                  f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
+    console.print(t)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``fingerfriction`` console script."""
     try:
