@@ -120,7 +120,7 @@ def main(argv=None) -> int:
     ap.add_argument("--limit", type=int, default=None, help="process only the first N trials")
     ap.add_argument(
         "--position",
-        choices=("cf-centroid", "chord"),
+        choices=("cf-centroid", "chord", "hybrid"),
         default="cf-centroid",
         help="video x(t) estimator with --x-source video (paper: cf-centroid)",
     )
