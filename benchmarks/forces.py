@@ -131,6 +131,13 @@ def main(argv=None) -> int:
         help="flat segment from contact regions (truth regions_geom, or the video's with --x-source video)",
     )
     ap.add_argument("--notch-q", type=float, default=None, help="notch quality factor")
+    ap.add_argument(
+        "--extrapolate-mm",
+        type=float,
+        default=None,
+        help="ForceProcessingParams.extrapolate_mm (default: the library's); to measure what a "
+        "longer constant-speed extension of x(t) would do",
+    )
     args = ap.parse_args(argv)
     study = pick_study(args.study)
     manifest = json.loads((study / "manifest.json").read_text())
@@ -145,10 +152,13 @@ def main(argv=None) -> int:
     )
 
     kw = {} if args.notch_q is None else {"notch_q": args.notch_q}
+    if args.extrapolate_mm is not None:
+        kw["extrapolate_mm"] = args.extrapolate_mm
     default = ForceProcessingParams(**kw)
     fc = default.sensor_highpass_hz
     print(
         f"defaults: mains={default.mains!r} at {list(default.notch_hz)} Hz, "
+        f"extrapolate_mm={default.extrapolate_mm:g}, "
         f"low-pass {default.lowpass_hz:g} Hz, "
         f"sensor high-pass compensated at {fc:g} Hz; notch variants use Q={default.notch_q:g}"
     )
