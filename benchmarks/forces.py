@@ -108,7 +108,11 @@ def video_positions(
     v = trial["video"]
     surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
     H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
-    opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)), position=position)
+    # n_max_regions raised from 8: a contact region being born can break into 9 pieces for a
+    # frame (s1-bump-2mm-v040-r5), which makes analyze_video raise with the default
+    opts = AnalysisOptions(
+        calibration_frame=int(v.get("calibration_frame", 0)), position=position, n_max_regions=32
+    )
     res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
     return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
 

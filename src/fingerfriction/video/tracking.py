@@ -14,6 +14,13 @@ the region below line row ``r`` has per-column height ``max(f[c] - r, 0)``:
 
 ``area`` is convex, piecewise linear and decreasing in ``r``, so the line enclosing a
 given area is found exactly from the sorted outline (no iteration).
+
+Alternatives (not in the paper): :func:`chord_midpoint`, the midpoint of the finger's chord
+at a fixed row, and :func:`hybrid_positions`, the chord midpoint where the chord is in
+view and, beyond, one edge of the outline (:func:`chord_ends`) shifted by an offset
+measured where both are seen. Measured on the simulated study (``benchmarks/video.py``):
+the C_f centroid shifts by up to ~0.75 mm against the finger's centre while the finger
+deforms over the feature, the chord midpoint and the hybrid stay within ~0.05 mm.
 """
 
 from __future__ import annotations
