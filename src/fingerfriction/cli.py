@@ -7,6 +7,7 @@ result; user errors (bad files, bad options) are caught and shown as one line, e
 from __future__ import annotations
 
 import sys
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -200,14 +201,23 @@ def _split_list(values: list[str] | None) -> list[str] | None:
 
 @app.command("simulate")
 def simulate_cmd(
-    out: str = typer.Option(..., "--out", help="Output study folder (new, empty, or the same study to resume)."),
-    reps: int = typer.Option(5, "--reps", help="Repetitions per condition (the paper: 5)."),
-    seed: int = typer.Option(0, "--seed", help="Study seed: the same seed gives byte-identical studies."),
-    surfaces: list[str] = typer.Option(None, "--surfaces", help="Surface names, e.g. bump-2mm,step-up-4mm."),
-    subjects: list[str] = typer.Option(None, "--subjects", help="Subjects: 1, 2."),
-    speeds: list[str] = typer.Option(None, "--speeds", help="Nominal speeds in mm/s, e.g. 40,80,120."),
-    workers: int = typer.Option(0, "--workers", help="Worker processes (0: all cores)."),
-    video_format: str = typer.Option("ffv1-mkv", "--video-format", help="ffv1-mkv or tiff."),
+    out: Annotated[str, typer.Option("--out", help="Output study folder (new, empty, or same study).")],
+    reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).")] = 5,
+    seed: Annotated[int, typer.Option("--seed", help="Study seed: same seed, byte-identical study.")] = 0,
+    surfaces: Annotated[
+        list[str] | None, typer.Option("--surfaces", help="Surfaces, e.g. bump-2mm,step-up-4mm (default: 6).")
+    ] = None,
+    subjects: Annotated[
+        list[str] | None, typer.Option("--subjects", help="Subjects: 1, 2 (default: both).")
+    ] = None,
+    speeds: Annotated[
+        list[str] | None, typer.Option("--speeds", help="Nominal speeds in mm/s (default 40,80,120).")
+    ] = None,
+    workers: Annotated[int, typer.Option("--workers", help="Worker processes (0: all cores).")] = 0,
+    video_format: Annotated[str, typer.Option("--video-format", help="ffv1-mkv or tiff.")] = "ffv1-mkv",
+    contact_model: Annotated[
+        str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
+    ] = "mechanics-bem",
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
     import time
@@ -217,7 +227,8 @@ def simulate_cmd(
     from .sim import SimOptions, simulate_study
     from .study import ManifestError
 
-    kw: dict = {"reps": reps, "seed": seed, "video_format": video_format}
+    kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
+                "contact_model": contact_model}
     if _split_list(surfaces):
         kw["surfaces"] = tuple(_split_list(surfaces))
     if _split_list(subjects):

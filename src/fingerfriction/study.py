@@ -541,7 +541,9 @@ def load_manifest(path: str | os.PathLike) -> Study:
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ManifestError(f"{p}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+        raise ManifestError(
+            f"{p}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
+        ) from None
     try:
         study = Study.from_dict(data, root=p.parent.resolve())
     except ManifestError as exc:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 
 import numpy as np
@@ -131,3 +132,77 @@ def test_non_convergence_is_reported():
     sol = ContactSolver(finger, n=1024).solve(get_surface("bump-4mm"), -2.0, max_iter=3)
     assert not sol.success
     assert "did not converge" in sol.message
+
+
+def test_warm_start_on_a_window_matches_cold_solve():
+    # A warm start runs the CG on a window around its contact (smaller FFTs); the result
+    # must be the full problem's solution.
+    finger = FingerParams(radius=8.0, modulus=0.1, width=10.0)
+    surf = get_surface("bump-4mm")
+    solver = ContactSolver(finger, n=1024)
+    prev = solver.solve(surf, -3.0, tol=1e-10)
+    warm = solver.solve(surf, -2.9, x0=prev, tol=1e-10)
+    cold = solver.solve(surf, -2.9, tol=1e-10)
+    assert warm.success and cold.success
+    assert solver._windows, "the warm start should have used a window"
+    assert np.max(np.abs(warm.pressure - cold.pressure)) < 1e-6 * cold.pressure.max()
+    np.testing.assert_allclose(warm.finger_y, cold.finger_y, atol=1e-7)
+    np.testing.assert_array_equal(warm.mechanical_regions, cold.mechanical_regions)
+
+
+def test_warm_start_misses_a_new_contact_outside_its_window(caplog):
+    # The warm start's contact is the flat-ground patch in the middle of the grid; the
+    # relief has a tall narrow bump near the grid's edge that the finger must touch. The
+    # window cannot see it: the full-grid penetration check must catch it and continue
+    # on the full grid, giving the cold solution.
+    finger = FingerParams(radius=8.0, modulus=0.1, width=10.0)
+    solver = ContactSolver(finger, n=1024)
+    flat = solver.solve(_flat, 0.0, tol=1e-10)
+    xb = 0.6 * solver.half_width
+    Hb = float(finger.outline(np.array([xb]))[0]) + 0.05
+
+    def bumpy(x):
+        return Hb * np.exp(-(((x - xb) / 0.4) ** 2))
+
+    with caplog.at_level(logging.DEBUG, logger="fingerfriction.mechanics.bem"):
+        warm = solver.solve(bumpy, 0.0, x0=flat, tol=1e-10)
+    assert "penetrated outside" in caplog.text
+    cold = solver.solve(bumpy, 0.0, tol=1e-10)
+    assert warm.success and cold.success
+    assert cold.mechanical_regions.shape[0] == 2
+    assert np.max(np.abs(warm.pressure - cold.pressure)) < 1e-6 * cold.pressure.max()
+    np.testing.assert_array_equal(warm.mechanical_regions, cold.mechanical_regions)
+    assert warm.max_penetration < 1e-6
+
+
+def test_region_extraction_matches_the_regions_module():
+    # bem extracts the regions of every sweep position with its own vectorised code; it
+    # must give exactly what fingerfriction.regions.regions_from_mask gives.
+    from fingerfriction.mechanics._cgkernels import contact_regions
+    from fingerfriction.mechanics.bem import _geometric_regions, _mechanical_regions
+    from fingerfriction.regions import regions_from_mask
+
+    rng = np.random.default_rng(3)
+    x = -1.5 + 0.01 * np.arange(300) + 0.005
+    for k in range(200):
+        p = np.where(rng.random(300) < 0.5, rng.random(300), 0.0)
+        p[[0, -1]] = [k % 2, k % 3 == 0]
+        if k == 0:
+            p[:] = 0.0
+        ref = regions_from_mask(x, p > 0)[0]
+        np.testing.assert_array_equal(_mechanical_regions(x, p), ref[~np.isnan(ref[:, 0])])
+        gap = np.where(p > 0, 0.0, rng.random(300) * 0.14)
+        g = _geometric_regions(x, gap, 0.07)
+        inside = gap <= 0.07
+        ref = regions_from_mask(x, inside)[0]
+        ref = ref[~np.isnan(ref[:, 0])]
+        assert g.shape == ref.shape
+        # Interpolated ends lie within half a cell outside the cell-edge intervals' centres.
+        assert np.all(np.abs(g - ref) <= 0.01 + 1e-12)
+        for a, b in g:
+            assert np.all(gap[(x > a) & (x < b)] <= 0.07)
+        # The compiled pass used per solve gives exactly the same rows.
+        rm, rg = np.empty((151, 2)), np.empty((151, 2))
+        km, kg = contact_regions(x, p, gap, 0.07, rm, rg)
+        np.testing.assert_array_equal(rm[:km], _mechanical_regions(x, p))
+        np.testing.assert_array_equal(rg[:kg], g)

@@ -14,6 +14,11 @@ This is solved with the constrained conjugate gradient of Polonsky & Keer (1999)
 load-controlled; the convolution ``K p`` is a linear (non-periodic) convolution evaluated
 with zero padding to ``2n`` and real FFTs against a precomputed kernel spectrum.
 
+Speed (for sweeps, see ``benchmarks/contact.py``): the vector work of each CG iteration is
+fused into two compiled (numba) passes (:mod:`._cgkernels`); a warm-started solve iterates
+on a window of cells around the start's contact (smaller FFTs) and checks the result on
+the full grid, continuing there if a cell outside the window penetrates the surface.
+
 Influence coefficients (piecewise-constant pressure on cells of width ``dx``, displacement
 at cell centres; Johnson 1985, Eq. 2.25b)
 --------------------------------------------------------------------------------------------
@@ -76,8 +81,8 @@ import numpy as np
 import scipy.fft as sfft
 from scipy import fftpack
 
-from ..regions import regions_from_mask
 from ..surfaces import Surface
+from . import _cgkernels as _cg
 from .finger import FingerParams
 from .hertz import hertz_half_width
 
@@ -92,7 +97,14 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
+try:  # pocketfft's packed real FFT without the public wrapper (see _Convolver)
+    from scipy.fft._pocketfft.pypocketfft import r2r_fftpack as _r2r
+except ImportError:  # pragma: no cover - private scipy API moved
+    _r2r = None
+_AXES = (0,)
+
 _SPARSE = 24  # up to this many corrected cells, update K p column by column (cheaper than FFT)
+_MARGIN = 32  # cells beyond a warm start's contact in the CG window (ContactSolver._pk)
 
 #: The paper's contact criterion: contour points within 3 px (about 70 um) are in contact.
 GEOMETRIC_TOL = 0.070
@@ -292,32 +304,49 @@ class ContactSolution:
         return float(self.pressure.sum() * self.dx * self.finger.width)
 
 
+def _runs(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and last indices of the runs of True in the boolean ``m`` (n,)."""
+    d = np.diff(m.view(np.int8))
+    starts = np.flatnonzero(d == 1) + 1
+    ends = np.flatnonzero(d == -1)
+    if m[0]:
+        starts = np.concatenate(([0], starts))
+    if m[-1]:
+        ends = np.concatenate((ends, [m.size - 1]))
+    return starts, ends
+
+
 def _geometric_regions(x: np.ndarray, gap: np.ndarray, tol: float) -> np.ndarray:
     """Intervals where ``gap <= tol``, ends linearly interpolated at ``gap = tol``."""
-    m = gap <= tol
-    if not m.any():
-        return np.empty((0, 2))
-    d = np.diff(np.concatenate([[False], m, [False]]).astype(np.int8))
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1) - 1
-    out = np.empty((starts.size, 2))
-    for r, (i0, i1) in enumerate(zip(starts, ends, strict=True)):
-        if i0 > 0:
-            g0, g1 = gap[i0 - 1], gap[i0]
-            out[r, 0] = x[i0 - 1] + (x[i0] - x[i0 - 1]) * (g0 - tol) / (g0 - g1)
-        else:
-            out[r, 0] = x[0]
-        if i1 < x.size - 1:
-            g0, g1 = gap[i1], gap[i1 + 1]
-            out[r, 1] = x[i1] + (x[i1 + 1] - x[i1]) * (tol - g0) / (g1 - g0)
-        else:
-            out[r, 1] = x[-1]
+    i0, i1 = _runs(gap <= tol)
+    k = i0.size
+    out = np.empty((k, 2))
+    if k == 0:
+        return out
+    # Vectorised over the runs (this runs once per sweep position, where a Python loop
+    # over runs was ~15 % of a warm-started sweep); the same arithmetic as interpolating
+    # run by run. Only the first run can start at cell 0, only the last end at n - 1:
+    # those ends are the grid's ends.
+    f = 1 if i0[0] == 0 else 0
+    i = i0[f:]
+    g0, g1 = gap[i - 1], gap[i]
+    out[f:, 0] = x[i - 1] + (x[i] - x[i - 1]) * (g0 - tol) / (g0 - g1)
+    if f:
+        out[0, 0] = x[0]
+    e = k - 1 if i1[-1] == x.size - 1 else k
+    j = i1[:e]
+    g0, g1 = gap[j], gap[j + 1]
+    out[:e, 1] = x[j] + (x[j + 1] - x[j]) * (tol - g0) / (g1 - g0)
+    if e < k:
+        out[-1, 1] = x[-1]
     return out
 
 
 def _mechanical_regions(x: np.ndarray, p: np.ndarray) -> np.ndarray:
-    r = regions_from_mask(x, p > 0)[0]
-    return r[~np.isnan(r[:, 0])]
+    """Runs of ``p > 0`` as cell-edge intervals (as :func:`~fingerfriction.regions.regions_from_mask`)."""
+    i0, i1 = _runs(p > 0)
+    dx = float(x[1] - x[0])
+    return np.column_stack([x[i0] - dx / 2, x[i1] + dx / 2])
 
 
 # ------------------------------------------------------------------------------ solver
@@ -328,6 +357,50 @@ def _check_load(load) -> float:
     if not math.isfinite(F) or F <= 0:
         raise ValueError(f"load must be a finite positive normal force in N, got {load!r}")
     return F
+
+
+class _Convolver:
+    """Linear convolution with the kernel of a pressure on ``m`` consecutive cells.
+
+    Zero padding to ``2m`` and pocketfft's packed real FFT. The kernel is even, so its
+    spectrum is real: fftpack's packed format ([r0, r1, i1, r2, i2, ...]) then needs
+    only an elementwise product with the spectrum repeated per (r, i) pair (measured
+    faster than scipy.fft's complex rfft path at these sizes). Work arrays are kept
+    between calls (the solver is not thread-safe).
+
+    Calling it returns ``K f`` on the ``m`` cells for ``f = fin[:m]``, a view into a
+    buffer overwritten by the next call.
+    """
+
+    def __init__(self, kj: np.ndarray, m: int):
+        kk = np.zeros(2 * m)
+        kk[: m + 1] = kj[: m + 1]
+        kk[m + 1 :] = kj[1:m][::-1]
+        spec = sfft.rfft(kk).real
+        packed = np.empty(2 * m)
+        packed[0] = spec[0]
+        packed[1:-1:2] = spec[1:m]
+        packed[2:-1:2] = spec[1:m]
+        packed[-1] = spec[m]
+        self.m = m
+        self.kspec = packed
+        self.fin = np.zeros(2 * m)  # FFT input: the upper half stays zero (padding)
+        self.spec = np.empty(2 * m)
+        self.fout = np.empty(2 * m)
+        self.work = np.zeros((7, m))  # CG work rows, see _cgkernels
+
+    def __call__(self) -> np.ndarray:
+        if _r2r is None:
+            f = fftpack.rfft(self.fin)
+            f *= self.kspec
+            self.fout[:] = fftpack.irfft(f, overwrite_x=True)
+        else:
+            # pocketfft without the public wrapper, whose argument handling cost ~4 us of
+            # ~12 us per transform pair at n = 1024.
+            _r2r(self.fin, _AXES, True, True, 0, self.spec, 1)
+            self.spec *= self.kspec
+            _r2r(self.spec, _AXES, False, False, 2, self.fout, 1)
+        return self.fout[: self.m]
 
 
 class ContactSolver:
@@ -383,34 +456,20 @@ class ContactSolver:
             kj = halfspace_kernel(j, self.dx, finger.modulus, finger.radius)
         else:
             kj = _layer_kernel(j, self.dx, finger.modulus, finger.layer_thickness, finger.poisson)
-        kk = np.empty(2 * n)
-        kk[: n + 1] = kj
-        kk[n + 1 :] = kj[1:n][::-1]
-        # The kernel is even, so its spectrum is real. scipy.fftpack's packed real FFT
-        # ([r0, r1, i1, r2, i2, ...]) then needs only an elementwise product with the
-        # spectrum repeated per (r, i) pair; its per-call overhead is ~25 % lower than
-        # scipy.fft's dispatch at these sizes (measured 16 vs 21 us per pair at 2n = 2048).
-        spec = sfft.rfft(kk).real
-        packed = np.empty(2 * n)
-        packed[0] = spec[0]
-        packed[1:-1:2] = spec[1:n]
-        packed[2:-1:2] = spec[1:n]
-        packed[-1] = spec[n]
-        self._kspec = packed
+        self._kj = kj
+        self._full = _Convolver(kj, n)
+        self._windows: dict[int, _Convolver] = {}
         # Symmetric kernel K(|i - j|) as one array: column j is kfull[n-1-j : 2n-1-j].
         self._kfull = np.concatenate([kj[1:n][::-1], kj[:n]])
-        self._buf = np.zeros(2 * n)
+        self._idx = np.empty(2 * _SPARSE, dtype=np.int64)
+        self._rbuf = (np.empty((n // 2 + 1, 2)), np.empty((n // 2 + 1, 2)))  # region rows
         self.kernel0 = float(kj[0])
 
     # ------------------------------------------------------------------ helpers
     def displacement(self, p: np.ndarray) -> np.ndarray:
         """Elastic displacement ``w = K p`` (mm, into the finger) of the pressure ``p`` (n,)."""
-        buf = self._buf
-        buf[: self.n] = p
-        buf[self.n :] = 0.0
-        f = fftpack.rfft(buf, overwrite_x=False)
-        f *= self._kspec
-        return fftpack.irfft(f, overwrite_x=True)[: self.n]
+        self._full.fin[: self.n] = p
+        return self._full().copy()
 
     def grid(self, x_finger: float) -> np.ndarray:
         """Cell centres in mm (surface coordinates) for a finger at ``x_finger``."""
@@ -502,13 +561,19 @@ class ContactSolver:
     def _pk(self, hs: np.ndarray, P: float, p0, tol: float, max_iter: int):
         """Polonsky-Keer constrained CG, load controlled. ``hs = h - s`` (mm).
 
-        Returns ``(p, w, z, iterations, residual, converged)``. The displacement ``w = K p``
-        is updated incrementally: ``p`` changes by ``-tau t`` (whose image ``K t`` the CG
-        step computes anyway) plus a few clipped/overlap cells, added column by column
-        when there are at most ``_SPARSE`` of them, else ``K p`` is recomputed by FFT.
-        This halves the FFTs per iteration (measured: 1.7x faster sweeps at n = 1024).
+        Returns ``(p, w, z, iterations, residual, converged)``.
+
+        With a warm start the CG runs on a window of cells around the start's contact
+        (``_MARGIN`` cells beyond it on each side, rounded up to a fast FFT length): the
+        pressure is zero outside it, so the convolutions of the iteration shrink to the
+        window. The result is then checked on the full grid: if any cell outside the
+        window penetrates the surface, the window solution is not the full problem's
+        and the CG continues from it on the full grid. When there is no penetration
+        outside, the window solution satisfies all the full problem's conditions
+        (``p >= 0``, ``g >= 0``, ``p g = 0``, load), so it is that (unique) solution.
         """
         n, dx = self.n, self.dx
+        hs = np.ascontiguousarray(hs, dtype=float)
         if p0 is None:
             # Start from a patch around the highest points of h - s.
             top = hs.max()
@@ -517,90 +582,106 @@ class ContactSolver:
         else:
             p = np.clip(p0, 0.0, None)
         p *= P / (p.sum() * dx)
-        conv = self.displacement
-        kfull = self._kfull
-        w = conv(p)
-        delta = 0.0
-        G_old = 1.0
-        # Preallocated work arrays: at n ~ 1000 numpy's per-call overhead, not arithmetic,
-        # dominates, so the loop avoids temporaries (measured ~1.4x faster per iteration).
-        t = np.zeros(n)
-        g = np.empty(n)
-        gS = np.empty(n)
-        Sf = np.empty(n)
-        trial = np.empty(n)
-        tmp = np.empty(n)
-        p_new = np.empty(n)
-        err = math.inf
-        it = 0
-        since_refresh = 0
-        dot = np.dot
-        while it < max_iter:
-            it += 1
-            np.subtract(w, hs, out=g)
-            np.greater(p, 0.0, out=Sf)  # 1.0 in the contact set, 0.0 outside
-            nS = Sf.sum()
-            g -= dot(g, Sf) / nS
-            np.multiply(g, Sf, out=gS)
-            G = dot(gS, gS)
-            if G == 0.0:
-                err = 0.0
-                break
-            t *= (delta * G / G_old)
-            t *= Sf
-            t += gS
-            G_old = G
-            r_raw = conv(t)
-            den = dot(r_raw, t) - dot(r_raw, Sf) / nS * t.sum()
-            if not den > 0 and delta != 0.0:
-                # Lost conjugacy (round-off on ill-conditioned kernels): restart from the
-                # steepest-descent direction rather than stopping.
-                t[:] = gS
-                r_raw = conv(t)
-                den = dot(r_raw, t) - dot(r_raw, Sf) / nS * t.sum()
-            if not den > 0:
-                break
-            tau = dot(gS, t) / den
-            np.multiply(t, tau, out=tmp)
-            np.subtract(p, tmp, out=trial)
-            np.maximum(trial, 0.0, out=p_new)
-            # Overlap: out of contact but penetrating -> add pressure there.
-            ol = np.flatnonzero((p_new == 0.0) & (g < 0.0))
-            if ol.size:
-                delta = 0.0
-                p_new[ol] -= tau * g[ol]
-            else:
-                delta = 1.0
-            ssum = p_new.sum()
-            if not ssum > 0:
-                break
-            scale = P / (ssum * dx)
-            since_refresh += 1
-            corr = np.flatnonzero(trial < 0.0)
-            if corr.size + ol.size <= _SPARSE and since_refresh < 50:
-                r_raw *= tau
-                w -= r_raw
-                for jj in corr:
-                    w -= trial[jj] * kfull[n - 1 - jj : 2 * n - 1 - jj]
-                for jj in ol:  # from 0 (after clipping) to its overlap pressure
-                    w += p_new[jj] * kfull[n - 1 - jj : 2 * n - 1 - jj]
-                w *= scale
-                p_new *= scale
-            else:
-                p_new *= scale
-                w = conv(p_new)
-                since_refresh = 0
-            np.subtract(p_new, p, out=tmp)
-            np.abs(tmp, out=tmp)
-            err = float(tmp.sum()) * dx / P
-            p, p_new = p_new, p
-            if err < tol:
-                break
-        w = conv(p)
+        it_used = 0
+        if p0 is not None:
+            nz = np.flatnonzero(p > 0)
+            # A 5-smooth window length: cheap FFTs without doubling to a power of two
+            # (two contacts far apart, e.g. a bump meeting the finger's rising edge,
+            # span more than half the grid: measured 1.7x fewer FFT flops there).
+            m = sfft.next_fast_len(int(nz[-1] - nz[0] + 1 + 2 * _MARGIN), real=True)
+            if m < n:
+                i0 = min(max((nz[0] + nz[-1] + 1 - m) // 2, 0), n - m)
+                conv = self._windows.get(m)
+                if conv is None:
+                    conv = self._windows[m] = _Convolver(self._kj, m)
+                pw, _, it_used, err = self._cg(
+                    conv, hs[i0 : i0 + m], P, p[i0 : i0 + m], tol, max_iter, final_w=False
+                )
+                p = np.zeros(n)
+                p[i0 : i0 + m] = pw
+                w = self.displacement(p)
+                g = w - hs
+                S = p > 0
+                z = -float(g[S].mean())
+                g += z
+                if err >= tol:
+                    log.debug("window [%d, %d) did not converge: continuing on the full grid", i0, i0 + m)
+                elif g[:i0].min(initial=0.0) >= 0.0 and g[i0 + m :].min(initial=0.0) >= 0.0:
+                    return p, w, z, it_used, err, True
+                else:
+                    log.debug("window [%d, %d) penetrated outside: continuing on the full grid", i0, i0 + m)
+        p, w, it, err = self._cg(self._full, hs, P, p, tol, max(max_iter - it_used, 1))
         g = w - hs
         S = p > 0
         z = -float(g[S].mean()) if S.any() else -float(g.min())
-        return p, w, z, it, err, err < tol
+        return p, w, z, it + it_used, err, err < tol
+
+    def _cg(
+        self, conv: _Convolver, hs: np.ndarray, P: float, p: np.ndarray, tol: float, max_iter: int,
+        final_w: bool = True,
+    ):
+        """The CG iterations on the ``m`` cells of ``conv`` from the pressure ``p`` (m,).
+
+        Returns ``(p, w, iterations, residual)``; ``w`` is None unless ``final_w``.
+        The displacement ``w = K p`` is updated
+        incrementally: ``p`` changes by ``-tau t`` (whose image ``K t`` the CG step
+        computes anyway) plus a few clipped/overlap cells, added column by column when
+        there are at most ``_SPARSE`` of them, else ``K p`` is recomputed by FFT. This
+        halves the FFTs per iteration (measured: 1.7x faster sweeps at n = 1024). The
+        vector work of each iteration runs in two compiled passes (:mod:`._cgkernels`).
+        """
+        m, dx = conv.m, self.dx
+        work, fin = conv.work, conv.fin
+        ip, inew = 4, 5
+        work[ip] = p
+        work[_cg.T] = 0.0
+        fin[:m] = p
+        work[_cg.W] = conv()
+        kfull, idx = self._kfull, self._idx
+        sparse_max = min(_SPARSE, idx.size // 2)
+        delta = 0.0
+        G_old = 1.0
+        err = math.inf
+        it = 0
+        since_refresh = 0
+        direction, step = _cg.cg_direction, _cg.cg_step
+        while it < max_iter:
+            it += 1
+            nS, G = direction(work, hs, ip, fin, delta, G_old)
+            if G == 0.0:
+                err = 0.0
+                break
+            G_old = G
+            r = conv()
+            status, new_delta, e, refresh, since_refresh = step(
+                work, ip, inew, r, kfull, idx, nS, P, dx, since_refresh, sparse_max, 50
+            )
+            if status == 1 and delta != 0.0:
+                # Lost conjugacy (round-off on ill-conditioned kernels): restart from the
+                # steepest-descent direction rather than stopping.
+                work[_cg.T] = work[_cg.GS]
+                fin[:m] = work[_cg.GS]
+                r = conv()
+                status, new_delta, e, refresh, since_refresh = step(
+                    work, ip, inew, r, kfull, idx, nS, P, dx, since_refresh, sparse_max, 50
+                )
+            if status != 0:
+                break
+            delta = new_delta
+            err = e
+            if refresh:
+                fin[:m] = work[inew]
+                work[_cg.W] = conv()
+                since_refresh = 0
+            ip, inew = inew, ip
+            if err < tol:
+                break
+        p = work[ip].copy()
+        if not final_w:
+            return p, None, it, err
+        # The incrementally updated w drifts by round-off only; recompute it once.
+        fin[:m] = p
+        return p, conv().copy(), it, err
 
     def _finish(self, x, h, p, w, z, it, err, conv, F, P, gap_tol, x_finger, max_iter) -> ContactSolution:
         yf = z + self.outline + w
@@ -609,8 +690,10 @@ class ContactSolver:
         pen = float(max(0.0, -gap_c.min()))
         load_error = abs(p.sum() * self.dx - P) / P
         approach = float(np.max(h - self.outline)) - z
-        mech = _mechanical_regions(x, p)
-        geom = _geometric_regions(x, np.maximum(gap_c, 0.0), gap_tol)
+        # Compiled equivalent of _mechanical_regions and _geometric_regions (tested equal).
+        rm, rg = self._rbuf
+        km, kg = _cg.contact_regions(x, p, np.maximum(gap_c, 0.0), float(gap_tol), rm, rg)
+        mech, geom = rm[:km].copy(), rg[:kg].copy()
         success = bool(conv)
         if conv:
             msg = f"converged in {it} iterations (residual {err:.2e})"

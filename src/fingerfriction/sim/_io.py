@@ -94,7 +94,9 @@ class VideoWriter:
 
     def write(self, frame: np.ndarray) -> None:
         if frame.shape != (self.height, self.width) or frame.dtype != np.uint8:
-            raise ValueError(f"frame must be ({self.height}, {self.width}) uint8, got {frame.shape} {frame.dtype}")
+            raise ValueError(
+                f"frame must be ({self.height}, {self.width}) uint8, got {frame.shape} {frame.dtype}"
+            )
         if self.fmt == "ffv1-mkv":
             import av
 

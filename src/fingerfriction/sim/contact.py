@@ -8,11 +8,14 @@ force samples then interpolate the table bilinearly in position and load
 (:meth:`ContactTable.profile`). Outside the tabulated positions the finger is on flat
 ground, where the solution only translates, so positions are clamped to the table.
 
-Where the outline and pressure come from is a *contact provider*: a callable
-``provider(surface, finger, x_centres, load) -> (y_f, p)`` with ``y_f, p`` of shape
-``(n_positions, xi.size)``. :func:`default_provider` uses the forward contact model of
-:mod:`fingerfriction.mechanics` when it is available and falls back to
-:class:`BridgedFoundation`, a fast simplified model (below), otherwise.
+Where the outline and pressure come from is a *contact provider*: an object with a
+``name``, ``finger_dict(subject)`` (its finger parameters, recorded in the ground truth),
+``grid(subject)`` (the relative grid ``xi``, mm) and
+``solve(surface, subject, x_centres, load) -> (y_f, p)`` with ``y_f, p`` of shape
+``(n_positions, xi.size)``. :class:`MechanicsProvider` (the default) runs the forward
+contact model of :mod:`fingerfriction.mechanics` (plane-strain BEM, warm-started sweeps);
+:class:`BridgedFoundation` is a fast simplified stand-in (below) for tests and for
+studies where contact mechanics is not the point.
 
 BridgedFoundation (the fallback)
 --------------------------------
@@ -35,7 +38,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -48,13 +50,13 @@ __all__ = [
     "SIM_SUBJECTS",
     "ContactTable",
     "BridgedFoundation",
+    "MechanicsProvider",
     "build_table",
     "default_provider",
+    "get_provider",
 ]
 
 log = logging.getLogger(__name__)
-
-Provider = Callable[[Surface, "SimFinger", np.ndarray, float], tuple[np.ndarray, np.ndarray]]
 
 
 @dataclass(frozen=True)
@@ -93,7 +95,7 @@ class SimFinger:
         return asdict(self)
 
 
-#: The two simulated subjects (finger shape and stiffness differ modestly, Table S1).
+#: The fallback model's two fingers (finger shape and stiffness differ modestly, Table S1).
 SIM_SUBJECTS: dict[str, SimFinger] = {
     "1": SimFinger(radius=8.0, depth=10.0, stiffness=0.025, bridge_radius=4.0, spread=0.35),
     "2": SimFinger(radius=9.0, depth=11.0, stiffness=0.022, bridge_radius=4.5, spread=0.4),
@@ -124,74 +126,218 @@ def _closing_envelope(x: np.ndarray, h: np.ndarray, rho: float) -> np.ndarray:
 
 
 class BridgedFoundation:
-    """The fallback contact provider (see the module docstring).
+    """The simplified contact provider (see the module docstring).
 
     Parameters
     ----------
     dx : float
-        Grid step in mm of the envelope.
+        Grid step in mm of the relative grid and of the closing envelope.
+    fingers : dict, optional
+        Subject -> :class:`SimFinger` (default :data:`SIM_SUBJECTS`).
     """
 
     name = "bridged-foundation"
 
-    def __init__(self, *, dx: float = 0.005):
-        self.dx = dx
+    def __init__(self, *, dx: float = 0.01, fingers: dict | None = None):
+        self.dx = float(dx)
+        self.fingers = dict(SIM_SUBJECTS if fingers is None else fingers)
         self._cache: dict = {}
 
+    def _finger(self, subject: str) -> SimFinger:
+        try:
+            return self.fingers[str(subject)]
+        except KeyError:
+            raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
+
+    def finger_dict(self, subject: str) -> dict:
+        return {"model": self.name, **self._finger(subject).to_dict()}
+
+    def grid(self, subject: str) -> np.ndarray:
+        m = int(round(self._finger(subject).radius / self.dx))
+        return self.dx * np.arange(-m, m + 1)
+
     def _envelope(self, surface: Surface, rho: float, lo: float, hi: float):
-        key = (id(surface), rho, round(lo, 3), round(hi, 3))
+        key = (repr(surface), rho, round(lo, 3), round(hi, 3))
         if key not in self._cache:
-            x = np.arange(lo - rho, hi + rho + self.dx / 2, self.dx)
+            d = self.dx / 2
+            x = np.arange(lo - rho, hi + rho + d / 2, d)
             h = np.asarray(surface.h(x), float)
             r = _closing_envelope(x, h, rho)
             self._cache = {key: (x, h, r)}
         return self._cache[key]
 
-    def __call__(self, surface: Surface, finger: SimFinger, x_centres: np.ndarray, load: float,
-                 xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        xc = np.asarray(x_centres, float)
+    def solve(self, surface: Surface, subject: str, x_centres: np.ndarray, load: float,
+              *, chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
+        finger = self._finger(subject)
+        xi = self.grid(subject)
+        xc_all = np.asarray(x_centres, float)
         R = finger.radius
-        xg, hg, rg = self._envelope(surface, finger.bridge_radius, xc.min() - R, xc.max() + R)
-        X = xc[:, None] + xi[None, :]
-        h = np.interp(X, xg, hg)
-        r = np.interp(X, xg, rg)
+        xg, hg, rg = self._envelope(surface, finger.bridge_radius, xc_all.min() - R, xc_all.max() + R)
         y0 = R - np.sqrt(np.maximum(R**2 - xi**2, 0.0))  # undeformed circle, bottom at 0
-        touching = (r - h) < 1e-6
         dxi = float(xi[1] - xi[0])
         target = load / (finger.depth * finger.stiffness)  # required int u dx over touching
-        # bisection on the height z of the circle's bottom (all positions at once)
-        lo = (r.max(axis=1) - R).astype(float)  # deep: large compression
-        hi = r.max(axis=1).astype(float) + 1e-9  # above everything: no contact
-        for _ in range(48):
+        ys, ps = [], []
+        for s0 in range(0, xc_all.size, chunk):
+            xc = xc_all[s0 : s0 + chunk]
+            X = xc[:, None] + xi[None, :]
+            h = np.interp(X, xg, hg)
+            r = np.interp(X, xg, rg)
+            touching = (r - h) < 1e-6
+            # bisection on the height z of the circle's bottom (all positions at once)
+            lo = r.max(axis=1) - R  # deep: large compression
+            hi = r.max(axis=1) + 1e-9  # above everything: no contact
+            for _ in range(40):
+                z = 0.5 * (lo + hi)
+                u = np.maximum(r - (z[:, None] + y0), 0.0) * touching
+                too_much = u.sum(axis=1) * dxi > target
+                lo = np.where(too_much, z, lo)
+                hi = np.where(too_much, hi, z)
             z = 0.5 * (lo + hi)
-            u = np.maximum(r - (z[:, None] + y0), 0.0) * touching
-            f = u.sum(axis=1) * dxi
-            too_much = f > target
-            lo = np.where(too_much, z, lo)
-            hi = np.where(too_much, hi, z)
-        z = 0.5 * (lo + hi)
-        ucomp = np.maximum(r - (z[:, None] + y0), 0.0)
-        us = gaussian_filter1d(ucomp, finger.spread / dxi, axis=1, mode="constant")
-        y_f = np.maximum(z[:, None] + y0 + us, r)
-        # pressure only where the final outline rests on the true surface; rescaled to the
-        # load (the spreading lifts the outline off a thin strip at the contact edges)
-        contact = touching & (y_f - r <= 1e-9)
-        p = finger.stiffness * ucomp * contact  # N/mm^2
-        f = p.sum(axis=1) * dxi * finger.depth
-        p *= np.where(f > 0, load / np.where(f > 0, f, 1.0), 0.0)[:, None]
-        return y_f, p
+            ucomp = np.maximum(r - (z[:, None] + y0), 0.0)
+            us = gaussian_filter1d(ucomp, finger.spread / dxi, axis=1, mode="constant")
+            y_f = np.maximum(z[:, None] + y0 + us, r)
+            # pressure only where the final outline rests on the true surface; rescaled to
+            # the load (the spreading lifts the outline off a thin strip at contact edges)
+            contact = touching & (y_f - r <= 1e-9)
+            p = finger.stiffness * ucomp * contact  # N/mm^2
+            f = p.sum(axis=1) * dxi * finger.depth
+            p *= np.where(f > 0, load / np.where(f > 0, f, 1.0), 0.0)[:, None]
+            ys.append(y_f)
+            ps.append(p)
+        return np.concatenate(ys), np.concatenate(ps)
 
 
-def default_provider() -> tuple[str, Provider]:
-    """The contact provider: the mechanics model if importable, else the fallback.
+class MechanicsProvider:
+    """Contact from :mod:`fingerfriction.mechanics` (plane-strain BEM), via its ``sweep``.
 
-    Returns
-    -------
-    name : str
-    provider : callable ``(surface, finger, x_centres, load, xi) -> (y_f, p)``
+    The BEM grid spans the part of the pad that can touch the paper's reliefs: out to
+    where the undeformed outline has risen ``clearance`` mm (``FingerParams.
+    default_half_width``; the reliefs are at most 0.8 mm high, the pad's approach adds
+    ~0.3 mm: at 1.0 mm the bump-4mm reached the grid's edge at 0.38-0.45 N for subject 1,
+    at 1.5 mm no position of the six surfaces did, up to 0.45 N). Beyond it the silhouette
+    continues, for the camera only, with a tangent circular arc of radius ``side_radius``
+    that turns the outline up to 80 degrees, then the vertical sides of the finger (a
+    fingertip of finite width seen side-on, rather than the pad's large contact radius
+    continued across the whole field). The arc carries no pressure.
+
+    Parameters
+    ----------
+    n : int
+        Grid cells of the BEM solver (default 512; ~0.04 mm cells for the calibrated
+        subjects).
+    clearance : float
+        Height in mm of the undeformed outline at the BEM grid's edge (default 1.5).
+    side_radius : float
+        Radius in mm of the arc that rounds the pad into the finger's sides.
+    fingers : dict, optional
+        Subject label -> ``FingerParams``; default the mechanics module's calibrated
+        subjects (``mechanics.get_subject``).
     """
-    fb = BridgedFoundation()
-    return fb.name, fb
+
+    name = "mechanics-bem"
+
+    def __init__(self, *, n: int = 512, clearance: float = 1.5, side_radius: float = 1.5,
+                 fingers: dict | None = None):
+        self.n = int(n)
+        self.clearance = float(clearance)
+        self.side_radius = float(side_radius)
+        self.fingers = fingers
+        self.failures = 0
+
+    def _finger(self, subject: str):
+        from .. import mechanics
+
+        if self.fingers is not None:
+            try:
+                return self.fingers[str(subject)]
+            except KeyError:
+                raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
+        try:
+            return mechanics.get_subject(int(subject))
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"unknown subject {subject!r}; the contact model knows subjects "
+                f"{', '.join(str(k) for k in mechanics.SUBJECTS)}"
+            ) from None
+
+    def finger_dict(self, subject: str) -> dict:
+        return {"model": self.name, "n": self.n, "clearance_mm": self.clearance,
+                "side_radius_mm": self.side_radius, **self._finger(subject).to_dict()}
+
+    def _bem_grid(self, subject: str):
+        from ..mechanics import ContactSolver
+
+        finger = self._finger(subject)
+        hw = finger.default_half_width(clearance=self.clearance)
+        u = ContactSolver(finger, n=self.n, half_width=hw).u.copy()
+        return finger, hw, u
+
+    def _arc_count(self, finger, u: np.ndarray) -> tuple[int, float]:
+        dx = float(u[1] - u[0])
+        ue = float(u[-1])
+        se = float((finger.outline(ue) - finger.outline(ue - dx)) / dx)
+        sin_e = se / math.sqrt(1 + se * se)
+        run = self.side_radius * (math.sin(math.radians(80.0)) - sin_e)
+        return max(int(math.ceil(run / dx)), 1), dx
+
+    def grid(self, subject: str) -> np.ndarray:
+        finger, _, u = self._bem_grid(subject)
+        k, dx = self._arc_count(finger, u)
+        ext = dx * np.arange(1, k + 1)
+        return np.concatenate([u[0] - ext[::-1], u, u[-1] + ext])
+
+    def solve(self, surface: Surface, subject: str, x_centres: np.ndarray, load: float):
+        from ..mechanics import sweep
+
+        finger, hw, u = self._bem_grid(subject)
+        res = sweep(surface, finger, np.asarray(x_centres, float), load=float(load),
+                    n=self.n, half_width=hw, keep_profiles=True)
+        if not res.all_converged:
+            bad = int((~res.success).sum())
+            self.failures += bad
+            log.warning("contact model did not converge at %d of %d positions (%s, subject %s, %g N): %s",
+                        bad, res.positions.size, getattr(surface, "name", "surface"), subject, load,
+                        res.messages[:1])
+        k, dx = self._arc_count(finger, u)
+        y = np.asarray(res.finger_y, float)
+        right = self._arc(y[:, -2], y[:, -1], dx, k)
+        left = self._arc(y[:, 1], y[:, 0], dx, k)[:, ::-1]
+        y_ext = np.concatenate([left, y, right], axis=1)
+        p = np.asarray(res.pressure, float)
+        z = np.zeros((p.shape[0], k))
+        return y_ext, np.concatenate([z, p, z], axis=1)
+
+    def _arc(self, y_prev: np.ndarray, y_end: np.ndarray, dx: float, k: int) -> np.ndarray:
+        """Heights (n, k) of the tangent arc continuing an outline outwards by k cells."""
+        rs = self.side_radius
+        s = (y_end - y_prev) / dx  # outward slope (positive: rising)
+        sin_e = s / np.sqrt(1 + s * s)
+        cos_e = 1 / np.sqrt(1 + s * s)
+        t = dx * np.arange(1, k + 1)[None, :]
+        sin_t = np.minimum(sin_e[:, None] + t / rs, math.sin(math.radians(80.0)))
+        cos_t = np.sqrt(1 - sin_t**2)
+        # circle centre at (rs sin_e inward, rs cos_e above the end point); beyond 80 deg
+        # continue along the 80 deg tangent
+        u80 = rs * (sin_t - sin_e[:, None])
+        y_arc = y_end[:, None] + rs * (cos_e[:, None] - cos_t)
+        beyond = t - u80
+        return y_arc + beyond * math.tan(math.radians(80.0))
+
+
+def default_provider():
+    """The default contact provider: :class:`MechanicsProvider`."""
+    return MechanicsProvider()
+
+
+def get_provider(name: str):
+    """A contact provider by name: ``'mechanics-bem'`` or ``'bridged-foundation'``."""
+    if name == MechanicsProvider.name:
+        return MechanicsProvider()
+    if name == BridgedFoundation.name:
+        return BridgedFoundation()
+    raise ValueError(
+        f"unknown contact model {name!r}; known: {MechanicsProvider.name}, {BridgedFoundation.name}"
+    )
 
 
 @dataclass(frozen=True)
@@ -279,6 +425,24 @@ class ContactTable:
         }, compress=False)
 
     @classmethod
+    def stack(cls, tables) -> ContactTable:
+        """One table from tables of the same surface, finger and positions at different
+        loads (sorted by load)."""
+        tables = sorted(tables, key=lambda t: float(t.loads[0]))
+        t0 = tables[0]
+        for t in tables[1:]:
+            if not (np.array_equal(t.xi, t0.xi) and np.array_equal(t.positions, t0.positions)
+                    and t.provider == t0.provider):
+                raise ValueError("ContactTable.stack: tables differ in grid, positions or provider")
+        if len(tables) == 1:
+            return t0
+        return cls(
+            xi=t0.xi, positions=t0.positions, loads=np.concatenate([t.loads for t in tables]),
+            y_f=np.concatenate([t.y_f for t in tables]), p=np.concatenate([t.p for t in tables]),
+            integrals=np.concatenate([t.integrals for t in tables]), provider=t0.provider,
+        )
+
+    @classmethod
     def load(cls, path) -> ContactTable:
         with np.load(path, allow_pickle=False) as z:
             return cls(
@@ -287,31 +451,27 @@ class ContactTable:
             )
 
 
-def table_position_range(surface: Surface, finger: SimFinger, margin: float = 0.5) -> tuple[float, float]:
+def table_position_range(surface: Surface, half_extent: float, margin: float = 0.5) -> tuple[float, float]:
     """Finger positions (mm) over which the solution is not a translated flat one."""
     a, b = surface.feature_extent
-    R = finger.radius
-    return a - R - margin, b + R + margin
+    return a - half_extent - margin, b + half_extent + margin
 
 
-def build_table(surface: Surface, finger: SimFinger, *, loads=(0.2, 0.3, 0.4), step: float = 0.01,
-                dxi: float = 0.01, provider: Provider | None = None, provider_name: str | None = None,
-                chunk: int = 256) -> ContactTable:
-    """Tabulate the contact of ``finger`` on ``surface``.
+def build_table(surface: Surface, subject: str, *, loads=(0.22, 0.3, 0.38), step: float = 0.02,
+                provider=None) -> ContactTable:
+    """Tabulate the contact of a subject's finger on ``surface``.
 
     Parameters
     ----------
     surface : Surface
-    finger : SimFinger
+    subject : str
+        Subject label known to the provider.
     loads : sequence of float
-        Normal loads in N, increasing, > 0.
+        Normal loads in N, increasing, > 0 (default brackets 0.3 +- 0.05 N with margin).
     step : float
-        Spacing of finger positions in mm.
-    dxi : float
-        Spacing of the relative grid in mm.
-    provider : callable, optional
-        ``(surface, finger, x_centres, load, xi) -> (y_f, p)``; :func:`default_provider`
-        if omitted.
+        Spacing of finger positions in mm (default 0.02 mm, under one pixel).
+    provider : optional
+        A contact provider (see the module docstring); :func:`default_provider` if omitted.
 
     Returns
     -------
@@ -320,33 +480,26 @@ def build_table(surface: Surface, finger: SimFinger, *, loads=(0.2, 0.3, 0.4), s
     loads = np.asarray(loads, float)
     if loads.ndim != 1 or loads.size == 0 or np.any(loads <= 0) or np.any(np.diff(loads) <= 0):
         raise ValueError(f"loads must be positive and increasing (N), got {loads.tolist()}")
-    if not (step > 0 and dxi > 0):
-        raise ValueError(f"step and dxi must be positive (mm), got {step!r}, {dxi!r}")
+    if not (math.isfinite(step) and step > 0):
+        raise ValueError(f"step must be a positive length in mm, got {step!r}")
     if provider is None:
-        provider_name, provider = default_provider()
-    lo, hi = table_position_range(surface, finger)
+        provider = default_provider()
+    xi = np.asarray(provider.grid(subject), float)
+    lo, hi = table_position_range(surface, float(max(-xi[0], xi[-1])))
     n = int(math.ceil((hi - lo) / step)) + 1
     positions = lo + step * np.arange(n)
-    R = finger.radius
-    m = int(round(R / dxi))
-    xi = dxi * np.arange(-m, m + 1)
+    dxi = float(xi[1] - xi[0])
     y_f = np.empty((loads.size, n, xi.size), np.float32)
     p = np.empty_like(y_f)
     integ = np.empty((loads.size, n, 5))
+    X = positions[:, None] + xi[None, :]
+    sl = np.asarray(surface.dhdx(X), float)
+    c = 1.0 / np.sqrt(1.0 + sl * sl)
+    weights = np.stack([np.ones_like(sl), sl * c, c, sl * sl * c, sl * c])  # (5, n, m)
     for j, load in enumerate(loads):
-        for s in range(0, n, chunk):
-            xc = positions[s : s + chunk]
-            yj, pj = provider(surface, finger, xc, float(load), xi)
-            y_f[j, s : s + chunk] = yj
-            p[j, s : s + chunk] = pj
-            X = xc[:, None] + xi[None, :]
-            sl = np.asarray(surface.dhdx(X), float)
-            c = 1.0 / np.sqrt(1.0 + sl * sl)
-            sn = sl * c
-            pw = pj * dxi
-            integ[j, s : s + chunk] = np.stack(
-                [pw.sum(1), (pw * sn).sum(1), (pw * c).sum(1), (pw * sl * sn).sum(1), (pw * sl * c).sum(1)],
-                axis=1,
-            )
+        yj, pj = provider.solve(surface, subject, positions, float(load))
+        y_f[j] = yj
+        p[j] = pj
+        integ[j] = np.einsum("knm,nm->nk", weights, pj) * dxi
     return ContactTable(xi=xi, positions=positions, loads=loads, y_f=y_f, p=p, integrals=integ,
-                        provider=provider_name or getattr(provider, "name", "custom"))
+                        provider=provider.name)

@@ -7,9 +7,11 @@ A trial, on the common clock (t = 0 at the first force sample):
 2. descent: the finger comes down at ``x_start`` (minimum-jerk, ``descent_s``) from
    ``z_top`` mm above the surface to touching it; the video starts with this phase, its
    frame 0 (finger still above the field) is the calibration frame (Fig. 7A);
-3. loading: F_N rises to the trial's target (minimum-jerk, ``load_s``), then a short rest;
-4. slide left to right: ramp in (minimum-jerk acceleration, ``ramp_s``), a cruise at the
-   trial's mean speed with a slow random fluctuation, ramp out once past ``x_stop``;
+3. loading: F_N rises to the trial's target (minimum-jerk, ``load_s``);
+4. slide left to right, starting ``slide_delay_s`` after touch-down (while the load is
+   still building, as people do): ramp in (minimum-jerk acceleration, ``ramp_s``), a
+   cruise at the trial's mean speed with a slow random fluctuation, ramp out once past
+   ``x_stop``;
 5. unloading (``unload_s``) and ``post_s`` of rest.
 
 Human-like variability (all drawn from the trial's generator): the trial's mean speed is
@@ -51,14 +53,14 @@ class KinematicsParams:
     """
 
     fs_hz: float = 10_000.0
-    x_start: float = -16.5
-    x_stop: float = 15.0
+    x_start: float = -15.5
+    x_stop: float = 14.5
     window: float = 26.0
     z_top: float = 12.0
     pre_s: float = 0.08
     descent_s: float = 0.04
     load_s: float = 0.05
-    rest_s: float = 0.02
+    slide_delay_s: float = 0.02
     ramp_s: float = 0.06
     unload_s: float = 0.05
     post_s: float = 0.08
@@ -165,7 +167,7 @@ def simulate_kinematics(speed_mm_s: float, rng: np.random.Generator,
 
     t_descent = P.pre_s
     t_contact = t_descent + P.descent_s
-    t_slide = t_contact + P.load_s + P.rest_s
+    t_slide = t_contact + P.slide_delay_s
     # slide: distance to travel at cruise, with generous upper bound for the duration
     dist = P.x_stop - P.x_start
     t_cruise_max = 1.6 * dist / v_mean + P.ramp_s
@@ -197,7 +199,7 @@ def simulate_kinematics(speed_mm_s: float, rng: np.random.Generator,
     z = np.zeros(n)
     u_desc = (t - t_descent) / P.descent_s
     z = P.z_top * (1.0 - min_jerk(u_desc))
-    t_unload = t_slide + x_slide.size * dt
+    t_unload = max(t_slide + x_slide.size * dt, t_contact + P.load_s)
     # normal force: load ramp, fluctuation, soft limit, unload ramp
     ffl = P.force_sd * _smooth_noise(rng, n, fs, P.fluct_hz)
     dev = (f_target - P.force_n) + ffl

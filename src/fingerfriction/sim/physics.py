@@ -14,10 +14,12 @@ and ``g(d) = minjerk(d / 0.1 mm)`` the build-up of friction as the finger starts
 (0 while the finger rests, 1 after 0.1 mm):
 
 * the interfacial part is the paper's Eq. (2) projection with the *simulated* pressure
-  distribution ``q(x)`` instead of a constant ``p0`` over the contact regions;
+  distribution ``q(x)`` instead of a constant ``p0`` over the contact regions (as in
+  Eq. 2, ``q`` is used as the stress normal to the surface and integrated over ``dx``);
 * the deformation (ploughing / hysteresis) part is proportional to the local slope and
   the local pressure (Eq. 3 weighted by ``q`` rather than a constant ``p1``), with a mild
-  speed dependence ``beta(v) = beta0 (1 + beta_speed (v / v_ref - 1))`` (viscoelastic
+  speed dependence ``beta(v) = beta0 (1 + beta_speed (v / v_ref - 1))``, ``v`` the trial's
+  mean sliding speed (viscoelastic
   hysteresis grows with speed; the paper saw at most a small effect);
 * ``mu_eff(d) = mu (1 + transient exp(-d / transient_mm))``: an initial static-to-sliding
   peak that decays with the distance ``d`` slid since the slide started (Discussion:
@@ -66,7 +68,7 @@ class ForceLaw:
     """
 
     mu: float = 0.55
-    beta0: float = 1.0
+    beta0: float = 0.5
     beta_speed: float = 0.08
     v_ref: float = 80.0
     transient: float = 0.35
@@ -86,8 +88,8 @@ class ForceLaw:
 
 
 SUBJECT_FORCE_LAWS: dict[str, ForceLaw] = {
-    "1": ForceLaw(mu=0.55, beta0=1.0),
-    "2": ForceLaw(mu=0.60, beta0=1.2),
+    "1": ForceLaw(mu=0.55, beta0=0.5),
+    "2": ForceLaw(mu=0.60, beta0=0.6),
 }
 
 

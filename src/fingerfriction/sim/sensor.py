@@ -137,7 +137,8 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
         f2 = lfilter(b, a, f2)
     phases = rng.uniform(0, 2 * np.pi, 3)
     mains = sum(
-        amp * np.sin(2 * np.pi * f * t + ph) for amp, f, ph in zip(P.mains_n, (50.0, 150.0, 300.0), phases)
+        amp * np.sin(2 * np.pi * f * t + ph)
+        for amp, f, ph in zip(P.mains_n, (50.0, 150.0, 300.0), phases, strict=True)
     )
     out = []
     for ch in (f1, f2):

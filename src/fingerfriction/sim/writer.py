@@ -38,7 +38,7 @@ from ..study import (
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from ._io import VideoWriter, write_npz
 from .camera import Camera, CameraParams
-from .contact import SIM_SUBJECTS, ContactTable, SimFinger, build_table, default_provider
+from .contact import ContactTable, SimFinger, build_table, get_provider
 from .kinematics import Kinematics, KinematicsParams, simulate_kinematics
 from .physics import SUBJECT_FORCE_LAWS, ForceLaw, true_forces
 from .sensor import SensorParams, apply_sensor
@@ -65,7 +65,8 @@ class SimOptions:
     reps : int
         Repetitions per condition (>= 1; the paper: 5).
     subjects : tuple of str
-        Keys of :data:`~fingerfriction.sim.contact.SIM_SUBJECTS` (``'1'``, ``'2'``).
+        Subject labels known to the contact model and to
+        :data:`~fingerfriction.sim.physics.SUBJECT_FORCE_LAWS` (``'1'``, ``'2'``).
     surfaces : tuple of str
         Paper surface names (``bump-2mm`` ...) or parametric specs (``bump:W=3,H=0.5``).
     speeds : tuple of float
@@ -74,10 +75,14 @@ class SimOptions:
         Study seed (>= 0).
     video_format : {'ffv1-mkv', 'tiff'}
     camera, sensor, kinematics : parameter dataclasses
+    contact_model : {'mechanics-bem', 'bridged-foundation'}
+        The contact provider (:mod:`fingerfriction.sim.contact`).
     table_step : float
         Finger-position step of the contact tables in mm.
     table_loads : tuple of float
         Normal loads of the contact tables in N.
+    video_end_mm : float
+        The video stops at the first frame where the finger centre is past this position.
     """
 
     reps: int = 5
@@ -89,9 +94,10 @@ class SimOptions:
     camera: CameraParams = field(default_factory=CameraParams)
     sensor: SensorParams = field(default_factory=SensorParams)
     kinematics: KinematicsParams = field(default_factory=KinematicsParams)
-    table_step: float = 0.01
-    table_loads: tuple = (0.2, 0.3, 0.4)
-    video_end_mm: float = 14.5
+    contact_model: str = "mechanics-bem"
+    table_step: float = 0.02
+    table_loads: tuple = (0.22, 0.3, 0.38)
+    video_end_mm: float = 14.0
 
     def __post_init__(self) -> None:
         if isinstance(self.reps, bool) or not isinstance(self.reps, (int, np.integer)) or self.reps < 1:
@@ -101,9 +107,13 @@ class SimOptions:
         subs = tuple(str(s) for s in self.subjects)
         if not subs:
             raise ValueError("subjects must not be empty")
+        provider = get_provider(self.contact_model)
         for s in subs:
-            if s not in SIM_SUBJECTS:
-                raise ValueError(f"unknown subject {s!r}; simulated subjects: {', '.join(SIM_SUBJECTS)}")
+            if s not in SUBJECT_FORCE_LAWS:
+                raise ValueError(
+                    f"unknown subject {s!r}; simulated subjects: {', '.join(SUBJECT_FORCE_LAWS)}"
+                )
+            provider.finger_dict(s)  # the contact model must know the subject too
         if len(set(subs)) != len(subs):
             raise ValueError(f"subjects has duplicates: {list(subs)}")
         surfs = tuple(str(s) for s in self.surfaces)
@@ -112,7 +122,9 @@ class SimOptions:
         names = []
         for s in surfs:
             if os.path.exists(s) or s.lower().endswith(".csv"):
-                raise ValueError(f"surface {s!r}: the simulator takes surface names or 'shape:W=..,H=..' specs")
+                raise ValueError(
+                    f"surface {s!r}: the simulator takes surface names or 'shape:W=..,H=..' specs"
+                )
             if s not in SURFACE_NAMES and ":" not in s:
                 raise ValueError(f"unknown surface {s!r}; known surfaces: {', '.join(SURFACE_NAMES)} "
                                  "(or a spec like 'bump:W=3,H=0.5')")
@@ -170,7 +182,8 @@ class SimOptions:
             "reps": self.reps, "subjects": list(self.subjects), "surfaces": list(self.surfaces),
             "speeds": list(self.speeds), "seed": self.seed, "video_format": self.video_format,
             "camera": self.camera.to_dict(), "sensor": self.sensor.to_dict(),
-            "kinematics": self.kinematics.to_dict(), "table_step": self.table_step,
+            "kinematics": self.kinematics.to_dict(), "contact_model": self.contact_model,
+            "table_step": self.table_step,
             "table_loads": list(self.table_loads), "video_end_mm": self.video_end_mm,
         }
 
@@ -245,14 +258,37 @@ def _feature_height(surf: Surface) -> float:
 def geometric_mask(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, tol_mm: float) -> np.ndarray:
     """Surface points within ``tol_mm`` of the finger outline (the paper's 3-px criterion).
 
-    The distance from the surface point ``(x, h(x))`` to the finger curve is the vertical
-    gap ``y_f - h`` times ``cos`` of the finger outline's slope angle (exact for a locally
-    straight outline; the outline's radius of curvature, >= several mm, is far above the
-    70 um tolerance).
+    Parameters
+    ----------
+    xi : (m,) ndarray
+        Uniform grid in mm (positions relative to the finger; the surface points are at
+        the same positions).
+    y_f, h : (m,) ndarray
+        Finger outline and surface heights in mm on that grid.
+    tol_mm : float
+
+    Returns
+    -------
+    (m,) bool ndarray
+        True where the Euclidean distance from the surface point ``(x_j, h_j)`` to the
+        finger outline (the polyline through ``(x_i, y_f_i)``) is at most ``tol_mm``.
     """
-    gap = y_f - h
-    slope = np.gradient(y_f, xi)
-    return gap / np.sqrt(1.0 + slope * slope) <= tol_mm
+    dx = float(xi[1] - xi[0])
+    m = xi.size
+    best = np.abs(y_f - h)  # vertical distance to the vertex above: an upper bound
+    K = int(math.ceil(tol_mm / dx)) + 1
+    for k in range(-K, K):
+        # segment from vertex i = j + k to i + 1, for every surface point j
+        j = np.arange(max(0, -k), min(m, m - 1 - k))
+        i = j + k
+        ax, ay = xi[i], y_f[i]
+        bx, by = xi[i + 1], y_f[i + 1]
+        px, py = xi[j], h[j]
+        vx, vy = bx - ax, by - ay
+        tpar = np.clip(((px - ax) * vx + (py - ay) * vy) / (vx * vx + vy * vy), 0.0, 1.0)
+        d = np.hypot(ax + tpar * vx - px, ay + tpar * vy - py)
+        best[j] = np.minimum(best[j], d)
+    return best <= tol_mm
 
 
 def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw,
@@ -275,7 +311,8 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
     n_f = plan.frame_idx.size
     has_finger = np.zeros(n_f, bool)
     geom_masks, mech_masks, grids = [], [], []
-    vw = VideoWriter(root / rec.video.path, opts.video_format, cam.params.width, cam.params.height, cam.params.fps)
+    cp = cam.params
+    vw = VideoWriter(root / rec.video.path, opts.video_format, cp.width, cp.height, cp.fps)
     try:
         for k, i in enumerate(plan.frame_idx):
             if k == rec.video.calibration_frame:
@@ -321,7 +358,7 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
 
 def _stack_regions(grids, masks) -> np.ndarray:
     per = []
-    for X, m in zip(grids, masks):
+    for X, m in zip(grids, masks, strict=True):
         if X is None or not m.any():
             per.append(np.full((1, 1, 2), np.nan))
         else:
@@ -337,15 +374,16 @@ def _stack_regions(grids, masks) -> np.ndarray:
 # the study
 
 
-def _truth_header(opts: SimOptions, provider: str) -> dict:
+def _truth_header(opts: SimOptions) -> dict:
+    provider = get_provider(opts.contact_model)
     subjects = {
-        s: {"finger": SIM_SUBJECTS[s].to_dict(), "force_law": SUBJECT_FORCE_LAWS[s].to_dict()}
+        s: {"finger": provider.finger_dict(s), "force_law": SUBJECT_FORCE_LAWS[s].to_dict()}
         for s in opts.subjects
     }
     return {
         "format": TRUTH_FORMAT,
         "schema_version": 1,
-        "contact_provider": provider,
+        "contact_model": provider.name,
         "geom_tol_mm": 3.0 * opts.camera.mm_per_px,
         "options": opts.to_dict(),
         "subjects": subjects,
@@ -399,24 +437,34 @@ def _trial_complete(root: Path, rec: TrialRecord) -> bool:
 _TABLE_CACHE: dict = {}
 
 
-def _get_table(path: str) -> ContactTable:
-    if path not in _TABLE_CACHE:
+def _get_table(paths: tuple[str, ...]) -> ContactTable:
+    if paths not in _TABLE_CACHE:
         _TABLE_CACHE.clear()
-        _TABLE_CACHE[path] = ContactTable.load(path)
-    return _TABLE_CACHE[path]
+        _TABLE_CACHE[paths] = ContactTable.stack([ContactTable.load(p) for p in paths])
+    return _TABLE_CACHE[paths]
 
 
-def _table_task(surface_spec: str, subject: str, opts: SimOptions, path: str) -> str:
+def _init_worker() -> None:
+    """One OpenCV thread per worker process: the pool already uses every core."""
+    import cv2
+
+    cv2.setNumThreads(1)
+
+
+def _table_task(surface_spec: str, subject: str, load: float, opts: SimOptions, path: str) -> str:
+    """Tabulate one load of one (surface, subject): loads are separate tasks so that a
+    study with few surfaces still keeps every worker busy."""
     if not os.path.exists(path):
         surf = surface_from_spec(surface_spec)
-        table = build_table(surf, SIM_SUBJECTS[subject], loads=opts.table_loads, step=opts.table_step)
+        table = build_table(surf, subject, loads=(load,), step=opts.table_step,
+                            provider=get_provider(opts.contact_model))
         table.save(path)
     return path
 
 
-def _trial_task(spec: TrialSpec, opts: SimOptions, table_path: str, root: str) -> str:
+def _trial_task(spec: TrialSpec, opts: SimOptions, table_paths: tuple[str, ...], root: str) -> str:
     plan = plan_trial(spec, opts)
-    simulate_trial(plan, opts, _get_table(table_path), SUBJECT_FORCE_LAWS[spec.subject], Path(root))
+    simulate_trial(plan, opts, _get_table(table_paths), SUBJECT_FORCE_LAWS[spec.subject], Path(root))
     return spec.id
 
 
@@ -458,50 +506,66 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
     out = Path(out)
-    provider_name, _ = default_provider()
-    header = _truth_header(opts, provider_name)
+    header = _truth_header(opts)
     resume = _check_folder(out, header)
     specs = opts.trial_specs()
-    plans = [plan_trial(s, opts) for s in specs]  # validates the whole design before writing
+    # plan every trial (cheap) to validate the whole design before writing; keep only the
+    # records (the workers re-plan their trial: kinematics are deterministic)
+    plans = [(s, plan_trial(s, opts).record) for s in specs]
 
     out.mkdir(parents=True, exist_ok=True)
     if not resume:
         atomic_write_text(out / "truth" / "study.json", json.dumps(header, indent=2) + "\n")
-    todo = [p for p in plans if not _trial_complete(out, p.record)]
+    todo = [(s, r) for s, r in plans if not _trial_complete(out, r)]
     log.info("simulate: %d trials, %d to do (%d complete)", len(plans), len(todo), len(plans) - len(todo))
 
     cache = out / ".cache"
-    groups: dict[tuple[str, str], list[TrialPlan]] = {}
+    groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for p in todo:
-        groups.setdefault((p.spec.surface_spec, p.spec.subject), []).append(p)
+        groups.setdefault((p[0].surface_spec, p[0].subject), []).append(p[0])
     table_paths = {
-        key: str(cache / f"table-{surface_from_spec(key[0]).name}-s{key[1]}.npz") for key in groups
+        key: tuple(
+            str(cache / f"table-{surface_from_spec(key[0]).name}-s{key[1]}-load{j}.npz")
+            for j in range(len(opts.table_loads))
+        )
+        for key in groups
     }
     if todo:
         cache.mkdir(exist_ok=True)
-        ctx = None
         if workers > 1:
             import multiprocessing as mp
 
             ctx = mp.get_context("forkserver") if "forkserver" in mp.get_all_start_methods() else None
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) if workers > 1 else _Serial() as ex:
-            futs = {ex.submit(_table_task, k[0], k[1], opts, table_paths[k]): k for k in groups}
+            ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+        else:
+            ex = _Serial()
+        try:
+            futs = {
+                ex.submit(_table_task, key[0], key[1], load, opts, table_paths[key][j]): (key, load)
+                for key in groups
+                for j, load in enumerate(opts.table_loads)
+            }
             done_n = 0
             for f in _as_completed(futs):
                 f.result()
                 done_n += 1
                 if progress:
-                    progress("tables", done_n, len(futs), f"{futs[f][0]} s{futs[f][1]}")
+                    (surf_spec, subj), load = futs[f]
+                    progress("tables", done_n, len(futs), f"{surf_spec} s{subj} {load:g} N")
             tfuts = {}
             for key, plist in groups.items():
                 for p in plist:
-                    tfuts[ex.submit(_trial_task, p.spec, opts, table_paths[key], str(out))] = p.spec.id
+                    tfuts[ex.submit(_trial_task, p, opts, table_paths[key], str(out))] = p.id
             done_n = 0
             for f in _as_completed(tfuts):
                 f.result()
                 done_n += 1
                 if progress:
                     progress("trials", done_n, len(tfuts), tfuts[f])
+        except BaseException:
+            ex.shutdown(wait=True, cancel_futures=True)
+            raise
+        ex.shutdown(wait=True)
         shutil.rmtree(cache, ignore_errors=True)
 
     surfaces = {}
@@ -509,7 +573,7 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
         surf = surface_from_spec(s)
         surfaces[surf.name] = surf.to_dict()
     study = Study(
-        trials=tuple(p.record for p in plans),
+        trials=tuple(r for _, r in plans),
         surfaces=surfaces,
         description=description or (
             f"virtual experiment: {len(opts.subjects)} subjects x {len(opts.surfaces)} surfaces x "
@@ -534,11 +598,8 @@ def _as_completed(futs):
 class _Serial:
     """A stand-in executor running tasks in the calling process (workers=1)."""
 
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
+    def shutdown(self, wait: bool = True, cancel_futures: bool = False) -> None:
+        pass
 
     def submit(self, fn, *args):
         from concurrent.futures import Future
