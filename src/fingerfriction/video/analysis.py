@@ -13,7 +13,8 @@ Pipeline (Methods "Image analysis" of Janko et al. 2018, Fig. 7):
    Not in the paper, always computed alongside: the chord midpoint (``x_chord``) and the
    hybrid (``x_hybrid``: chord midpoint, else one outline edge shifted by a per-video
    offset, :func:`~fingerfriction.video.tracking.hybrid_positions`), which covers the
-   whole 26 mm force window where C_f (|x| < ~10 mm) and the chord (|x| < ~8 mm) do not;
+   whole 26 mm force window where C_f (|x| < 4-10 mm on the simulated studies) and the
+   chord (|x| < 2-8 mm) do not;
    ``AnalysisOptions.position`` chooses which one is ``x``.
 4. Contact (:mod:`.contact`): finger outline points within 3 px of the surface outline,
    grouped into regions ``[a_i, b_i]`` in surface mm.
