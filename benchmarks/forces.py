@@ -108,7 +108,11 @@ def video_positions(
     v = trial["video"]
     surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
     H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
-    opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)), position=position)
+    # n_max_regions raised from 8: a contact region being born can break into 9 pieces for a
+    # frame (s1-bump-2mm-v040-r5), which makes analyze_video raise with the default
+    opts = AnalysisOptions(
+        calibration_frame=int(v.get("calibration_frame", 0)), position=position, n_max_regions=32
+    )
     res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
     return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
 
@@ -120,7 +124,7 @@ def main(argv=None) -> int:
     ap.add_argument("--limit", type=int, default=None, help="process only the first N trials")
     ap.add_argument(
         "--position",
-        choices=("cf-centroid", "chord"),
+        choices=("cf-centroid", "chord", "hybrid"),
         default="cf-centroid",
         help="video x(t) estimator with --x-source video (paper: cf-centroid)",
     )
@@ -131,6 +135,13 @@ def main(argv=None) -> int:
         help="flat segment from contact regions (truth regions_geom, or the video's with --x-source video)",
     )
     ap.add_argument("--notch-q", type=float, default=None, help="notch quality factor")
+    ap.add_argument(
+        "--extrapolate-mm",
+        type=float,
+        default=None,
+        help="ForceProcessingParams.extrapolate_mm (default: the library's); to measure what a "
+        "longer constant-speed extension of x(t) would do",
+    )
     args = ap.parse_args(argv)
     study = pick_study(args.study)
     manifest = json.loads((study / "manifest.json").read_text())
@@ -145,10 +156,13 @@ def main(argv=None) -> int:
     )
 
     kw = {} if args.notch_q is None else {"notch_q": args.notch_q}
+    if args.extrapolate_mm is not None:
+        kw["extrapolate_mm"] = args.extrapolate_mm
     default = ForceProcessingParams(**kw)
     fc = default.sensor_highpass_hz
     print(
         f"defaults: mains={default.mains!r} at {list(default.notch_hz)} Hz, "
+        f"extrapolate_mm={default.extrapolate_mm:g}, "
         f"low-pass {default.lowpass_hz:g} Hz, "
         f"sensor high-pass compensated at {fc:g} Hz; notch variants use Q={default.notch_q:g}"
     )

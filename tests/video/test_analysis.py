@@ -148,3 +148,55 @@ def test_sixteen_bit_cine_gives_the_same_positions(tmp_path):
     assert (r16.flags == r8.flags).all()
     np.testing.assert_allclose(r16.x[1:], xs, atol=0.02)
     np.testing.assert_allclose(r16.x[1:], r8.x[1:], atol=0.005)
+
+
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory):
+    """A rigid disc finger over the whole 26 mm window, then one lifted frame far right."""
+    xs = np.array([-13.0, -11.5, -10.0, -9.0, -8.5, -8.0, -4.0, 0.0, 4.0, 8.0, 8.5, 9.0, 10.0, 11.5, 13.0])
+    frames = list(render_video(xs, surface=SURF, noise=2.0))
+    frames.append(render(surface=SURF, finger=(11.0, 1.0, 8.0), noise=2.0)[0])  # lifted by 1 mm
+    path = tmp_path_factory.mktemp("sweep") / "sweep.mkv"
+    write_video(path, np.stack(frames))
+    return path, xs
+
+
+def test_hybrid_position_covers_the_window(sweep):
+    from fingerfriction.video import PositionSource
+
+    path, xs = sweep
+    res = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(position="hybrid"))
+    fin = slice(1, 1 + xs.size)
+    assert (res.flags[fin] == 0).all()
+    assert np.abs(res.x[fin] - xs).max() < 0.02  # mm, no offset removed: chord and edges agree
+    src = res.x_source[fin]
+    assert (src[np.abs(xs) <= 8.5] == PositionSource.CHORD).all()
+    assert (src[xs >= 9] == PositionSource.LEFT_EDGE).all()
+    assert (src[xs <= -9] == PositionSource.RIGHT_EDGE).all()
+    # the offsets are measured: the disc's half-width at the edge row, 4 mm above the
+    # bump's top (0.4 mm), i.e. 4.55 mm above the disc's lowest point (pressed 0.15 mm in)
+    w = np.sqrt(8.0**2 - (8.0 - 4.55) ** 2)
+    assert res.hybrid["offsets_mm"]["left"] == pytest.approx(w, abs=0.03)
+    assert res.hybrid["offsets_mm"]["right"] == pytest.approx(-w, abs=0.03)
+    # contact regions in every positioned frame, also where C_f is out of view
+    assert (res.n_regions[fin] >= 1).all()
+    assert np.isnan(res.x_cf[fin][np.abs(xs) >= 11.5]).all()
+    # the lifted finger beyond the chord's range: its edges are no position
+    assert res.flags[-1] & FrameFlag.NO_HYBRID and np.isnan(res.x[-1])
+    assert res.x_source[-1] == PositionSource.NONE and np.isnan(res.regions[-1]).all()
+    assert "no hybrid position" in res.reasons(len(res.x) - 1)[-1]
+
+
+def test_default_position_unchanged_and_hybrid_always_reported(sweep):
+    path, xs = sweep
+    cf = analyze_video(path, 0.4, surface=SURF)
+    hy = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(position="hybrid"))
+    np.testing.assert_array_equal(cf.x, cf.x_cf)
+    out = np.abs(xs) >= 11.5
+    assert (cf.flags[1:1 + xs.size][out] == FrameFlag.OUT_OF_VIEW).all()  # C_f cut: flagged
+    assert np.isnan(cf.regions[1:1 + xs.size][out]).all()
+    np.testing.assert_array_equal(cf.x_hybrid, hy.x)  # computed in every mode
+    np.testing.assert_array_equal(cf.x_source, hy.x_source)
+    ok = cf.flags == 0
+    np.testing.assert_allclose(hy.x_cf[ok], cf.x_cf[ok])
+    np.testing.assert_allclose(hy.regions[ok], cf.regions[ok][:, : hy.regions.shape[1]], equal_nan=True)

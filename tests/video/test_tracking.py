@@ -79,3 +79,73 @@ def test_chord_midpoint():
     assert m[0] == pytest.approx(17.3, abs=0.05)  # linear interpolation of the crossings
     assert np.isnan(m[1])  # the chord at row 20 is cut by the sides of the crop
     assert np.isnan(m[2])
+
+
+def test_chord_ends_each_side_on_its_own():
+    from fingerfriction.video.tracking import chord_ends, chord_midpoint
+
+    c = np.arange(40, dtype=float)
+    f = 30 - 0.1 * (c - 17.3) ** 2  # crosses row 20 at 17.3 -+ 10 (linear interpolation error ~0.05)
+    shifted = 30 - 0.1 * (c - 33.0) ** 2  # apex near the right side: the right end is cut
+    lo, hi = chord_ends(np.stack([f, shifted, np.full(40, np.nan)]), 20.0)
+    assert lo[0] == pytest.approx(7.3, abs=0.06) and hi[0] == pytest.approx(27.3, abs=0.06)
+    assert lo[1] == pytest.approx(23.0, abs=0.06) and np.isnan(hi[1])
+    assert np.isnan(lo[2]) and np.isnan(hi[2])
+    np.testing.assert_array_equal(chord_midpoint(np.stack([f, shifted]), 20.0), 0.5 * (lo[:2] + hi[:2]))
+
+
+def _hybrid_inputs():
+    x = np.linspace(-13.0, 13.0, 27)  # 1 mm steps
+    chord = np.where(np.abs(x) <= 8.0, x + 0.1, np.nan)  # the chord's own constant bias
+    left = np.where(x > -5.0, x - 7.0, np.nan)  # trailing edge: in view right of -5
+    right = np.where(x < 5.0, x + 7.0, np.nan)
+    return x, chord, left, right
+
+
+def test_hybrid_positions_chord_then_offset_corrected_edges():
+    from fingerfriction.video.tracking import PositionSource, hybrid_positions
+
+    x, chord, left, right = _hybrid_inputs()
+    h = hybrid_positions(chord, left, right, calibration_mm=1.0, min_frames=3)
+    np.testing.assert_allclose(h.x, x + 0.1, atol=1e-12)  # continuous with the chord
+    assert (h.source[np.abs(x) <= 8] == PositionSource.CHORD).all()
+    assert (h.source[x > 8] == PositionSource.LEFT_EDGE).all()
+    assert (h.source[x < -8] == PositionSource.RIGHT_EDGE).all()
+    assert h.offsets_mm == pytest.approx({"left": 7.1, "right": -6.9})
+    # 1 mm of chord travel holds 2 frames (7, 8 mm): the 3 nearest the end are used
+    assert h.calibration_frames == {"left": 3, "right": 3}
+    assert h.calibration_range_mm["left"] == pytest.approx((6.1, 8.1))
+    assert h.counts() == {"NONE": 0, "CHORD": 17, "LEFT_EDGE": 5, "RIGHT_EDGE": 5}
+
+
+def test_hybrid_edges_measure_their_offset_at_the_chord_range_end():
+    """An edge whose offset drifts over the feature (deformation) is calibrated where the
+    finger is on the flat (the end of the chord's range), not on average."""
+    from fingerfriction.video.tracking import hybrid_positions
+
+    x, chord, left, right = _hybrid_inputs()
+    left = left + np.where(np.abs(x) < 4, 0.3, 0.0)  # the edge moves while over the feature
+    h = hybrid_positions(chord, left, right)
+    assert h.offsets_mm["left"] == pytest.approx(7.1)
+    np.testing.assert_allclose(h.x[x > 8], x[x > 8] + 0.1, atol=1e-12)
+
+
+def test_hybrid_never_uses_an_edge_inside_the_chord_range_or_without_calibration():
+    from fingerfriction.video.tracking import PositionSource, hybrid_positions
+
+    x, chord, left, right = _hybrid_inputs()
+    chord[13] = np.nan  # x = 0: a chord glitch over the feature, where edges move
+    h = hybrid_positions(chord, left, right)
+    assert np.isnan(h.x[13]) and h.source[13] == PositionSource.NONE
+    # no chord at all: nothing to calibrate the edges against
+    none = hybrid_positions(np.full(27, np.nan), left, right)
+    assert np.isnan(none.x).all() and np.isnan(none.offsets_mm["left"])
+    assert none.calibration_frames == {"left": 0, "right": 0}
+    with pytest.raises(ValueError, match="one length"):
+        hybrid_positions(chord, left[:-1], right)
+    with pytest.raises(ValueError, match="calibration_mm"):
+        hybrid_positions(chord, left, right, calibration_mm=0.0)
+    with pytest.raises(ValueError, match="edge_height_mm"):
+        AnalysisOptions(edge_height_mm=-1.0)
+    with pytest.raises(ValueError, match="edge_calibration_mm"):
+        AnalysisOptions(edge_calibration_mm=float("nan"))

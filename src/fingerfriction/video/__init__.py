@@ -12,9 +12,10 @@ from .analysis import FLAG_REASONS, AnalysisOptions, FrameAnalyzer, FrameFlag, V
 from .binarize import Crop, central_crop, otsu_level
 from .calibrate import Calibration, calibrate
 from .readers import VideoReader, open_video
+from .tracking import PositionSource
 
 __all__ = [
     "AnalysisOptions", "Calibration", "Crop", "FLAG_REASONS", "FrameAnalyzer", "FrameFlag",
     "VideoReader", "VideoResult", "analyze_video", "calibrate", "central_crop", "open_video",
-    "otsu_level",
+    "otsu_level", "PositionSource",
 ]

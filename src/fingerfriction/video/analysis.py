@@ -10,6 +10,12 @@ Pipeline (Methods "Image analysis" of Janko et al. 2018, Fig. 7):
 3. Area-preserving region C_f (:mod:`.tracking`): the area ``A`` below the line 0.4 mm
    above the feature's top in the first usable finger frame; in every frame the line
    enclosing ``A``; ``x(t)`` = centroid of C_f in surface mm.
+   Not in the paper, always computed alongside: the chord midpoint (``x_chord``) and the
+   hybrid (``x_hybrid``: chord midpoint, else one outline edge shifted by a per-video
+   offset, :func:`~fingerfriction.video.tracking.hybrid_positions`), which covers the
+   whole 26 mm force window where C_f (|x| < 4-10 mm on the simulated studies) and the
+   chord (|x| < 2-8 mm) do not;
+   ``AnalysisOptions.position`` chooses which one is ``x``.
 4. Contact (:mod:`.contact`): finger outline points within 3 px of the surface outline,
    grouped into regions ``[a_i, b_i]`` in surface mm.
 
@@ -37,10 +43,18 @@ from .calibrate import Calibration, calibrate
 from .contact import contact_distance, contact_regions
 from .contours import finger_zone, lower_envelope, trace_finger
 from .readers import VideoReader, open_video
-from .tracking import area_below_line, centroid_below_line, chord_midpoint, line_for_area
+from .tracking import (
+    PositionSource,
+    area_below_line,
+    centroid_below_line,
+    chord_ends,
+    chord_midpoint,
+    hybrid_positions,
+    line_for_area,
+)
 
 __all__ = ["FrameFlag", "FLAG_REASONS", "AnalysisOptions", "FrameAnalyzer", "VideoResult",
-           "analyze_video"]
+           "PositionSource", "analyze_video"]
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +69,7 @@ class FrameFlag(enum.IntFlag):
     CORRUPT = 16
     AREA_UNREACHABLE = 32
     NO_REFERENCE = 64
+    NO_HYBRID = 128
 
 
 #: Human-readable reason of each flag.
@@ -66,7 +81,13 @@ FLAG_REASONS = {
     FrameFlag.CORRUPT: "corrupt or missing frame: the video could not be decoded here",
     FrameFlag.AREA_UNREACHABLE: "finger lifted: no line encloses the reference area A",
     FrameFlag.NO_REFERENCE: "no reference area A yet (no usable finger frame before this one)",
+    FrameFlag.NO_HYBRID: ("no hybrid position: the chord is cut by the crop and no outline edge can "
+                          "stand in (edge out of view, finger not on the surface, inside the chord's "
+                          "range, or no frames to calibrate the edge's offset)"),
 }
+
+#: Flags that only say the C_f centroid is unavailable (the finger itself was seen).
+_CF_ONLY = int(FrameFlag.OUT_OF_VIEW | FrameFlag.AREA_UNREACHABLE | FrameFlag.NO_REFERENCE)
 
 
 @dataclass(frozen=True)
@@ -98,10 +119,25 @@ class AnalysisOptions:
         Height above the feature's top of the chord whose midpoint gives the alternative
         position ``x_chord`` (not in the paper; 2 mm: higher is less affected by the
         deformation near the contact but leaves the field of view sooner).
-    position : {'cf-centroid', 'chord'}
-        What :attr:`VideoResult.x` holds: the paper's centroid of C_f (default) or the
+    position : {'cf-centroid', 'chord', 'hybrid'}
+        What :attr:`VideoResult.x` holds: the paper's centroid of C_f (default); the
         chord midpoint (frames whose chord is cut by the crop are then flagged
-        OUT_OF_VIEW). Both are always returned as ``x_cf`` and ``x_chord``.
+        OUT_OF_VIEW); or the hybrid of :func:`~fingerfriction.video.tracking.hybrid_positions`
+        (chord midpoint where the chord is in view, else one outline edge at
+        ``edge_height_mm`` shifted by a per-video offset; frames with a hybrid position
+        are unflagged even where C_f is out of view, frames without get NO_HYBRID, and
+        :attr:`VideoResult.x_source` says which estimator each frame used). All three are
+        always returned as ``x_cf``, ``x_chord`` and ``x_hybrid``.
+    edge_height_mm : float
+        Height above the feature's top of the row where the hybrid's single outline edge
+        is taken (4 mm: far from the contact, where the skin barely deforms and the
+        silhouette is steep, so a small change of the finger's indentation moves the edge
+        little). Measured on two simulated studies (benchmarks/video.py): edges at 2-6 mm
+        agree within a few um; at 1-1.5 mm, inside the deforming part, they are off by
+        0.05-0.4 mm.
+    edge_calibration_mm : float
+        Chord travel (mm) at each end of the chord's range whose frames give the edges'
+        offsets (1 mm).
     """
 
     crop: Crop | None = None
@@ -115,6 +151,8 @@ class AnalysisOptions:
     n_max_regions: int = 8
     chord_height_mm: float = 2.0
     position: str = "cf-centroid"
+    edge_height_mm: float = 4.0
+    edge_calibration_mm: float = 1.0
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.contact_tol_px) and self.contact_tol_px > 0):
@@ -129,8 +167,12 @@ class AnalysisOptions:
             raise ValueError(f"calibration_frame must be >= 0, got {self.calibration_frame!r}")
         if int(self.n_max_regions) < 1:
             raise ValueError(f"n_max_regions must be >= 1, got {self.n_max_regions!r}")
-        if self.position not in ("cf-centroid", "chord"):
-            raise ValueError(f"position must be 'cf-centroid' or 'chord', got {self.position!r}")
+        if self.position not in ("cf-centroid", "chord", "hybrid"):
+            raise ValueError(f"position must be 'cf-centroid', 'chord' or 'hybrid', got {self.position!r}")
+        if not (math.isfinite(self.edge_height_mm) and self.edge_height_mm > 0):
+            raise ValueError(f"edge_height_mm must be > 0 mm, got {self.edge_height_mm!r}")
+        if not (math.isfinite(self.edge_calibration_mm) and self.edge_calibration_mm > 0):
+            raise ValueError(f"edge_calibration_mm must be > 0 mm, got {self.edge_calibration_mm!r}")
         if not (math.isfinite(self.chord_height_mm) and self.chord_height_mm > 0):
             raise ValueError(f"chord_height_mm must be > 0 mm, got {self.chord_height_mm!r}")
         if self.level is not None and not math.isfinite(float(self.level)):
@@ -146,10 +188,11 @@ class VideoResult:
     path : str
         The video.
     x : (n_frames,) ndarray
-        Finger position x(t) in mm, surface coordinates: ``x_cf`` or ``x_chord`` as
-        chosen by ``AnalysisOptions.position``; NaN where flagged.
+        Finger position x(t) in mm, surface coordinates: ``x_cf``, ``x_chord`` or
+        ``x_hybrid`` as chosen by ``AnalysisOptions.position``; NaN where flagged.
     x_cf : (n_frames,) ndarray
-        Centroid of C_f in mm (the paper's definition); NaN where flagged.
+        Centroid of C_f in mm (the paper's definition); NaN where flagged or (with
+        ``position='hybrid'``) where C_f is not available.
     x_chord : (n_frames,) ndarray
         Alternative position (not in the paper): midpoint of the finger's chord
         ``chord_height_mm`` above the feature's top, in mm; NaN where flagged or where
@@ -179,6 +222,14 @@ class VideoResult:
         At least one frame gave a position.
     message : str
         Summary.
+    x_hybrid : (n_frames,) ndarray or None
+        Hybrid position in mm (:func:`~fingerfriction.video.tracking.hybrid_positions`),
+        computed in every mode; NaN where no estimator applies or the finger is missing.
+    x_source : (n_frames,) uint8 ndarray or None
+        :class:`~fingerfriction.video.tracking.PositionSource` of each frame's ``x_hybrid``
+        (0 none, 1 chord, 2 left edge, 3 right edge).
+    hybrid : dict
+        The hybrid's per-video edge offsets (mm), calibration frame counts and ranges.
     """
 
     path: str
@@ -198,6 +249,9 @@ class VideoResult:
     truncated: bool
     success: bool
     message: str
+    x_hybrid: np.ndarray | None = field(default=None, repr=False)
+    x_source: np.ndarray | None = field(default=None, repr=False)
+    hybrid: dict = field(default_factory=dict)
 
     @property
     def n_frames(self) -> int:
@@ -242,12 +296,13 @@ class VideoResult:
         path = os.fspath(path)
         tmp = path + ".tmp.npz"
         cal = self.calibration
+        extra = {} if self.x_hybrid is None else {"x_hybrid": self.x_hybrid, "x_source": self.x_source}
         np.savez(tmp, x=self.x, x_cf=self.x_cf, x_chord=self.x_chord, regions=self.regions, flags=self.flags,
                  line_row=self.line_row,
                  area_px=self.area_px, reference_frame=self.reference_frame,
                  mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
                  surface_x_mm=cal.x_mm, surface_h_mm=cal.h_hat_mm,
-                 contact_tol_px=self.contact_tol_px)
+                 contact_tol_px=self.contact_tol_px, **extra)
         os.replace(tmp, path)
 
 
@@ -284,6 +339,7 @@ class FrameAnalyzer:
         self.band_start = int(max(int(fd.min()) - 2, 0))
         self.line0 = calibration.top_row - options.line_offset_mm / calibration.mm_per_px
         self.chord_row = calibration.top_row - options.chord_height_mm / calibration.mm_per_px
+        self.edge_row = calibration.top_row - options.edge_height_mm / calibration.mm_per_px
         self.area: float | None = None
         self.reference_frame = -1
         self.n_frames_seen = 0
@@ -369,7 +425,13 @@ class FrameAnalyzer:
         -------
         dict
             ``x``, ``x_cf``, ``x_chord`` (k,) mm, ``regions`` (k, n_max, 2) mm, ``flags`` (k,) uint8,
-            ``line_row`` (k,) px, ``f`` (k, width) outline rows.
+            ``line_row`` (k,) px, ``f`` (k, width) outline rows; for the hybrid position
+            (combined over the whole video by :func:`analyze_video`): ``h_chord`` the chord
+            midpoint wherever the finger's outline was found (whatever C_f's state),
+            ``h_left``, ``h_right`` the outline's edges at the edge row (mm; NaN unless the
+            finger touches the surface). With ``position='hybrid'``, ``x`` is NaN (only
+            known for the whole video) and ``regions`` are filled for every frame that may
+            get a hybrid position.
         """
         opt, cal = self.opt, self.cal
         f, flags = self.outlines(frames)
@@ -410,8 +472,25 @@ class FrameAnalyzer:
         good = flags == 0
         xcol = centroid_below_line(f, np.where(good, line, np.inf))
         x_cf = np.where(good, cal.col_to_mm(xcol), np.nan)
-        x_chord = np.where(good, cal.col_to_mm(chord_midpoint(f, self.chord_row)), np.nan)
-        if opt.position == "chord":
+        seen = (flags & ~np.uint8(_CF_ONLY)) == 0  # the finger's outline was found
+        chord_all = np.where(seen, cal.col_to_mm(chord_midpoint(f, self.chord_row)), np.nan)
+        x_chord = np.where(good, chord_all, np.nan)
+        # an edge is a position only while the finger rests on the surface (vertical gap
+        # within the contact tolerance somewhere): a lifted finger moves its edges
+        with np.errstate(invalid="ignore"):
+            touch = seen & (np.min(np.where(np.isnan(f), np.inf, self.s[None, :] - f), axis=1)
+                            <= opt.contact_tol_px)
+        el, er = chord_ends(f, self.edge_row)
+        h_left = np.where(touch, cal.col_to_mm(el), np.nan)
+        h_right = np.where(touch, cal.col_to_mm(er), np.nan)
+        if opt.position == "hybrid":
+            # the hybrid needs the whole video (offsets): fill the regions of every frame
+            # that may get a position; analyze_video settles x, flags and regions
+            cand = seen & (np.isfinite(chord_all) | np.isfinite(h_left) | np.isfinite(h_right))
+            line[~good] = np.nan  # the C_f line only where C_f is valid
+            good = good | cand
+            x = np.full(k, np.nan)
+        elif opt.position == "chord":
             cut = good & np.isnan(x_chord)
             flags[cut] |= int(FrameFlag.OUT_OF_VIEW)
             good = flags == 0
@@ -425,7 +504,7 @@ class FrameAnalyzer:
         regions = contact_regions(d, opt.contact_tol_px, cal.col_to_mm, n_max=opt.n_max_regions)
         self.n_frames_seen += k
         return {"x": x, "x_cf": x_cf, "x_chord": x_chord, "regions": regions, "flags": flags,
-                "line_row": line, "f": f}
+                "line_row": line, "f": f, "h_chord": chord_all, "h_left": h_left, "h_right": h_right}
 
 
 def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = None,
@@ -491,6 +570,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         x = np.full(m, np.nan)
         x_cf = np.full(m, np.nan)
         x_chord = np.full(m, np.nan)
+        h_chord, h_left, h_right = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
         line = np.full(m, np.nan)
         flags = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
         regions = np.full((m, opt.n_max_regions, 2), np.nan)
@@ -504,6 +584,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
             s = slice(i0 - start, i0 - start + frames.shape[0])
             x[s], x_cf[s], x_chord[s], line[s] = r["x"], r["x_cf"], r["x_chord"], r["line_row"]
             flags[s], regions[s] = r["flags"], r["regions"]
+            h_chord[s], h_left[s], h_right[s] = r["h_chord"], r["h_left"], r["h_right"]
             t0 = time.perf_counter()
             t_an += t0 - t1
             n_an += frames.shape[0]
@@ -514,6 +595,20 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
     finally:
         if own:
             reader.close()
+    hyb = hybrid_positions(h_chord, h_left, h_right, calibration_mm=opt.edge_calibration_mm)
+    hinfo = {"offsets_mm": hyb.offsets_mm, "calibration_frames": hyb.calibration_frames,
+             "calibration_range_mm": hyb.calibration_range_mm, "counts": hyb.counts()}
+    if opt.position == "hybrid":
+        has = np.isfinite(hyb.x)
+        x = hyb.x.copy()
+        seen = (flags & ~np.uint8(_CF_ONLY)) == 0
+        flags[has] = 0
+        flags[seen & ~has] |= int(FrameFlag.NO_HYBRID)
+        x_cf[~has] = np.nan
+        line[~has] = np.nan
+        regions[~has] = np.nan
+        log.info("%s: hybrid position %s; edge offsets %s mm", reader.path, hinfo["counts"],
+                 hinfo["offsets_mm"])
     kmax = max(int(n_regions(regions).max(initial=0)), 1)
     regions = regions[:, :kmax]
     n_good = int(np.count_nonzero(flags == 0))
@@ -527,4 +622,5 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
                        area_px=float(an.area) if an.area is not None else float("nan"),
                        reference_frame=an.reference_frame, calibration=calibration, fps=reader.fps,
                        contact_tol_px=opt.contact_tol_px, contact_metric=opt.contact_metric,
-                       timings=timings, truncated=bool(truncated), success=n_good > 0, message=msg)
+                       timings=timings, truncated=bool(truncated), success=n_good > 0, message=msg,
+                       x_hybrid=hyb.x, x_source=hyb.source, hybrid=hinfo)
