@@ -3,7 +3,7 @@ PYTHON ?= python3.11
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint venv clean
+.PHONY: demo test lint venv clean chromium
 
 $(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
@@ -26,7 +26,15 @@ demo: $(VENV)/.installed
 lint: $(VENV)/.installed-test
 	$(BIN)/ruff check src tests benchmarks
 
-test: $(VENV)/.installed-test lint
+# Headless Chromium (Debian's package) for the HTML report test; installed when missing and
+# we are root with apt-get (CI), otherwise the report test fails with a message saying so.
+chromium:
+	@command -v chromium >/dev/null 2>&1 || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    apt-get update -qq && apt-get install -y -qq chromium; \
+	  else echo "note: chromium not found; install Debian's chromium package for the HTML report test"; fi; }
+
+test: $(VENV)/.installed-test lint chromium
 	$(BIN)/python -m pytest
 
 clean:
