@@ -414,14 +414,20 @@ def analyze_cmd(
     force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
     window_mm: float = typer.Option(None, "--window-mm", help="Force position window in mm, centred on the "
                                     "feature (default: the paper's 26 mm)."),
+    position: str = typer.Option("hybrid", "--position", help="x(t) estimator: hybrid (chord midpoint, "
+                                 "else an outline edge; default) or cf-centroid (the paper's C_f centroid) "
+                                 "or chord."),
     simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
-                                   "experiment (narrower window, x(t) extended; see README)."),
+                                   "experiment (only matter with --position cf-centroid: narrower window, "
+                                   "x(t) extended; see README)."),
 ) -> None:
     """Every trial through video analysis and force processing, in parallel (resumable)."""
-    from .pipeline import SIM_PARAMS, AnalysisParams, analyze
+    from .pipeline import POSITIONS, AnalysisParams, analyze, sim_params
 
     try:
-        opts = {k: dict(v) for k, v in SIM_PARAMS.items()} if simulated else {"video": {}, "forces": {}}
+        if position not in POSITIONS:
+            raise ValueError(f"--position must be one of {', '.join(POSITIONS)}, got {position!r}")
+        opts = sim_params(position) if simulated else {"video": {"position": position}, "forces": {}}
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
