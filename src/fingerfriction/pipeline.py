@@ -992,7 +992,8 @@ def _validate_after_fit(store: ResultsStore, trials: Sequence, validate: bool):
 #: Repetitions per condition of the demo: 1 by default (2 subjects x 6 surfaces x 3 speeds
 #: = 36 trials, every cell of Table 1 filled and every speed in Fig. 4), 5 with ``full``
 #: (the paper's 180 trials). Measured on this project's 2-core machine while shared (load
-#: average about 6): 253 s in all (simulate 198 s, analyze 48 s, fit 0 s, report 6 s).
+#: average 3-7): 101 s in all (simulate 61 s, analyze 22 s, fit 12 s of which the
+#: leave-one-surface-out validation is most, report 7 s); 104 s wall for the command.
 DEMO_REPS = 1
 FULL_REPS = 5
 
