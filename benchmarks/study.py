@@ -30,7 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from fingerfriction.pipeline import SIM_PARAMS, AnalysisParams, analyze
+from fingerfriction.pipeline import AnalysisParams, analyze, sim_params
 
 PAPER_TRIALS = 180
 
@@ -98,14 +98,17 @@ def main(argv=None) -> int:
     ap.add_argument("--speedup-trials", type=int, default=24)
     ap.add_argument("--out", default=str(Path(__file__).parent / "out"))
     ap.add_argument("--window-mm", type=float, default=None,
-                    help="force window (default: SIM_PARAMS on simulated studies, else the paper's 26 mm)")
+                    help="force window (default: the paper's 26 mm; sim_params('cf-centroid') on "
+                         "simulated studies with --position cf-centroid)")
+    ap.add_argument("--position", default="hybrid", choices=("hybrid", "cf-centroid", "chord"),
+                    help="x(t) estimator (default: hybrid, the pipeline's)")
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     study, origin = find_study(args.study, out)
     n = _n_trials(study)
     simulated = (study / "truth").is_dir()
-    opts = {k: dict(v) for k, v in SIM_PARAMS.items()} if simulated else {"video": {}, "forces": {}}
+    opts = sim_params(args.position) if simulated else {"video": {"position": args.position}, "forces": {}}
     if args.window_mm:
         opts["forces"]["window_mm"] = args.window_mm
     params = AnalysisParams(**opts)
@@ -113,7 +116,8 @@ def main(argv=None) -> int:
     load = os.getloadavg()[0]
     print(f"study: {study} ({n} trials; {origin}); machine: {os.cpu_count()} cores, "
           f"load average {load:.1f} at start; force window {window:g} mm"
-          f"{' (simulated-study options SIM_PARAMS)' if simulated else ''}")
+          f"; x(t) estimator {params.resolved()['video']['position']}"
+          f"{' (simulated-study options sim_params)' if simulated else ''}")
 
     tmp = Path(tempfile.mkdtemp(prefix="ff-bench-", dir=out))
     try:

@@ -21,7 +21,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fingerfriction.pipeline import SIM_PARAMS, AnalysisParams, analyze, fit, regions_on_grid
+from fingerfriction.pipeline import (
+    SIM_CF_CENTROID_PARAMS,
+    AnalysisParams,
+    analyze,
+    fit,
+    regions_on_grid,
+    sim_params,
+)
 from fingerfriction.results import (
     ResultsStore,
     atomic_write_parquet,
@@ -30,8 +37,8 @@ from fingerfriction.results import (
 )
 
 SRC = Path(__file__).resolve().parents[1] / "src"
-# The options of simulated studies (see fingerfriction.pipeline.SIM_PARAMS).
-SIM = AnalysisParams(**SIM_PARAMS)
+# The options of simulated studies (see fingerfriction.pipeline.sim_params): the defaults.
+SIM = AnalysisParams(**sim_params())
 
 
 # --------------------------------------------------------------------------------------
@@ -128,6 +135,24 @@ def test_analysis_params_validated():
         AnalysisParams(forces={"lowpass_hz": -5}).resolved()
     with pytest.raises(TypeError, match="dict of options"):
         AnalysisParams(video=3)
+
+
+def test_x_estimator_default_and_choice():
+    """x(t) from the hybrid estimator by default, the paper's 26 mm window; the paper's
+    C_f centroid on request (with its documented fallback for simulated studies)."""
+    d = AnalysisParams().resolved()
+    assert d["video"]["position"] == "hybrid" and d["forces"]["window_mm"] == 26.0
+    assert d["video"]["n_max_regions"] >= 16  # until the video stage handles > 8 specks
+    assert AnalysisParams(**sim_params()).resolved() == d  # nothing special for simulated studies
+    cf = AnalysisParams(video={"position": "cf-centroid"}).resolved()
+    assert cf["video"]["position"] == "cf-centroid" and cf["forces"]["window_mm"] == 26.0
+    fb = AnalysisParams(**sim_params("cf-centroid")).resolved()
+    assert fb["video"]["position"] == "cf-centroid"
+    assert fb["forces"]["window_mm"] == SIM_CF_CENTROID_PARAMS["forces"]["window_mm"] == 22.0
+    with pytest.raises(ValueError, match="position must be"):
+        sim_params("centre")
+    with pytest.raises(ValueError, match="position must be"):
+        AnalysisParams(video={"position": "centre"}).resolved()
 
 
 def test_not_a_results_folder(tmp_path):
@@ -228,6 +253,7 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
     assert run["state"] == "complete"
     assert run["versions"]["numpy"] == np.__version__ and run["versions"]["dask"]
     assert run["parameters"]["forces"]["lowpass_hz"] == 500.0
+    assert run["x_estimator"] == run["parameters"]["video"]["position"] == "hybrid"
     manifest = {t["id"]: t for t in json.loads((tiny_study / "manifest.json").read_text())["trials"]}
     for tid in ids:
         t = manifest[tid]
@@ -241,6 +267,10 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
         assert (fr["n_regions"][tracked] > 0).all()
         assert fr["flag"][~tracked].str.len().min() > 0
         assert np.diff(fo["x_mm"]).min() > 0 and np.isfinite(fo["F_T_N"]).all()
+        # the paper's 26 mm window, covered by x(t) itself (hybrid): nothing extrapolated
+        assert fo["x_mm"].iloc[0] == pytest.approx(-13.0) and fo["x_mm"].iloc[-1] == pytest.approx(13.0)
+        assert fr["x_mm"].min() < -12.5 and fr["x_mm"].max() > 12.5
+        assert store.status(tid)["info"]["forces"]["flags"] == []
     # the fit and the report on top
     summary = fit(out, progress=False)
     assert summary.n_trials == 4 and set(summary.mu) == {"1"}

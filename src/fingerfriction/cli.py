@@ -414,14 +414,20 @@ def analyze_cmd(
     force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
     window_mm: float = typer.Option(None, "--window-mm", help="Force position window in mm, centred on the "
                                     "feature (default: the paper's 26 mm)."),
+    position: str = typer.Option("hybrid", "--position", help="x(t) estimator: hybrid (chord midpoint, "
+                                 "else an outline edge; default) or cf-centroid (the paper's C_f centroid) "
+                                 "or chord."),
     simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
-                                   "experiment (narrower window, x(t) extended; see README)."),
+                                   "experiment (only matter with --position cf-centroid: narrower window, "
+                                   "x(t) extended; see README)."),
 ) -> None:
     """Every trial through video analysis and force processing, in parallel (resumable)."""
-    from .pipeline import SIM_PARAMS, AnalysisParams, analyze
+    from .pipeline import POSITIONS, AnalysisParams, analyze, sim_params
 
     try:
-        opts = {k: dict(v) for k, v in SIM_PARAMS.items()} if simulated else {"video": {}, "forces": {}}
+        if position not in POSITIONS:
+            raise ValueError(f"--position must be one of {', '.join(POSITIONS)}, got {position!r}")
+        opts = sim_params(position) if simulated else {"video": {"position": position}, "forces": {}}
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
@@ -456,6 +462,8 @@ def fit_cmd(
     _print_failures(res.failures, "fit", limit=5)
     for subj, mu in res.mu.items():
         console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
+    where = f"{results}/fit/loso.csv" if res.loso is not None else res.loso_message
+    console.print(f"out-of-sample validation (leave one surface out): {where}", highlight=False)
     console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {results}/fit", highlight=False)
 
 
@@ -471,6 +479,14 @@ def _print_tables(rep) -> None:
             t.add_column(str(c))
         for row in wide.itertuples(index=False):
             t.add_row(*[str(v) for v in row])
+        console.print(t)
+    if getattr(rep, "loso", None) is not None:
+        t = Table(title="Out of sample (leave one surface out): rho per held-out surface")
+        for c in ("subject", "held-out surface", "trials", "rho in sample", "rho out of sample", "p out"):
+            t.add_column(c)
+        for r in rep.loso.itertuples(index=False):
+            t.add_row(str(r.subject), str(r.surface), str(r.n_trials), f"{r.rho_in_sample:.2f}",
+                      f"{r.rho_out_of_sample:.2f}", f"{r.p_out_of_sample:.2g}")
         console.print(t)
     t = Table(title="Tactile blind spots (all trials pooled)")
     for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):

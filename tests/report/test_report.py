@@ -105,3 +105,45 @@ def test_failed_trials_listed(tmp_path):
 def test_not_a_results_folder(tmp_path):
     with pytest.raises(ValueError, match="not a results folder"):
         make_report(tmp_path)
+
+
+def test_out_of_sample_validation_next_to_table1(report):
+    """``fit`` runs the leave-one-surface-out validation; the report shows it after Table 1."""
+    rep, results, _ = report
+    loso = rep.loso
+    assert loso is not None
+    # 2 subjects + both subjects pooled, x 2 held-out surfaces
+    assert len(loso) == 6 and set(loso["surface"]) == {"bump-2mm", "step-down-4mm"}
+    assert set(loso["subject"]) == {"1", "2", "Both subjects"}
+    assert np.isfinite(loso["rho_out_of_sample"]).all() and np.isfinite(loso["rho_in_sample"]).all()
+    # the CSV next to the report is the fit's table (3 significant digits)
+    csv = pd.read_csv(results / "report" / "loso.csv", dtype={"subject": str})
+    fit_csv = pd.read_csv(results / "fit" / "loso.csv", dtype={"subject": str})
+    assert list(csv["surface"]) == list(fit_csv["surface"])
+    np.testing.assert_allclose(csv["rho_out_of_sample"], fit_csv["rho_out_of_sample"], rtol=5e-3)
+    # rho_in_sample is the report's Table 1 (same fit): one per (subject, shape)
+    t1 = rep.table1.set_index(["subject", "shape"])["rho"]
+    shapes = {"bump-2mm": "Bump", "step-down-4mm": "Step Down"}
+    for row in fit_csv.itertuples():
+        assert row.rho_in_sample == pytest.approx(t1[row.subject, shapes[row.surface]], abs=1e-6), row
+    html = rep.html.read_text()
+    i, j = html.index("Table 1"), html.index("leave one surface out")
+    assert i < j < html.index("Tactile blind spots")
+    assert f"{fit_csv['rho_out_of_sample'].iloc[0]:.3g}" in html[j:]
+
+
+def test_fit_without_validation_says_so(tmp_path):
+    from report_synthetic import write_synthetic_results
+
+    from fingerfriction.pipeline import fit
+
+    write_synthetic_results(tmp_path / "r")
+    (tmp_path / "r" / "fit").mkdir(parents=True)
+    (tmp_path / "r" / "fit" / "loso.csv").write_text("stale,table\n1,2\n")  # from an earlier fit
+    summary = fit(tmp_path / "r", progress=False, validate=False)
+    assert summary.loso is None and summary.loso_message == "not requested"
+    assert not (tmp_path / "r" / "fit" / "loso.csv").exists()  # never a table of another fit
+    rep = make_report(tmp_path / "r")
+    assert rep.loso is None and rep.table1 is not None
+    assert "Not computed: not requested" in rep.html.read_text()
+    assert "loso.csv" not in {p.name for p in rep.files}

@@ -2,7 +2,8 @@
 
 :func:`make_report` reads a results folder (:mod:`fingerfriction.results`) and writes,
 into ``RESULTS/report/``: each figure as PNG and SVG (:mod:`.figures`), Table 1, the
-blind-spot table and, for a simulated study, the recovered parameters next to the ground
+blind-spot table, the out-of-sample validation (``loso``, computed by
+``fit``) and, for a simulated study, the recovered parameters next to the ground
 truth (:mod:`.tables`) as CSV and Markdown (Table 1 also LaTeX), and ``index.html``, a
 single file with every figure embedded (base64 PNG) that opens anywhere on its own.
 """
@@ -26,7 +27,7 @@ from ..results import atomic_write_text
 from ..stats import write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
-from .tables import blindspot_table, fit_parameter_table, table1, table1_display, truth_tables
+from .tables import blindspot_table, fit_parameter_table, loso_table, table1, table1_display, truth_tables
 
 __all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
 
@@ -45,6 +46,9 @@ class ReportResult:
         Every file written (figures, tables, the report).
     table1 : pandas.DataFrame or None
         Table 1 in long format (None before the fit).
+    loso : pandas.DataFrame or None
+        Out-of-sample validation, rho per held-out surface (computed by ``fit``,
+        :func:`fingerfriction.pipeline.fit`; None if the fit did not validate).
     blindspots : pandas.DataFrame
         One row per blind spot per surface.
     truth : dict of str to pandas.DataFrame
@@ -59,6 +63,7 @@ class ReportResult:
     truth: dict
     n_trials: int
     n_failed: int
+    loso: pd.DataFrame | None = None
 
 
 def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
@@ -119,6 +124,11 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             for ext in ("csv", "md", "tex"):
                 write_table(t1, out / f"table1.{ext}")
                 files.append(out / f"table1.{ext}")
+        loso = loso_table(data) if has_fit else None
+        if loso is not None:
+            for ext in ("csv", "md"):
+                write_table(loso, out / f"loso.{ext}")
+                files.append(out / f"loso.{ext}")
         bs = blindspot_table(data)
         for ext in ("csv", "md"):
             write_table(bs, out / f"blindspots.{ext}")
@@ -150,6 +160,8 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             speeds=", ".join(f"{v:g}" for v in data.speeds),
             mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
             table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
+            loso=Markup(_html_table(loso)) if loso is not None else None,
+            loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
             params=Markup(_html_table(params)) if params is not None else None,
@@ -161,4 +173,4 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
     finally:
         bar.close()
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
-                        n_trials=len(data.trials), n_failed=len(data.failed))
+                        n_trials=len(data.trials), n_failed=len(data.failed), loso=loso)

@@ -69,6 +69,8 @@ class ReportData:
         ``fit/fit.json`` if present.
     fit_trials : pandas.DataFrame or None
         ``fit/trials.csv`` if present.
+    loso : pandas.DataFrame or None
+        ``fit/loso.csv`` (the out-of-sample validation written by ``fit``) if present.
     truth : dict or None
         ``truth/study.json`` of a simulated study, if the study folder is reachable.
     truth_dir : Path or None
@@ -84,6 +86,7 @@ class ReportData:
     truth: dict | None = None
     truth_dir: Path | None = None
     notes: list[str] = field(default_factory=list)
+    loso: pd.DataFrame | None = None
 
     @property
     def surface_names(self) -> list[str]:
@@ -146,6 +149,9 @@ def load_report_data(results) -> ReportData:
     if (store.fit_dir / "fit.json").is_file():
         fit = json.loads((store.fit_dir / "fit.json").read_text(encoding="utf-8"))
         fit_trials = pd.read_csv(store.fit_dir / "trials.csv", dtype={"subject": str})
+    loso = None
+    if fit is not None and (store.fit_dir / "loso.csv").is_file():
+        loso = pd.read_csv(store.fit_dir / "loso.csv", dtype={"subject": str})
     truth = truth_dir = None
     notes = []
     if run.get("truth"):
@@ -156,4 +162,4 @@ def load_report_data(results) -> ReportData:
             notes.append(f"ground truth not readable ({exc}); the comparison with the truth is left out")
             truth_dir = None
     return ReportData(root=store.root, run=run, surfaces=surfaces, trials=trials, failed=failed, fit=fit,
-                      fit_trials=fit_trials, truth=truth, truth_dir=truth_dir, notes=notes)
+                      fit_trials=fit_trials, truth=truth, truth_dir=truth_dir, notes=notes, loso=loso)

@@ -183,3 +183,25 @@ def table1_display(table: pd.DataFrame) -> pd.DataFrame:
     df = pd.DataFrame(rows).fillna("")
     order = {s: i for i, s in enumerate([*sorted(set(df["subject"]) - {BOTH}), BOTH])}
     return df.sort_values("subject", key=lambda c: c.map(order), kind="stable").reset_index(drop=True)
+
+
+#: Columns of the out-of-sample table in the report, in order (from ``fit/loso.csv``).
+LOSO_COLUMNS = ("subject", "surface", "n_trials", "rho_in_sample", "rho_out_of_sample", "p_out_of_sample",
+                "rho_heldout_params_video")
+
+
+def loso_table(data: ReportData) -> pd.DataFrame | None:
+    """Out-of-sample validation next to Table 1: rho per held-out surface.
+
+    From ``fit/loso.csv`` (:func:`fingerfriction.predict.validate_results`, run by
+    :func:`fingerfriction.pipeline.fit`): per subject (and both subjects) and held-out
+    surface, the in-sample rho (Table 1), the out-of-sample rho (fitted on the other
+    surfaces, predicted from the surface's geometry alone) with its p-value, and rho with
+    the held-out parameters on the video regions. None when the fit did not validate.
+    """
+    if data.loso is None:
+        return None
+    missing = [c for c in LOSO_COLUMNS if c not in data.loso.columns]
+    if missing:
+        raise ValueError(f"{data.root / 'fit' / 'loso.csv'}: missing columns {missing}")
+    return data.loso.loc[:, list(LOSO_COLUMNS)].reset_index(drop=True)
