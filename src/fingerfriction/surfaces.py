@@ -25,6 +25,8 @@ from typing import Literal
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
+from ._validation import positive
+
 __all__ = [
     "Surface",
     "RaisedCosine",
@@ -76,16 +78,6 @@ class Surface:
         return float(np.max(np.abs(self.alpha(xs))))
 
 
-def _check_positive(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a number in mm, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be a finite positive length in mm, got {value!r}")
-    return v
-
-
 @dataclass(frozen=True)
 class RaisedCosine(Surface):
     """A raised-cosine relief feature on a flat plate (Fig. 1D,E of the paper).
@@ -118,8 +110,8 @@ class RaisedCosine(Surface):
     def __post_init__(self) -> None:
         if self.shape not in _SHAPES:
             raise ValueError(f"shape must be one of {_SHAPES}, got {self.shape!r}")
-        w = _check_positive("width", self.width)
-        h = 0.2 * w if self.height is None else _check_positive("height", self.height)
+        w = positive("width", self.width, "mm", what="length")
+        h = 0.2 * w if self.height is None else positive("height", self.height, "mm", what="length")
         c = float(self.center)
         if not math.isfinite(c):
             raise ValueError(f"center must be a finite position in mm, got {self.center!r}")

@@ -646,7 +646,7 @@ def test_reversal_and_stall_are_flagged():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        ({"notch_q": 0}, r"notch_q must be finite and positive"),
+        ({"notch_q": 0}, r"notch_q must be a finite positive number in \(dimensionless\), got 0"),
         ({"lowpass_order": 2.5}, r"lowpass_order must be an integer"),
         ({"flat_segment_mm": (-9, -13)}, r"x_lo < x_hi, got \(-9.0, -13.0\)"),
         ({"resolution_mm": 5.0}, r"resolution_mm \(5 mm\) must be at most a tenth of window_mm \(26 mm\)"),

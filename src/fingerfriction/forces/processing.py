@@ -109,6 +109,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 from scipy import signal
 
+from .._validation import positive as _positive
 from .readers import ForceRecord
 
 __all__ = [
@@ -184,16 +185,6 @@ def _check_freq(name: str, value, fs: float) -> float:
             stacklevel=3,
         )
     return f
-
-
-def _positive(name: str, value, unit: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number in {unit}, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be finite and positive (in {unit}), got {value!r}")
-    return v
 
 
 # --------------------------------------------------------------------------------------
@@ -316,7 +307,7 @@ class ForceProcessingParams:
         object.__setattr__(self, "notch_hz", notch)
         if self.mains not in ("fit", "notch", "both"):
             raise ValueError(f"mains must be 'fit', 'notch' or 'both', got {self.mains!r}")
-        object.__setattr__(self, "notch_q", _positive("notch_q", self.notch_q, "dimensionless"))
+        object.__setattr__(self, "notch_q", _positive("notch_q", self.notch_q, "(dimensionless)"))
         if self.lowpass_hz is not None:
             object.__setattr__(self, "lowpass_hz", _positive("lowpass_hz", self.lowpass_hz, "Hz"))
         if int(self.lowpass_order) != self.lowpass_order or not 1 <= int(self.lowpass_order) <= 12:

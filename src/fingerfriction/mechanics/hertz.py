@@ -17,17 +17,9 @@ import math
 
 import numpy as np
 
+from .._validation import positive
+
 __all__ = ["hertz_half_width", "hertz_pressure", "hertz_peak_pressure"]
-
-
-def _positive(name: str, value: float, unit: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a number in {unit}, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be a finite positive number in {unit}, got {value!r}")
-    return v
 
 
 def hertz_half_width(load_per_width: float, radius: float, modulus: float) -> float:
@@ -47,9 +39,9 @@ def hertz_half_width(load_per_width: float, radius: float, modulus: float) -> fl
     float
         ``a = sqrt(4 P' R / (pi E*))`` in mm.
     """
-    P = _positive("load_per_width", load_per_width, "N/mm")
-    R = _positive("radius", radius, "mm")
-    E = _positive("modulus", modulus, "MPa")
+    P = positive("load_per_width", load_per_width, "N/mm")
+    R = positive("radius", radius, "mm")
+    E = positive("modulus", modulus, "MPa")
     return math.sqrt(4.0 * P * R / (math.pi * E))
 
 
