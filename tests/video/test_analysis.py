@@ -219,6 +219,7 @@ def test_more_regions_than_n_max_is_flagged_not_raised(tmp_path, position):
     assert "more than n_max_regions" in res.reasons(int(two[0]))[0]
     assert np.isnan(res.x[two]).all() and np.isnan(res.regions[two]).all()
     assert np.isnan(res.x_cf[two]).all() and np.isnan(res.x_hybrid[two]).all()
+    assert (res.x_source[two] == 0).all()  # PositionSource.NONE
     other = np.flatnonzero(ref.n_regions == 1)
     assert other.size >= 1
     np.testing.assert_array_equal(res.flags[other], ref.flags[other])

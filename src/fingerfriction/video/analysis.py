@@ -654,7 +654,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
         seen = (flags & ~np.uint8(_CF_ONLY)) == 0
         flags[has] = 0
         flags[seen & ~has] |= int(FrameFlag.NO_HYBRID)
-        flags[too_many] |= int(FrameFlag.TOO_MANY_REGIONS)  # stays flagged with a position
+        flags[too_many] |= int(FrameFlag.TOO_MANY_REGIONS)  # stays flagged: no position
         has &= ~too_many
         x[too_many] = np.nan
         x_cf[~has] = np.nan
@@ -676,4 +676,6 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
                        reference_frame=an.reference_frame, calibration=calibration, fps=reader.fps,
                        contact_tol_px=opt.contact_tol_px, contact_metric=opt.contact_metric,
                        timings=timings, truncated=bool(truncated), success=n_good > 0, message=msg,
-                       x_hybrid=np.where(too_many, np.nan, hyb.x), x_source=hyb.source, hybrid=hinfo)
+                       x_hybrid=np.where(too_many, np.nan, hyb.x),
+                       x_source=np.where(too_many, PositionSource.NONE, hyb.source).astype(np.uint8),
+                       hybrid=hinfo)

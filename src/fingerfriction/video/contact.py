@@ -19,6 +19,8 @@ and surface contour points (checked in the tests against a brute-force pairwise 
 
 Contact columns form runs; each run becomes one region ``[a_i, b_i]`` whose ends are
 interpolated where the distance crosses the tolerance, then mapped to surface mm.
+Runs closer than ``min_gap_px`` are merged and runs shorter than ``min_region_px`` dropped
+(pixel-scale flicker of slowly opening contact edges; see :func:`contact_regions`).
 """
 
 from __future__ import annotations
