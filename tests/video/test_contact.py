@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from fingerfriction.regions import as_regions
+from fingerfriction.regions import as_regions, n_regions
 from fingerfriction.surfaces import RaisedCosine
 from fingerfriction.video import AnalysisOptions, FrameAnalyzer, calibrate
 from fingerfriction.video.contact import contact_distance, contact_regions
@@ -87,3 +87,66 @@ def test_contact_regions_of_a_synthetic_frame_match_geometry():
     got = got[~np.isnan(got[:, 0])]
     assert got.shape == truth.shape == (2, 2)
     assert np.abs(got - truth).max() < 3 * 0.023  # end points within 3 px
+
+
+def _d_from_mask(rows):
+    """Distances from strings: '#' in contact (d=0), '.' out (d=10), ' ' no finger."""
+    return np.array([[0.0 if c == "#" else (10.0 if c == "." else np.nan) for c in r] for r in rows])
+
+
+def _ident(c):
+    return np.asarray(c, float)
+
+
+def test_cleanup_merges_short_gaps_and_drops_specks():
+    d = _d_from_mask(["..######.#####.....###.........#######......",
+                      "...####..####..........#.......#########...."])
+    raw = contact_regions(d, 3.0, _ident, n_max=8)
+    assert list(n_regions(raw)) == [4, 4]
+    cl = contact_regions(d, 3.0, _ident, n_max=8, min_gap_px=2.5, min_region_px=2.0)
+    as_regions(cl)
+    assert list(n_regions(cl)) == [3, 2]
+    # frame 0: runs 2-7 and 9-13 (one out column: gap 1.4 px between the interpolated
+    # 3 px crossings) merge into one region; the 3-column run 19-21 (2.6 px) and the
+    # 7-column run stay
+    np.testing.assert_allclose(cl[0, 0], [1.7, 13.3])
+    np.testing.assert_allclose(cl[0, 1], [18.7, 21.3])
+    np.testing.assert_allclose(cl[0, 2], [30.7, 37.3])
+    # frame 1: 3-6 and 9-12 (two out columns: gap 2.4 px) merge; the 1-column speck at 23
+    # (0.6 px) is dropped; a gap of 30 columns is never bridged
+    np.testing.assert_allclose(cl[1, 0], [2.7, 12.3])
+    np.testing.assert_allclose(cl[1, 1], [30.7, 39.3])
+    # gap larger than min_gap_px: not merged
+    cl = contact_regions(d, 3.0, _ident, n_max=8, min_gap_px=1.0)
+    assert list(n_regions(cl)) == [4, 4]
+
+
+def test_cleanup_order_merge_before_drop():
+    # specks 1 px apart form one region long enough to keep
+    d = _d_from_mask(["...#.#.#.#........"])
+    assert n_regions(contact_regions(d, 3.0, _ident, min_region_px=2.0))[0] == 0
+    reg = contact_regions(d, 3.0, _ident, min_gap_px=2.0, min_region_px=2.0)
+    np.testing.assert_allclose(reg[0, 0], [2.7, 9.3])
+
+
+def test_too_many_regions_masks_or_raises():
+    d = _d_from_mask(["#.#.#.#.#.#......", "..####..........."])
+    with pytest.raises(ValueError, match="frame 0 has 6 contact regions, more than n_max=4"):
+        contact_regions(d, 3.0, _ident, n_max=4)
+    reg, too_many = contact_regions(d, 3.0, _ident, n_max=4, on_overflow="mask")
+    assert list(too_many) == [True, False]
+    assert np.isnan(reg[0]).all() and n_regions(reg)[1] == 1
+    # the cleanup brings it under n_max: nothing flagged, nothing dropped
+    reg, too_many = contact_regions(d, 3.0, _ident, n_max=4, min_gap_px=1.5, on_overflow="mask")
+    assert not too_many.any() and n_regions(reg)[0] == 1
+    with pytest.raises(ValueError, match="min_gap_px"):
+        contact_regions(d, 3.0, _ident, min_gap_px=-1)
+    with pytest.raises(ValueError, match="on_overflow"):
+        contact_regions(d, 3.0, _ident, on_overflow="drop")
+
+
+def test_options_validate_cleanup():
+    with pytest.raises(ValueError, match="min_region_px"):
+        AnalysisOptions(min_region_px=float("nan"))
+    with pytest.raises(ValueError, match="min_gap_px"):
+        AnalysisOptions(min_gap_px=-0.5)
