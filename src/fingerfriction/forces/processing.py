@@ -109,6 +109,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 from scipy import signal
 
+from .._validation import interval as _interval
 from .._validation import positive as _positive
 from .readers import ForceRecord
 
@@ -328,15 +329,10 @@ class ForceProcessingParams:
                 f"({self.window_mm:g} mm)"
             )
         if self.flat_segment_mm is not None:
-            try:
-                lo, hi = (float(v) for v in self.flat_segment_mm)
-            except (TypeError, ValueError):
-                raise ValueError(
-                    f"flat_segment_mm must be (x_lo, x_hi) in mm, got {self.flat_segment_mm!r}"
-                ) from None
-            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-                raise ValueError(f"flat_segment_mm must be (x_lo, x_hi) with x_lo < x_hi, got {(lo, hi)!r}")
-            object.__setattr__(self, "flat_segment_mm", (lo, hi))
+            object.__setattr__(
+                self, "flat_segment_mm",
+                _interval("flat_segment_mm", self.flat_segment_mm, "mm", labels=("x_lo", "x_hi")),
+            )
         for name in ("max_nan_gap", "clip_run"):
             v = getattr(self, name)
             if int(v) != v or int(v) < (0 if name == "max_nan_gap" else 2):
@@ -352,15 +348,9 @@ class ForceProcessingParams:
             if self.baseline != "auto":
                 raise ValueError(f"baseline must be 'auto', None or (t_lo, t_hi) in s, got {self.baseline!r}")
         elif self.baseline is not None:
-            try:
-                lo, hi = (float(v) for v in self.baseline)
-            except (TypeError, ValueError):
-                raise ValueError(
-                    f"baseline must be 'auto', None or (t_lo, t_hi) in s, got {self.baseline!r}"
-                ) from None
-            if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-                raise ValueError(f"baseline must be (t_lo, t_hi) in s with t_lo < t_hi, got {(lo, hi)!r}")
-            object.__setattr__(self, "baseline", (lo, hi))
+            object.__setattr__(
+                self, "baseline", _interval("baseline", self.baseline, "s", labels=("t_lo", "t_hi"))
+            )
         if not (math.isfinite(float(self.extrapolate_mm)) and float(self.extrapolate_mm) >= 0):
             raise ValueError(f"extrapolate_mm must be a length >= 0 in mm, got {self.extrapolate_mm!r}")
         object.__setattr__(self, "extrapolate_mm", float(self.extrapolate_mm))

@@ -55,6 +55,20 @@ def _grid(data: ReportData, n_rows: int, n_cols: int, *, w: float = 4.2, h: floa
     return fig, axes
 
 
+def _surface_panels(data: ReportData):
+    """A figure with one panel per surface (two columns), unused panels hidden.
+
+    Returns the figure and the ``(axes, surface name)`` pairs in surface order.
+    """
+    names = data.surface_names
+    n_cols = 2 if len(names) > 1 else 1
+    n_rows = -(-len(names) // n_cols)
+    fig, axes = _grid(data, n_rows, n_cols, w=4.6, h=2.4)
+    for ax in axes.ravel()[len(names):]:
+        ax.set_visible(False)
+    return fig, list(zip(axes.ravel()[: len(names)], names, strict=True))
+
+
 def _label(data: ReportData, surface: str) -> str:
     s = data.surfaces.get(surface)
     return getattr(s, "name", None) or surface
@@ -206,13 +220,8 @@ def fig6_model(data: ReportData) -> Figure:
 
 def figS1_lengths(data: ReportData) -> Figure:
     """Fig. S1: contact lengths L_i of each region C_i against finger position."""
-    names = data.surface_names
-    n_cols = 2 if len(names) > 1 else 1
-    n_rows = -(-len(names) // n_cols)
-    fig, axes = _grid(data, n_rows, n_cols, w=4.6, h=2.4)
-    for ax in axes.ravel()[len(names):]:
-        ax.set_visible(False)
-    for ax, name in zip(axes.ravel()[: len(names)], names, strict=True):
+    fig, panels = _surface_panels(data)
+    for ax, name in panels:
         ts = data.select(surface=name)
         for t in ts:
             x = t.frames["x_mm"].to_numpy(float)
@@ -234,13 +243,8 @@ def figS1_lengths(data: ReportData) -> Figure:
 
 def figS3_components(data: ReportData) -> Figure:
     """Fig. S3: model F_int (Eq. 2) and F_def (Eq. 3), mean +- 1 SD over all trials."""
-    names = data.surface_names
-    n_cols = 2 if len(names) > 1 else 1
-    n_rows = -(-len(names) // n_cols)
-    fig, axes = _grid(data, n_rows, n_cols, w=4.6, h=2.4)
-    for ax in axes.ravel()[len(names):]:
-        ax.set_visible(False)
-    for ax, name in zip(axes.ravel()[: len(names)], names, strict=True):
+    fig, panels = _surface_panels(data)
+    for ax, name in panels:
         ts = [t for t in data.select(surface=name) if t.model is not None]
         for col, c, lab in (("F_int_N", "#2ca02c", "F_int (Eq. 2)"), ("F_def_N", "#9467bd", "F_def (Eq. 3)")):
             ms = _mean_sd(ts, lambda t, col=col: (t.model["x_mm"], t.model[col]))
