@@ -111,7 +111,7 @@ from scipy import signal
 
 from .._validation import interval as _interval
 from .._validation import positive as _positive
-from .readers import ForceRecord
+from .readers import ForceRecord, _check_fs
 
 __all__ = [
     "ForceDataError",
@@ -154,16 +154,6 @@ class ForceDataError(ValueError):
 # --------------------------------------------------------------------------------------
 # validation helpers
 # --------------------------------------------------------------------------------------
-
-
-def _check_fs(fs) -> float:
-    try:
-        v = float(fs)
-    except (TypeError, ValueError):
-        raise ValueError(f"fs must be a sampling frequency in Hz, got {fs!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"fs must be a finite positive sampling frequency in Hz, got {fs!r}")
-    return v
 
 
 def _check_freq(name: str, value, fs: float) -> float:
@@ -429,7 +419,7 @@ def design_notch(fs: float, freqs: Sequence[float] = (50.0, 150.0, 300.0), q: fl
     (n_sections, 6) ndarray
         One section per notch, for :func:`scipy.signal.sosfiltfilt`.
     """
-    fs = _check_fs(fs)
+    fs = _check_fs(fs, "fs")
     q = _positive("q", q, "dimensionless")
     sections = []
     for i, f0 in enumerate(freqs):
@@ -457,7 +447,7 @@ def design_lowpass(fs: float, cutoff: float = 500.0, order: int = 4) -> np.ndarr
     -------
     (n_sections, 6) ndarray
     """
-    fs = _check_fs(fs)
+    fs = _check_fs(fs, "fs")
     cutoff = _check_freq("cutoff", cutoff, fs)
     return signal.butter(int(order), cutoff, btype="lowpass", output="sos", fs=fs)
 
@@ -735,7 +725,7 @@ def compensate_highpass(y, fs: float, cutoff: float, *, axis: int = -1) -> np.nd
     ``b w0 t``, a slope ``a`` as ``a w0 t**2 / 2``. Remove the drift on an unloaded
     baseline first (:func:`fit_baseline`).
     """
-    fs = _check_fs(fs)
+    fs = _check_fs(fs, "fs")
     cutoff = _check_freq("cutoff", cutoff, fs)
     y = np.asarray(y, dtype=np.float64)
     if not np.all(np.isfinite(y)):
@@ -767,7 +757,7 @@ def detect_baseline(f_n, f_t, fs: float, *, threshold: float = 0.02, guard_s: fl
     int
         0 when the force departs immediately (no rest) or never does.
     """
-    fs = _check_fs(fs)
+    fs = _check_fs(fs, "fs")
     dev = np.zeros(np.shape(f_n))
     k0 = max(int(0.005 * fs), 1)
     for y in (np.asarray(f_n, float), np.asarray(f_t, float)):

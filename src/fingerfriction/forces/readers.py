@@ -118,13 +118,14 @@ class ForceRecord:
         return self.t0_s + np.arange(self.n_samples) / self.fs_hz
 
 
-def _check_fs(fs_hz) -> float:
+def _check_fs(fs_hz, name: str = "fs_hz") -> float:
+    """A sampling frequency in Hz as a finite positive float, or a ValueError naming ``name``."""
     try:
         fs = float(fs_hz)
     except (TypeError, ValueError):
-        raise ValueError(f"fs_hz must be a sampling frequency in Hz, got {fs_hz!r}") from None
+        raise ValueError(f"{name} must be a sampling frequency in Hz, got {fs_hz!r}") from None
     if not (math.isfinite(fs) and fs > 0):
-        raise ValueError(f"fs_hz must be a finite positive sampling frequency in Hz, got {fs_hz!r}")
+        raise ValueError(f"{name} must be a finite positive sampling frequency in Hz, got {fs_hz!r}")
     return fs
 
 
