@@ -365,9 +365,8 @@ class ForceProcessingParams:
         if not (math.isfinite(float(self.extrapolate_mm)) and float(self.extrapolate_mm) >= 0):
             raise ValueError(f"extrapolate_mm must be a length >= 0 in mm, got {self.extrapolate_mm!r}")
         object.__setattr__(self, "extrapolate_mm", float(self.extrapolate_mm))
-        for name in (
-            "contact_threshold_n", "baseline_guard_s", "min_baseline_s", "extrapolate_fit_s", "rest_rate_n_per_s"
-        ):
+        positives = ("contact_threshold_n", "baseline_guard_s", "min_baseline_s", "extrapolate_fit_s")
+        for name in (*positives, "rest_rate_n_per_s"):
             unit = {"_n": "N", "_s": "s"}.get(name[-2:], "N/s")
             object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
 
