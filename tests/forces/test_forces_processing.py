@@ -25,10 +25,12 @@ from fingerfriction.forces import (
     design_lowpass,
     design_notch,
     detect_baseline,
+    detect_post_baseline,
     extrapolate_positions,
     find_clipping,
     fit_baseline,
     fit_linear_drift,
+    fit_rest_drift,
     flat_mask_from_regions,
     lowpass_filter,
     nan_runs,
@@ -357,8 +359,11 @@ def synthetic_trial(
     mains=0.003,
     noise=5e-4,
     seed=0,
+    lift=True,
 ):
-    """A trial like the paper's: rest, touch-down and loading at x = -22 mm, slide to +18 mm.
+    """A trial like the paper's: rest, touch-down and loading at x = -22 mm, slide to +18 mm,
+    then (``lift``) unloading over 30 ms and 70 ms of rest; without ``lift`` the record
+    ends in contact.
 
     Returns the force record (through a first-order ``highpass`` Hz sensor from rest, then
     a drift ``offset + rate * t`` per channel, mains and noise) and the frame positions;
@@ -373,6 +378,9 @@ def synthetic_trial(
     xt = x_of_t(tf)
     fn = 0.3 * _smoothstep((rel - t_touch) / 0.05)
     ft = (0.17 + _feature(xt)) * _smoothstep((rel - t_slide) / 0.01)
+    if lift:
+        unload = 1.0 - _smoothstep((rel - t_slide - 40.0 / v) / 0.03)
+        fn, ft = fn * unload, ft * unload
     f1, f2 = compose(fn, ft)
     if highpass:
         b, a = signal.butter(1, highpass, btype="highpass", fs=FS)
@@ -403,8 +411,17 @@ def test_process_forces_recovers_the_profile_in_position():
     assert prof.x.size == 2601
     assert _rms_error(prof) < 0.02
     steps = [h["step"] for h in prof.history]
-    assert steps == ["decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_drift"]
+    assert steps == [
+        "decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_rest_drift", "remove_drift"
+    ]
     assert prof.history[1]["t_s"][1] == pytest.approx(0.1, abs=0.01)  # rest until the touch
+    # the rests: before the touch, and from shortly after the end of the unloading (t = 0.73 s:
+    # the Gaussian derivative's tail, then the guard) to the end of the record (0.7875 s)
+    post = prof.history[4]
+    t_end = rec.t0_s + (rec.n_samples - 1) / FS
+    assert post["t_s"][1] == pytest.approx(t_end)
+    t_post = t_end - (post["n_samples"] - prof.history[1]["n_samples"] - 1) / FS
+    assert 0.73 < t_post < 0.765
     # mains fitted on the baseline: F_T carries (1 - 1.2) / sqrt(2) of the 3 mN hum at 50 Hz
     assert prof.history[1]["mains_subtracted_hz"] == [50.0, 150.0, 300.0]
     assert prof.history[1]["F_T_mains_amplitude_N"][0] == pytest.approx(0.003 * 0.2 / np.sqrt(2), rel=0.05)
@@ -429,9 +446,14 @@ def test_mains_options():
     for mains, steps in (
         (
             "notch",
-            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"],
+            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_rest_drift",
+             "remove_drift"],
         ),
-        ("both", ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"]),
+        (
+            "both",
+            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_rest_drift",
+             "remove_drift"],
+        ),
     ):
         prof = process_forces(
             rec, tv, xv, feature_extent_mm=(-1, 1), params=ForceProcessingParams(mains=mains)
@@ -651,6 +673,10 @@ def test_reversal_and_stall_are_flagged():
         ({"flat_segment_mm": (-9, -13)}, r"x_lo < x_hi, got \(-9.0, -13.0\)"),
         ({"resolution_mm": 5.0}, r"resolution_mm \(5 mm\) must be at most a tenth of window_mm \(26 mm\)"),
         ({"notch_hz": (50, -1)}, r"notch_hz must hold finite positive frequencies"),
+        ({"post_baseline": "end"}, r"post_baseline must be 'auto', None or \(t_lo, t_hi\) in s, got 'end'"),
+        ({"post_baseline": (1.0, 0.9)}, r"post_baseline must be \(t_lo, t_hi\) in s with t_lo < t_hi, got \(1.0, 0.9\)"),
+        ({"post_baseline": 3.0}, r"post_baseline must be \(t_lo, t_hi\) in s, got 3.0"),
+        ({"rest_rate_n_per_s": -1}, r"rest_rate_n_per_s must be a finite positive number in N/s, got -1"),
     ],
 )
 def test_params_validation(kwargs, match):

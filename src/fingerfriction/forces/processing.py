@@ -13,8 +13,8 @@ Visell (2018):
 4. removal of the sensor drift: the best linear fit (in time) to the force over the flat
    segment before the feature is subtracted from the whole record
    (:func:`remove_linear_drift`), preceded, beyond the paper, by the compensation of the
-   piezo chain's high-pass (:func:`fit_baseline`, :func:`compensate_highpass`; see
-   below);
+   piezo chain's high-pass (:func:`fit_baseline`, :func:`compensate_highpass`,
+   :func:`fit_rest_drift`; see below);
 5. synchronisation with the video clock and association of ``F_T(t)`` with the finger
    position ``x(t)`` (:func:`positions_at_times`);
 6. resampling onto positions at 0.01 mm over the 26 mm window centred on the feature
@@ -22,7 +22,9 @@ Visell (2018):
 
 Order of the steps in :func:`process_forces`: decomposition; baseline (drift line and
 mains fitted on the rest before the touch) subtracted; notch (if ``mains`` asks for it);
-low-pass; high-pass compensation; flat-segment linear fit removed; positions.
+low-pass; high-pass compensation; residual drift fitted through the compensation on the
+rests before the touch and after the lift-off, subtracted; flat-segment linear fit
+removed; positions.
 
 The pure functions above are wrapped by :class:`ForceSignals`, a small object that
 records every step applied to its data (``history``, in the manner of MNE-Python's
@@ -76,10 +78,23 @@ into ``b + (a + 2 pi fc b) t + pi fc a t**2``, which a linear fit no longer remo
 drift line is therefore first estimated on the unloaded rest at the start of the record
 (before the finger touches, where the true force is zero; :func:`fit_baseline`, fitted
 together with the mains sinusoids, which the notch filters only remove later) and
-subtracted, then the high-pass is inverted, then the paper's flat-segment fit is applied.
-The result depends on knowing the cut-off: a 5 % error in ``sensor_highpass_hz`` costs
-up to 10 % of the peak-to-peak force with the default flat segment, 4.6 % with the longer
-segment given by contact regions (measured in the benchmark).
+subtracted, then the high-pass is inverted. That rest lasts only about 0.1 s, so the
+slope of the line is uncertain, and a slope error ``da`` becomes ``da w0 t**2 / 2`` after
+the inversion: on its own this left up to 5.4 % of the peak-to-peak at 40 mm/s (long
+slides, small features; 1 of the 180 simulated trials above 5 %). The record usually also
+ends with an unloaded rest after the lift-off (:func:`detect_post_baseline`,
+``post_baseline``), where the true force is again zero: the images through the inversion
+of an offset and a slope, ``C[1]`` and ``C[t]``, are fitted jointly on both rests and
+subtracted (:func:`fit_rest_drift`); the lever arm of the whole record pins the slope.
+Then the paper's flat-segment fit is applied. Measured on the 180 simulated trials
+(``benchmarks/forces.py``, true positions): worst trial 5.43 % with the first rest alone,
+2.30 % with both (40 mm/s: 5.43 -> 1.32 %). The mains sinusoids are not refitted on the
+second rest: what is left of them there is at most 0.14 mN (0.5 % of the smallest
+peak-to-peak, at the noise level; measured on 30 trials). Without a rest after the
+lift-off (the record ends in contact) the first rest is used alone, with a flag. The
+result depends on knowing the cut-off: a 5 % error in ``sensor_highpass_hz`` costs up to
+18 % of the peak-to-peak force with the default flat segment, the same with the first rest
+alone (18.5 %; measured in the benchmark).
 
 **Mains: fit rather than notch (beyond the paper).** A zero-phase notch removes the force's
 own content within its band and rings for ``Q / (pi f0)`` s; a step-like force change
@@ -107,7 +122,7 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
-from scipy import signal
+from scipy import ndimage, signal
 
 from .._validation import interval as _interval
 from .._validation import positive as _positive
@@ -365,9 +380,13 @@ class ForceProcessingParams:
         if not (math.isfinite(float(self.extrapolate_mm)) and float(self.extrapolate_mm) >= 0):
             raise ValueError(f"extrapolate_mm must be a length >= 0 in mm, got {self.extrapolate_mm!r}")
         object.__setattr__(self, "extrapolate_mm", float(self.extrapolate_mm))
-        positives = ("contact_threshold_n", "baseline_guard_s", "min_baseline_s", "extrapolate_fit_s")
-        for name in (*positives, "rest_rate_n_per_s"):
-            unit = {"_n": "N", "_s": "s"}.get(name[-2:], "N/s")
+        for name, unit in (
+            ("contact_threshold_n", "N"),
+            ("baseline_guard_s", "s"),
+            ("min_baseline_s", "s"),
+            ("extrapolate_fit_s", "s"),
+            ("rest_rate_n_per_s", "N/s"),
+        ):
             object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
 
     def to_dict(self) -> dict:
@@ -792,7 +811,7 @@ def detect_baseline(f_n, f_t, fs: float, *, threshold: float = 0.02, guard_s: fl
 
 
 def detect_post_baseline(
-    f_n, f_t, fs: float, *, max_rate: float = 0.5, guard_s: float = 0.01, smooth_hz: float = 20.0
+    f_n, f_t, fs: float, *, max_rate: float = 0.5, guard_s: float = 0.01, smooth_s: float = 0.008
 ) -> int:
     """First sample of the unloaded rest after the finger lifts off, at the end of a record.
 
@@ -800,7 +819,7 @@ def detect_post_baseline(
     compensation the unloaded ``F_N`` can sit a few hundredths of a newton away from zero)
     does not matter: after the last sample where ``F_N`` exceeds half its maximum (the
     unloading), the rest starts ``guard_s`` after the last sample where ``F_N`` or ``F_T``
-    (low-passed at ``smooth_hz``) changes faster than ``max_rate``; and the rest's median
+    (smoothed by a Gaussian of ``smooth_s``) changes faster than ``max_rate``; and the rest's median
     ``F_N`` must be below a quarter of the maximum (a light touch held at the end is not a
     rest).
 
@@ -815,9 +834,11 @@ def detect_post_baseline(
         Rate of change in N/s below which the forces are at rest. Default 0.5.
     guard_s : float
         Margin in s after the last faster change. Default 0.01.
-    smooth_hz : float
-        Cut-off in Hz of the zero-phase low-pass applied before differentiating (it also
-        removes mains residue). Default 20.
+    smooth_s : float
+        Standard deviation in s of the Gaussian the forces are smoothed with before
+        differentiating (:func:`scipy.ndimage.gaussian_filter1d`). Default 0.008: it
+        passes 4 % of a 50 Hz residue; unlike a Butterworth low-pass it does not ring
+        after the unloading (a 20 Hz one rang at 1.2 N/s for 30 ms after a 30 ms unloading).
 
     Returns
     -------
@@ -830,13 +851,20 @@ def detect_post_baseline(
     ft = np.asarray(f_t, dtype=np.float64)
     if fn.ndim != 1 or fn.shape != ft.shape:
         raise ValueError(f"f_n and f_t must be 1-D of the same length, got {fn.shape} and {ft.shape}")
+    if not (np.all(np.isfinite(fn)) and np.all(np.isfinite(ft))):
+        raise ValueError("f_n and f_t must be finite; fill NaN before detecting the rest")
+    smooth_s = _positive("smooth_s", smooth_s, "s")
     n = fn.size
-    smooth = lowpass_filter(np.vstack([fn, ft]), fs, min(smooth_hz, 0.4 * fs))
+    sigma = smooth_s * fs
+    both = np.vstack([fn, ft])
+    smooth = ndimage.gaussian_filter1d(both, sigma, axis=1, mode="nearest")
     peak = float(np.max(smooth[0]))
     if not peak > 0:
         return n
     k_load = int(np.flatnonzero(smooth[0] > 0.5 * peak)[-1])
-    rate = np.max(np.abs(np.gradient(smooth, axis=1)), axis=0) * fs
+    # derivative of the Gaussian-smoothed forces, N/s
+    slope = ndimage.gaussian_filter1d(both, sigma, axis=1, order=1, mode="nearest")
+    rate = np.max(np.abs(slope), axis=0) * fs
     moving = np.flatnonzero(rate[k_load:] > max_rate)
     k_still = k_load + (int(moving[-1]) if moving.size else 0) + 1
     start = min(k_still + int(round(guard_s * fs)), n)
