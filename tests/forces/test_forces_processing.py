@@ -578,6 +578,10 @@ def test_mains_options():
     prof = process_forces(rec, tv, xv, feature_extent_mm=(-1, 1), params=p)
     assert [f.code for f in prof.flags] == ["no-baseline", "mains-notch"]
     assert "notch" in [h["step"] for h in prof.history]
+    # the drift is then fitted through the compensation on the rest after the lift-off alone
+    step = next(h for h in prof.history if h["step"] == "remove_rest_drift")
+    assert step["rests"].startswith("after the lift-off;")
+    assert _rms_error(prof) < 0.02
     with pytest.raises(ValueError, match="mains must be 'fit', 'notch' or 'both', got 'hum'"):
         ForceProcessingParams(mains="hum")
 

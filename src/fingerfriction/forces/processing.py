@@ -1572,8 +1572,9 @@ def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list
     t = sig.times()
     fs = sig.fs_hz
     consequence = (
-        "; the drift is not removed before the high-pass compensation (it becomes quadratic in time "
-        "and the flat-segment fit removes only its linear part)"
+        "; the drift is not removed before the high-pass compensation (it becomes quadratic in time: "
+        "only a rest after the lift-off, post_baseline, can remove it then; the flat-segment fit removes "
+        "only its linear part)"
         if params.sensor_highpass_hz is not None
         else ""
     )
