@@ -25,10 +25,12 @@ from fingerfriction.forces import (
     design_lowpass,
     design_notch,
     detect_baseline,
+    detect_post_baseline,
     extrapolate_positions,
     find_clipping,
     fit_baseline,
     fit_linear_drift,
+    fit_rest_drift,
     flat_mask_from_regions,
     lowpass_filter,
     nan_runs,
@@ -246,6 +248,118 @@ def test_detect_baseline():
     assert detect_baseline(np.zeros(3000), np.zeros(3000), FS) == 0
 
 
+def _load_profile(n, k_on, k_off, ramp, rng):
+    """A load with zero force before sample ``k_on`` and from ``k_off`` on, smooth ramps."""
+    k = np.arange(n)
+    up = _smoothstep((k - k_on) / ramp)
+    down = 1.0 - _smoothstep((k - (k_off - ramp)) / ramp)
+    wiggle = 1.0 + 0.2 * np.sin(2 * np.pi * k / rng.uniform(800, 3000) + rng.uniform(0, 6))
+    return 0.3 * up * down * wiggle
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    offset=st.floats(-0.01, 0.01),
+    slope=st.floats(-0.05, 0.05),
+    cutoff=st.floats(1.0, 20.0),
+    n=st.integers(3000, 9000),
+    seed=st.integers(0, 2**31),
+)
+def test_fit_rest_drift_recovers_any_drift_through_the_highpass(offset, slope, cutoff, n, seed):
+    """A load with zero force at both ends through a first-order high-pass (from rest), plus a
+    drift ``offset + slope * t`` added after it (the sensor model): after the compensation,
+    the fit on the two rests gives back the drift exactly and leaves the true force."""
+    rng = np.random.default_rng(seed)
+    k_on, k_off = int(0.15 * n), int(0.85 * n)
+    force = _load_profile(n, k_on, k_off, 200, rng)
+    b, a = signal.butter(1, cutoff, btype="highpass", fs=FS)
+    tau = np.arange(n) / FS
+    recorded = signal.lfilter(b, a, force) + offset + slope * tau
+    y = compensate_highpass(recorded, FS, cutoff)
+    rests = (np.arange(n) < k_on) | (np.arange(n) >= k_off)
+    fit = fit_rest_drift(y, rests, FS, cutoff)
+    assert fit.offset == pytest.approx(offset, abs=1e-9)
+    assert fit.slope == pytest.approx(slope, abs=1e-8)
+    assert fit.n_samples == rests.sum() and fit.rms_after < 1e-9
+    np.testing.assert_allclose(y - fit.image, force, atol=1e-9)
+
+
+def test_both_rests_pin_the_slope_better_than_the_first_alone():
+    """With noise, a slope fitted on 0.12 s before the touch is off by ~1e-3 N/s, which the
+    compensation turns into a quadratic error; the rest after the lift-off cuts it down."""
+    rng = np.random.default_rng(11)
+    n, k_on, k_off = 10_000, 1200, 9200
+    force = _load_profile(n, k_on, k_off, 300, rng)
+    b, a = signal.butter(1, 5.0, btype="highpass", fs=FS)
+    tau = np.arange(n) / FS
+    y = compensate_highpass(
+        signal.lfilter(b, a, force) + 0.002 + 0.004 * tau + 2e-4 * rng.standard_normal(n), FS, 5.0
+    )
+    true_image = compensate_highpass(0.002 + 0.004 * tau, FS, 5.0)
+    pre = np.arange(n) < k_on
+    both = pre | (np.arange(n) >= k_off)
+    err = {}
+    for name, mask in (("pre", pre), ("both", both)):
+        fit = fit_rest_drift(y, mask, FS, 5.0)
+        err[name] = np.sqrt(np.mean((fit.image - true_image)[k_on:k_off] ** 2))  # N
+    assert err["both"] < 0.2 * err["pre"]
+    with pytest.raises(ValueError, match="at least 4 rest samples in mask, got 2"):
+        fit_rest_drift(y, np.arange(n) < 2, FS, 5.0)
+    with pytest.raises(ValueError, match=r"y and mask must be 1-D of the same length, got \(10000,\)"):
+        fit_rest_drift(y, [True, True, False], FS, 5.0)
+
+
+def _compensated_record(end_offset=0.02, *, lift=True, plateau=0.0):
+    """F_N, F_T as after the compensation: a 0.3 N load from 0.1 s, unloading over 50 ms from
+    0.9 s (``lift``) down to ``plateau`` N, then an uncorrected offset growing from
+    ``end_offset`` N at 0.03 N/s (what the integrator makes of a small drift error)."""
+    t = np.arange(11_000) / FS
+    rng = np.random.default_rng(2)
+    load = _smoothstep((t - 0.1) / 0.05)
+    if lift:
+        load = load * (plateau + (1 - plateau) * (1.0 - _smoothstep((t - 0.9) / 0.05)))
+    residual = np.where(t > 0.5, end_offset + 0.03 * (t - 0.5), 0.0)
+    fn = 0.3 * load + residual + 5e-5 * rng.standard_normal(t.size)
+    ft = 0.12 * load + 0.5 * residual + 5e-5 * rng.standard_normal(t.size)
+    return fn, ft
+
+
+def test_detect_post_baseline_with_an_offset_left_after_the_compensation():
+    fn, ft = _compensated_record(0.025)
+    k = detect_post_baseline(fn, ft, FS)
+    # the unloading ends at 0.95 s; the rest starts after the Gaussian's tail and the 10 ms guard
+    assert 0.95 * FS < k < 0.985 * FS
+    assert np.all(np.abs(fn[k:]) > 0.02)  # an absolute |F_N| < 0.02 N criterion would find no rest
+    assert detect_post_baseline(fn, ft, FS, guard_s=0.03) == k + 200
+    # ends in contact, or in a light touch held at a third of the load: no rest
+    assert detect_post_baseline(*_compensated_record(lift=False), FS) == fn.size
+    assert detect_post_baseline(*_compensated_record(plateau=0.35), FS) == fn.size
+    assert detect_post_baseline(np.zeros(500), np.zeros(500), FS) == 500  # never loaded
+    with pytest.raises(ValueError, match="f_n and f_t must be 1-D of the same length"):
+        detect_post_baseline(fn, ft[:-1], FS)
+
+
+def test_record_ending_in_contact_falls_back_on_the_first_rest_with_a_flag():
+    rec, tv, xv = synthetic_trial(lift=False)
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0))
+    assert prof.success
+    assert [f.code for f in prof.flags] == ["no-post-baseline"]
+    msg = prof.flags[0].message
+    assert "min_baseline_s=0.02 s" in msg and "post_baseline=(t_lo, t_hi)" in msg
+    assert "remove_rest_drift" not in [h["step"] for h in prof.history]
+    assert _rms_error(prof) < 0.02
+    # post_baseline=None: the first rest alone, by choice (no flag); an interval: used as given
+    p = ForceProcessingParams(post_baseline=None)
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=p)
+    assert prof.flags == () and "remove_rest_drift" not in [h["step"] for h in prof.history]
+    rec, tv, xv = synthetic_trial()
+    p = ForceProcessingParams(post_baseline=(0.75, 0.78))
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0), params=p)
+    step = next(h for h in prof.history if h["step"] == "remove_rest_drift")
+    assert step["n_samples"] - prof.history[1]["n_samples"] == 301 and prof.flags == ()
+    assert _rms_error(prof) < 0.02
+
+
 # --- synchronisation and positions -----------------------------------------------------------
 
 
@@ -357,8 +471,11 @@ def synthetic_trial(
     mains=0.003,
     noise=5e-4,
     seed=0,
+    lift=True,
 ):
-    """A trial like the paper's: rest, touch-down and loading at x = -22 mm, slide to +18 mm.
+    """A trial like the paper's: rest, touch-down and loading at x = -22 mm, slide to +18 mm,
+    then (``lift``) unloading over 30 ms and 70 ms of rest; without ``lift`` the record
+    ends in contact.
 
     Returns the force record (through a first-order ``highpass`` Hz sensor from rest, then
     a drift ``offset + rate * t`` per channel, mains and noise) and the frame positions;
@@ -373,6 +490,9 @@ def synthetic_trial(
     xt = x_of_t(tf)
     fn = 0.3 * _smoothstep((rel - t_touch) / 0.05)
     ft = (0.17 + _feature(xt)) * _smoothstep((rel - t_slide) / 0.01)
+    if lift:
+        unload = 1.0 - _smoothstep((rel - t_slide - 40.0 / v) / 0.03)
+        fn, ft = fn * unload, ft * unload
     f1, f2 = compose(fn, ft)
     if highpass:
         b, a = signal.butter(1, highpass, btype="highpass", fs=FS)
@@ -403,8 +523,17 @@ def test_process_forces_recovers_the_profile_in_position():
     assert prof.x.size == 2601
     assert _rms_error(prof) < 0.02
     steps = [h["step"] for h in prof.history]
-    assert steps == ["decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_drift"]
+    assert steps == [
+        "decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_rest_drift", "remove_drift"
+    ]
     assert prof.history[1]["t_s"][1] == pytest.approx(0.1, abs=0.01)  # rest until the touch
+    # the rests: before the touch, and from shortly after the end of the unloading (t = 0.73 s:
+    # the Gaussian derivative's tail, then the guard) to the end of the record (0.7875 s)
+    post = prof.history[4]
+    t_end = rec.t0_s + (rec.n_samples - 1) / FS
+    assert post["t_s"][1] == pytest.approx(t_end)
+    t_post = t_end - (post["n_samples"] - prof.history[1]["n_samples"] - 1) / FS
+    assert 0.73 < t_post < 0.765
     # mains fitted on the baseline: F_T carries (1 - 1.2) / sqrt(2) of the 3 mN hum at 50 Hz
     assert prof.history[1]["mains_subtracted_hz"] == [50.0, 150.0, 300.0]
     assert prof.history[1]["F_T_mains_amplitude_N"][0] == pytest.approx(0.003 * 0.2 / np.sqrt(2), rel=0.05)
@@ -429,9 +558,14 @@ def test_mains_options():
     for mains, steps in (
         (
             "notch",
-            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"],
+            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_rest_drift",
+             "remove_drift"],
         ),
-        ("both", ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_drift"]),
+        (
+            "both",
+            ["decompose", "remove_baseline", "notch", "lowpass", "compensate_highpass", "remove_rest_drift",
+             "remove_drift"],
+        ),
     ):
         prof = process_forces(
             rec, tv, xv, feature_extent_mm=(-1, 1), params=ForceProcessingParams(mains=mains)
@@ -444,6 +578,10 @@ def test_mains_options():
     prof = process_forces(rec, tv, xv, feature_extent_mm=(-1, 1), params=p)
     assert [f.code for f in prof.flags] == ["no-baseline", "mains-notch"]
     assert "notch" in [h["step"] for h in prof.history]
+    # the drift is then fitted through the compensation on the rest after the lift-off alone
+    step = next(h for h in prof.history if h["step"] == "remove_rest_drift")
+    assert step["rests"].startswith("after the lift-off;")
+    assert _rms_error(prof) < 0.02
     with pytest.raises(ValueError, match="mains must be 'fit', 'notch' or 'both', got 'hum'"):
         ForceProcessingParams(mains="hum")
 
@@ -651,6 +789,13 @@ def test_reversal_and_stall_are_flagged():
         ({"flat_segment_mm": (-9, -13)}, r"x_lo < x_hi, got \(-9.0, -13.0\)"),
         ({"resolution_mm": 5.0}, r"resolution_mm \(5 mm\) must be at most a tenth of window_mm \(26 mm\)"),
         ({"notch_hz": (50, -1)}, r"notch_hz must hold finite positive frequencies"),
+        ({"post_baseline": "end"}, r"post_baseline must be 'auto', None or \(t_lo, t_hi\) in s, got 'end'"),
+        (
+            {"post_baseline": (1.0, 0.9)},
+            r"post_baseline must be \(t_lo, t_hi\) in s with t_lo < t_hi, got \(1.0, 0.9\)",
+        ),
+        ({"post_baseline": 3.0}, r"post_baseline must be \(t_lo, t_hi\) in s, got 3.0"),
+        ({"rest_rate_n_per_s": -1}, r"rest_rate_n_per_s must be a finite positive number in N/s, got -1"),
     ],
 )
 def test_params_validation(kwargs, match):
