@@ -19,7 +19,16 @@ Accuracy, against the simulator's ground truth (``truth/<trial>.npz``):
 * the number of contact regions per frame;
 * blind-spot widths (``fingerfriction.blindspots``) from our regions vs from the truth,
   per surface over all its trials (Fig. 3);
-* for both contact metrics (euclidean: the paper's; vertical: the simulator's gap).
+* for both contact metrics (euclidean: the paper's; vertical: the simulator's gap), and
+  for each outline smoothing of the contact test (``--outline-smooth``, columns of the
+  Savitzky-Golay fit; 0 = the paper's raw contour points);
+* with ``--truth-geometry``: the contact tables are rebuilt from ``truth/study.json``
+  (deterministic; checked by reproducing ``regions_geom``) to get the true
+  finger-surface distance along the surface in every frame. Each end point's error is
+  then also given as the error in *distance*: the true distance at our end point minus
+  the 3 px criterion, next to the slope of the true distance there (px of distance per
+  px along the surface). Where that slope is small the end point is ill-conditioned: an
+  end point 3 px off is then a distance error of 3 px x slope.
 
 Default study: /work/studies/full if present, else the study with most trials under
 /work/studies; the one used is printed.
@@ -143,15 +152,22 @@ def speed(study, n_frames: int) -> None:
             print(f"    {fmt:9s}: {c:8.0f} frames/s per core (wall {wl:5.0f}), {size:7.1f} kB/frame{note}")
 
 
-def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical"), stride: int = 1) -> None:
+def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical"), stride: int = 1,
+             smooths=(None,), geometry: TruthGeometry | None = None) -> None:
     trials = list(study.trials)[::stride]
     trials = trials[:max_trials] if max_trials else trials
     every = f" (every {stride}th)" if stride > 1 else ""
     print(f"\n== accuracy on {len(trials)} trials of {study.root}{every}")
-    for metric in metrics:
+    default_smooth = AnalysisOptions().outline_smooth_px
+    for metric, smooth in ((m, sm) for m in metrics for sm in smooths):
+        smooth = default_smooth if smooth is None else smooth
         print(f"\n-- contact metric: {metric}" + (
             " (the paper's: distance between outline points; the simulator's regions_geom uses "
-            "the same perpendicular distance)" if metric == "euclidean" else " (vertical gap)"))
+            "the same perpendicular distance)" if metric == "euclidean" else " (vertical gap)")
+            + f"; outline smoothing for the contact test: {smooth} columns"
+            + (" (default)" if smooth == default_smooth else "")
+            + (" (raw contour points, as in the paper)" if smooth <= 1 else ""))
+        cond_err, cond_slope, n_repro, n_checked = [], [], 0, 0
         rows = []
         per_surface: dict[str, tuple[list, list]] = {}
         all_ep, n_same, n_tot = [], 0, 0
@@ -167,7 +183,7 @@ def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical"), s
             tol_px = float(z["geom_tol_mm"] / z["mm_per_px"])
             # default n_max_regions and contact-region cleanup; frames with too many
             # regions are flagged (TOO_MANY_REGIONS) and counted below
-            opt = AnalysisOptions(contact_metric=metric, contact_tol_px=tol_px)
+            opt = AnalysisOptions(contact_metric=metric, contact_tol_px=tol_px, outline_smooth_px=smooth)
             res = analyze_video(study.path(tr.video.path), tr.calibration["surface_height_mm"],
                                 surface=study.surface(tr.surface), options=opt,
                                 n_frames=tr.video.n_frames)
@@ -212,6 +228,14 @@ def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical"), s
             kk = min(T.shape[1], M.shape[1])
             d = np.abs(M[:, :kk] - T[:, :kk]) / z["mm_per_px"]
             all_ep.append(d[np.isfinite(d)])
+            if geometry is not None and metric == "euclidean":
+                frames = np.flatnonzero(v)[same]
+                ce, cs, rep, nck = end_point_conditioning(
+                    geometry.trial(tr.id), frames, T, M, float(z["geom_tol_mm"]), float(z["mm_per_px"]))
+                cond_err.append(ce)
+                cond_slope.append(cs)
+                n_repro += rep
+                n_checked += nck
             s = per_surface.setdefault(tr.surface, ([], []))
             s[0].append(z["regions_geom"][v])
             s[1].append(res.regions[v])
@@ -261,6 +285,24 @@ def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical"), s
         if ep.size:
             print(f"  end points (frames with right count): max {ep.max():.2f} px, 99th pct "
                   f"{np.percentile(ep, 99):.2f} px, {np.mean(ep <= 3):.4%} within 3 px (target: all)")
+        if cond_err:
+            ce, cs = np.concatenate(cond_err), np.concatenate(cond_slope)
+            print(f"  true geometry rebuilt (tables {geometry.build_s:.0f} s): truth regions reproduced in "
+                  f"{n_repro} of {n_checked} frames (within one table step)")
+            print(f"  distance error at our end points (true distance there - {tol_px:g} px): max "
+                  f"|{np.abs(ce).max():.3f}| px, 99th pct {np.percentile(np.abs(ce), 99):.3f} px, mean "
+                  f"{ce.mean():+.3f} px, sd {ce.std():.3f} px")
+            if ep.size == ce.size:
+                far = ep > 3
+                for lo, hi in ((0.0, 0.02), (0.02, 0.05), (0.05, 0.1), (0.1, np.inf)):
+                    sel = (cs >= lo) & (cs < hi)
+                    if sel.any():
+                        print(f"    slope of the true distance in [{lo:g}, {hi:g}) px/px: {sel.sum():6d} end "
+                              f"points, {np.mean(ep[sel] <= 3):.4%} within 3 px, max {ep[sel].max():.2f} px; "
+                              f"distance error max |{np.abs(ce[sel]).max():.3f}| px")
+                if far.any():
+                    print(f"    end points > 3 px off: {far.sum()}, slope there at most {cs[far].max():.4f} "
+                          f"px/px, distance error there at most |{np.abs(ce[far]).max():.3f}| px")
         print("  blind spots per surface (all its trials), widths in mm: truth vs ours")
         for name, (T, M) in per_surface.items():
             bt = blind_spots(_stack(T))
@@ -275,6 +317,80 @@ def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical"), s
                   f"{verdict}")
 
 
+class TruthGeometry:
+    """True finger-surface distance per frame of a simulated study (contact tables rebuilt)."""
+
+    def __init__(self, root: Path) -> None:
+        from fingerfriction.sim.writer import SimOptions
+
+        header = json.loads((Path(root) / "truth" / "study.json").read_text())
+        self.opts = SimOptions.from_dict(header["options"])
+        self.specs = {s.id: s for s in self.opts.trial_specs()}
+        self.tol_mm = float(header["geom_tol_mm"])
+        self._tables: dict = {}
+        self.build_s = 0.0
+
+    def _table(self, spec):
+        from fingerfriction.sim.contact import build_table, get_provider
+        from fingerfriction.surfaces import surface_from_spec
+
+        key = (spec.surface_spec, spec.subject)
+        if key not in self._tables:
+            self._tables.clear()  # trials come grouped by subject and surface
+            t0 = time.perf_counter()
+            self._tables[key] = build_table(
+                surface_from_spec(spec.surface_spec), spec.subject, loads=self.opts.table_loads,
+                step=self.opts.table_step, provider=get_provider(self.opts.contact_model))
+            self.build_s += time.perf_counter() - t0
+        return self._tables[key]
+
+    def trial(self, tid: str):
+        """``distance(k) -> (X mm, distance mm)`` for frame ``k`` of trial ``tid``."""
+        from fingerfriction.sim.writer import frame_outline, geometric_distance, plan_trial
+        from fingerfriction.surfaces import surface_from_spec
+
+        spec = self.specs[tid]
+        plan = plan_trial(spec, self.opts)
+        table = self._table(spec)
+        surf = surface_from_spec(spec.surface_spec)
+        reach = 2.0 * self.tol_mm
+
+        def distance(k: int):
+            x_c, y_f, _ = frame_outline(plan.kin, table, int(plan.frame_idx[k]))
+            X = x_c + table.xi
+            h = np.asarray(surf.h(X), float)
+            return X, geometric_distance(table.xi, np.asarray(y_f, float), h, reach)
+
+        return distance
+
+
+def end_point_conditioning(geo_distance, frames, T, M, tol_mm, mm_per_px):
+    """Per end point (frames with the right count): distance error at our end, slope at the true end.
+
+    Returns (err_px, slope, reproduced, n_checked): the true distance at our end point minus
+    the criterion (px), the true distance's slope at the true end point (px/px), and how
+    many of the checked frames' true regions the rebuilt geometry reproduces within one
+    table grid step.
+    """
+    from fingerfriction.regions import regions_from_mask
+
+    errs, slopes = [], []
+    reproduced = 0
+    for k, tk, mk in zip(frames, T, M, strict=True):
+        X, d = geo_distance(int(k))
+        r = regions_from_mask(X, d <= tol_mm)[0]
+        r = r[np.isfinite(r[:, 0])]
+        ok_t = tk[np.isfinite(tk[:, 0])]
+        if r.shape[0] == ok_t.shape[0] and np.all(np.abs(r - ok_t) <= 1.01 * (X[1] - X[0])):
+            reproduced += 1
+        g = np.gradient(d, X)
+        for (ta, tb), (ma, mb) in zip(ok_t, mk[np.isfinite(mk[:, 0])], strict=True):
+            for te, me in ((ta, ma), (tb, mb)):
+                errs.append((np.interp(me, X, d) - tol_mm) / mm_per_px)
+                slopes.append(np.interp(te, X, g))
+    return np.asarray(errs), np.abs(np.asarray(slopes)), reproduced, len(frames)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--study")
@@ -285,6 +401,11 @@ def main() -> None:
     ap.add_argument("--skip-accuracy", action="store_true")
     ap.add_argument("--metrics", default="euclidean,vertical",
                     help="contact metrics to evaluate, comma-separated")
+    ap.add_argument("--outline-smooth", default=None,
+                    help="outline smoothing windows (columns) of the contact test to evaluate, "
+                         "comma-separated (default: the library default only; 0 = raw)")
+    ap.add_argument("--truth-geometry", action="store_true",
+                    help="rebuild the contact tables to express end-point errors as distance errors")
     a = ap.parse_args()
     root = pick_study(a.study)
     study = load_manifest(root)
@@ -292,7 +413,10 @@ def main() -> None:
     if not a.skip_speed:
         speed(study, a.speed_frames)
     if not a.skip_accuracy:
-        accuracy(study, a.max_trials, tuple(a.metrics.split(",")), stride=max(a.stride, 1))
+        smooths = (None,) if a.outline_smooth is None else tuple(int(v) for v in a.outline_smooth.split(","))
+        geometry = TruthGeometry(root) if a.truth_geometry else None
+        accuracy(study, a.max_trials, tuple(a.metrics.split(",")), stride=max(a.stride, 1),
+                 smooths=smooths, geometry=geometry)
 
 
 if __name__ == "__main__":

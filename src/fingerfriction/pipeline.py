@@ -322,10 +322,12 @@ def _run_video(study_dir: Path, trial: dict, surface_spec: dict, options: Mappin
     k = np.arange(res.n_frames)
     info = {"message": res.message, "mm_per_px": res.mm_per_px, "threshold": res.threshold,
             "area_px": res.area_px, "reference_frame": res.reference_frame,
-            "flag_counts": res.flag_counts(), "timings": res.timings}
+            "flag_counts": res.flag_counts(), "timings": res.timings,
+            "clipped_frames": int(np.count_nonzero(res.clipped)) if res.clipped is not None else 0}
     return {"t_s": float(v.get("t0_s", 0.0)) + k / fps, "x_mm": np.asarray(res.x, dtype=float),
             "regions": np.asarray(res.regions, dtype=float), "flags": _frame_reasons(res.flags),
-            "frame": k, "info": info}
+            "frame": k, "info": info,
+            "clipped": res.clipped if res.clipped is not None else np.zeros(res.n_frames, bool)}
 
 
 def _run_forces(study_dir: Path, trial: dict, surface_spec: dict, video_out: dict, options: Mapping):
@@ -374,7 +376,8 @@ def process_trial(study_dir: str | os.PathLike, trial, params: AnalysisParams | 
     tid = rec.get("id")
     v = _run_video(study_dir, rec, surface_spec or {}, params.video)
     forces_df, f_info = _run_forces(study_dir, rec, surface_spec or {}, v, params.forces)
-    frames = frames_table(v["t_s"], v["x_mm"], v["regions"], v["flags"], frame=v["frame"])
+    frames = frames_table(v["t_s"], v["x_mm"], v["regions"], v["flags"], frame=v["frame"],
+                          clipped=v["clipped"])
     n_flag = int(sum(1 for s in v["flags"] if s))
     info = {"video": v["info"], "forces": f_info, "n_frames": len(frames), "n_flagged_frames": n_flag,
             "n_positions": len(forces_df)}

@@ -39,8 +39,9 @@ and no Parquet files.
 Per-frame table (``frames.parquet``): ``frame`` (int, index in the video), ``t_s``
 (s, common clock), ``x_mm`` (finger position x(t), NaN where unknown), ``n_regions``
 (int), ``a1, b1, a2, b2, ...`` (contact regions C_i in mm, NaN-padded; as many pairs
-as the trial's largest count, at least one), ``flag`` (str, empty when the frame is
-good, else the reason it was flagged).
+as the trial's largest count, at least one), ``clipped`` (bool, a region ends at the
+edge of the camera's field of view, so its length is a lower bound), ``flag`` (str,
+empty when the frame is good, else the reason it was flagged).
 
 Per-position table (``forces.parquet``): ``x_mm`` (finger position on the 0.01 mm grid),
 ``F_T_N`` and ``F_N_N`` (tangential and normal force in N, drift-corrected over the flat
@@ -181,6 +182,7 @@ def frames_table(
     flags=None,
     *,
     frame: np.ndarray | None = None,
+    clipped: np.ndarray | None = None,
 ) -> pd.DataFrame:
     """Build the per-frame table from arrays.
 
@@ -196,11 +198,13 @@ def frames_table(
         Empty string for a good frame, else the reason it was flagged.
     frame : (n_frames,) int ndarray, optional
         Frame indices; default ``0..n_frames-1``.
+    clipped : (n_frames,) bool ndarray, optional
+        A contact region ends at the edge of the field of view (default: none).
 
     Returns
     -------
     pandas.DataFrame
-        Columns ``frame, t_s, x_mm, n_regions, a1, b1, ..., flag``.
+        Columns ``frame, t_s, x_mm, n_regions, a1, b1, ..., clipped, flag``.
     """
     t_s = np.asarray(t_s, dtype=float).ravel()
     x_mm = np.asarray(x_mm, dtype=float).ravel()
@@ -229,6 +233,10 @@ def frames_table(
     for i in range(reg.shape[1]):
         cols[f"a{i + 1}"] = reg[:, i, 0]
         cols[f"b{i + 1}"] = reg[:, i, 1]
+    clipped = np.zeros(n, bool) if clipped is None else np.asarray(clipped, dtype=bool).ravel()
+    if clipped.size != n:
+        raise ValueError(f"clipped has {clipped.size} entries but t_s has {n}")
+    cols["clipped"] = clipped
     cols["flag"] = pd.array(flags, dtype="string")
     return pd.DataFrame(cols)
 

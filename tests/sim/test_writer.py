@@ -203,3 +203,41 @@ def test_tiff_format(tmp_path):
     with tifffile.TiffFile(st.path(t.video.path)) as tf:
         assert len(tf.pages) == t.video.n_frames
         assert tf.pages[0].shape == (720, 1280)
+
+
+def test_options_round_trip_and_truth_geometry_rebuilt(study_dir):
+    """truth/study.json holds everything needed to recompute any frame's true geometry."""
+    import json
+
+    from fingerfriction.regions import regions_from_mask
+    from fingerfriction.sim import build_table, plan_trial
+    from fingerfriction.sim.contact import get_provider
+    from fingerfriction.sim.writer import frame_outline, geometric_distance, geometric_mask
+    from fingerfriction.surfaces import surface_from_spec
+
+    header = json.loads((study_dir / "truth" / "study.json").read_text())
+    opts = SimOptions.from_dict(header["options"])
+    assert opts == tiny_options()
+    spec = opts.trial_specs()[0]
+    plan = plan_trial(spec, opts)
+    surf = surface_from_spec(spec.surface_spec)
+    table = build_table(surf, spec.subject, loads=opts.table_loads, step=opts.table_step,
+                        provider=get_provider(opts.contact_model))
+    truth = np.load(load_manifest(study_dir).path(plan.record.truth))
+    tol = float(header["geom_tol_mm"])
+    checked = 0
+    for k in range(1, plan.frame_idx.size, 5):
+        x_c, y_f, _ = frame_outline(plan.kin, table, int(plan.frame_idx[k]))
+        X = x_c + table.xi
+        h = np.asarray(surf.h(X), float)
+        d = geometric_distance(table.xi, np.asarray(y_f, float), h, 2 * tol)
+        np.testing.assert_array_equal(d <= tol, geometric_mask(table.xi, y_f, h, tol))
+        got = regions_from_mask(X, d <= tol)[0]
+        want = truth["regions_geom"][k]
+        n = int(np.sum(np.isfinite(want[:, 0])))
+        assert int(np.sum(np.isfinite(got[:, 0]))) == n
+        np.testing.assert_allclose(got[:n], want[:n], atol=1e-9)
+        checked += n > 0
+    assert checked >= 3
+    with pytest.raises(ValueError, match="simulation options: .*unexpected keyword"):
+        SimOptions.from_dict({"camera": {"width": 1280, "colour": True}})

@@ -225,3 +225,20 @@ def test_more_regions_than_n_max_is_flagged_not_raised(tmp_path, position):
     np.testing.assert_array_equal(res.flags[other], ref.flags[other])
     np.testing.assert_allclose(res.x[other], ref.x[other])
     np.testing.assert_allclose(res.regions[other, :1], ref.regions[other, :1])
+
+
+def test_regions_cut_by_the_crop_edge_are_marked_clipped(sweep, tmp_path):
+    path, xs = sweep
+    res = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(position="hybrid"))
+    fin = slice(1, 1 + xs.size)
+    # the disc (R = 8 mm, 0.15 mm in) touches over +-1.55 mm: at x = +-13 mm that passes the
+    # crop's edges (columns 10 and 1269: -14.50 and +14.46 mm); at +-11.5 mm it does not
+    np.testing.assert_array_equal(res.clipped[fin], np.abs(xs) >= 13.0)
+    assert not res.clipped[0] and not res.clipped[-1]
+    lo, hi = np.nanmin(res.regions[fin]), np.nanmax(res.regions[fin])
+    # half a column outside the crop (to within the calibrated scale and origin)
+    assert lo == pytest.approx((9.5 - 640.3) * 0.023, abs=0.03)
+    assert hi == pytest.approx((1269.5 - 640.3) * 0.023, abs=0.03)
+    res.save(tmp_path / "r.npz")
+    with np.load(tmp_path / "r.npz", allow_pickle=False) as z:
+        np.testing.assert_array_equal(z["clipped"], res.clipped)

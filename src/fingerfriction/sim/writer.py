@@ -187,6 +187,34 @@ class SimOptions:
             "table_loads": list(self.table_loads), "video_end_mm": self.video_end_mm,
         }
 
+    @classmethod
+    def from_dict(cls, d: dict) -> SimOptions:
+        """The options back from :meth:`to_dict` (e.g. ``truth/study.json``'s ``options``).
+
+        Raises
+        ------
+        ValueError
+            For an unknown or invalid field (named in the message).
+        """
+        if not isinstance(d, dict):
+            raise ValueError(f"simulation options must be a dict, got {type(d).__name__}")
+        d = dict(d)
+        sub = {"camera": CameraParams, "sensor": SensorParams, "kinematics": KinematicsParams}
+        try:
+            for key, kind in sub.items():
+                if key in d:
+                    fields = dict(d[key])
+                    fields.pop("lsb_n", None)  # derived, written for the reader's benefit
+                    if "mains_n" in fields:
+                        fields["mains_n"] = tuple(fields["mains_n"])
+                    d[key] = kind(**fields)
+            for key in ("subjects", "surfaces", "speeds", "table_loads"):
+                if key in d:
+                    d[key] = tuple(d[key])
+            return cls(**d)
+        except TypeError as exc:  # unknown field names
+            raise ValueError(f"simulation options: {exc}") from None
+
 
 @dataclass(frozen=True)
 class TrialSpec:
@@ -271,12 +299,34 @@ def geometric_mask(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, tol_mm: float
     -------
     (m,) bool ndarray
         True where the Euclidean distance from the surface point ``(x_j, h_j)`` to the
-        finger outline (the polyline through ``(x_i, y_f_i)``) is at most ``tol_mm``.
+        finger outline (the polyline through ``(x_i, y_f_i)``) is at most ``tol_mm``
+        (:func:`geometric_distance`).
+    """
+    return geometric_distance(xi, y_f, h, tol_mm) <= tol_mm
+
+
+def geometric_distance(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, reach_mm: float) -> np.ndarray:
+    """Euclidean distance in mm from each surface point to the finger outline.
+
+    Parameters
+    ----------
+    xi : (m,) ndarray
+        Uniform grid in mm (as in :func:`geometric_mask`).
+    y_f, h : (m,) ndarray
+        Finger outline and surface heights in mm on that grid.
+    reach_mm : float
+        Distances up to this are exact; beyond it the result is an upper bound (the
+        search looks at outline segments within ``reach_mm`` sideways only).
+
+    Returns
+    -------
+    (m,) ndarray
+        Distance in mm from ``(x_j, h_j)`` to the polyline through ``(x_i, y_f_i)``.
     """
     dx = float(xi[1] - xi[0])
     m = xi.size
     best = np.abs(y_f - h)  # vertical distance to the vertex above: an upper bound
-    K = int(math.ceil(tol_mm / dx)) + 1
+    K = int(math.ceil(reach_mm / dx)) + 1
     for k in range(-K, K):
         # segment from vertex i = j + k to i + 1, for every surface point j
         j = np.arange(max(0, -k), min(m, m - 1 - k))
@@ -288,7 +338,38 @@ def geometric_mask(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, tol_mm: float
         tpar = np.clip(((px - ax) * vx + (py - ay) * vy) / (vx * vx + vy * vy), 0.0, 1.0)
         d = np.hypot(ax + tpar * vx - px, ay + tpar * vy - py)
         best[j] = np.minimum(best[j], d)
-    return best <= tol_mm
+    return best
+
+
+def frame_outline(kin: Kinematics, table: ContactTable, i: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """The finger's lower outline at force sample ``i``, as the camera draws it.
+
+    Parameters
+    ----------
+    kin : Kinematics
+        The trial's kinematics (:attr:`TrialPlan.kin`).
+    table : ContactTable
+        The trial's contact table.
+    i : int
+        Force-sample index (``TrialPlan.frame_idx[k]`` for frame ``k``).
+
+    Returns
+    -------
+    x_c : float
+        Finger centre in mm.
+    y_f : (m,) ndarray
+        Outline heights in mm on ``x_c + table.xi`` (lifted by the finger's height when
+        it is off the surface).
+    p : (m,) ndarray
+        Contact pressure on the same grid (zero off the surface).
+    """
+    x_c = float(kin.x[i])
+    y_f, p = table.profile(x_c, max(float(kin.f_n[i]), float(table.loads[0])))
+    z = float(kin.z[i])
+    if z > 0 or not kin.in_contact[i]:
+        y_f = y_f + z
+        p = np.zeros_like(p)
+    return x_c, y_f, p
 
 
 def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw,
@@ -307,7 +388,6 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
     cam = Camera(surf, opts.camera)
     tol = 3.0 * opts.camera.mm_per_px
     xi = table.xi
-    load_min = float(table.loads[0])
     n_f = plan.frame_idx.size
     has_finger = np.zeros(n_f, bool)
     geom_masks, mech_masks, grids = [], [], []
@@ -321,12 +401,7 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
                 mech_masks.append(None)
                 grids.append(None)
                 continue
-            x_c = float(kin.x[i])
-            y_f, p = table.profile(x_c, max(float(kin.f_n[i]), load_min))
-            z = float(kin.z[i])
-            if z > 0 or not kin.in_contact[i]:
-                y_f = y_f + z
-                p = np.zeros_like(p)
+            x_c, y_f, p = frame_outline(kin, table, i)
             rows = cam.finger_rows(x_c, xi, y_f)
             has_finger[k] = bool(np.any(rows > -0.5))
             vw.write(cam.render(rows, rc))
