@@ -999,10 +999,12 @@ class HighpassEstimate:
     fc_hz : float
         Estimated cut-off in Hz (the prior when ``success`` is False).
     se_hz : float
-        Standard error of ``fc_hz`` in Hz, from the fit residuals: the Gauss-Newton
-        covariance ``s**2 (J^T J)^-1`` (``s`` the residual RMS), scaled by the residuals'
-        integrated autocorrelation time (they are low-passed noise, not white); NaN when
-        not determined. It covers the noise only, not a sensor that is not first order.
+        Standard error of ``fc_hz`` in Hz propagated from the noise seen in the fit
+        residuals (its autocovariance summed over lags: low-passed noise is not white)
+        through the linearised fit, including the noise the compensation's integral
+        carries from the whole record into the rest after the lift-off (see the Notes of
+        :func:`estimate_highpass`); NaN when not determined. It covers the noise only, not
+        a sensor that is not first order.
     prior_hz : float
         The cut-off in Hz the fit started from.
     n_samples : int
@@ -1015,7 +1017,7 @@ class HighpassEstimate:
         RMS in N of the residual on the rests at the solution.
     autocorr_samples : float
         Integrated autocorrelation time of the residuals in samples (1 for white noise),
-        the factor applied to the variance.
+        mean over the channels.
     success : bool
         False when the cut-off is not determined by the rests (see ``message``).
     message : str
@@ -1045,29 +1047,27 @@ def _trapezoid_integral(y: np.ndarray, fs: float) -> np.ndarray:
     return signal.lfilter([1.0, 1.0], [1.0, -1.0], y, axis=-1) / (2.0 * fs)
 
 
-def _autocorr_time(r: np.ndarray, runs: list[tuple[int, int]], c: float = 5.0) -> float:
-    """Integrated autocorrelation time (samples) of residuals ``(k, n_rest)`` made of
-    contiguous ``runs`` (start, length) along the last axis: ``1 + 2 sum rho_j`` over lags
-    up to Sokal's self-consistent window (smallest ``M >= c * tau(M)``)."""
+def _noise_power(r: np.ndarray, runs: list[tuple[int, int]], c: float = 5.0) -> tuple[float, float]:
+    """Low-frequency power of residuals ``(n_rest,)`` made of contiguous ``runs`` (start,
+    length): ``(sum_j R_j, tau)``, the autocovariance summed over all lags in N**2 (the
+    variance of a sum of samples per sample) and the integrated autocorrelation time
+    ``tau = 1 + 2 sum rho_j`` in samples, summed up to Sokal's self-consistent window
+    (the smallest lag ``M >= c * tau(M)``). Each run's mean is removed."""
     max_lag = max(1, min(length for _, length in runs) // 4)
     acov = np.zeros(max_lag + 1)
     count = np.zeros(max_lag + 1)
     for s0, length in runs:
-        seg = r[:, s0 : s0 + length]
-        seg = seg - seg.mean(axis=1, keepdims=True)
+        seg = r[s0 : s0 + length] - r[s0 : s0 + length].mean()
         nfft = 1 << int(np.ceil(np.log2(2 * length)))
-        spec = np.abs(np.fft.rfft(seg, nfft, axis=1)) ** 2
-        ac = np.fft.irfft(spec, nfft, axis=1)[:, : max_lag + 1].sum(axis=0)
-        acov += ac
-        count += r.shape[0] * (length - np.arange(max_lag + 1))
+        acov += np.fft.irfft(np.abs(np.fft.rfft(seg, nfft)) ** 2, nfft)[: max_lag + 1]
+        count += length - np.arange(max_lag + 1)
     acov /= count
     if not acov[0] > 0:
-        return 1.0
-    rho = acov / acov[0]
-    tau = 1.0 + 2.0 * np.cumsum(rho[1:])
+        return 0.0, 1.0
+    tau = 1.0 + 2.0 * np.cumsum(acov[1:] / acov[0])
     ok = np.flatnonzero(np.arange(1, max_lag + 1) >= c * tau)
-    t = float(tau[ok[0]]) if ok.size else float(tau[-1])
-    return max(t, 1.0)
+    t = max(float(tau[ok[0]]) if ok.size else float(tau[-1]), 1.0)
+    return float(acov[0] * t), t
 
 
 def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0.1) -> HighpassEstimate:
@@ -1200,13 +1200,31 @@ def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0
     d = np.diff(np.concatenate(([0], m.astype(np.int8), [0])))
     starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
     runs = list(zip(np.cumsum(np.concatenate(([0], ends - starts)))[:-1], ends - starts, strict=True))
-    ac = _autocorr_time(r, [(int(s0), int(length)) for s0, length in runs])
-    dof = max(r.size - sol.jac.shape[1], 1)
+    runs = [(int(s0), int(length)) for s0, length in runs]
     cond, Js, scale = condition(jacobian(sol.x))
     if not cond < 1e8:
-        return fail(undetermined.format(cond), sol.nfev, rms, ac)
-    cov_ww = float(np.linalg.inv(Js.T @ Js)[0, 0] / scale[0] ** 2) * (np.sum(r**2) / dof) * ac
-    se_w = math.sqrt(cov_ww)
+        return fail(undetermined.format(cond), sol.nfev, rms)
+    # standard error: the linearised estimate is w + g . e, with e the residual at the truth,
+    # C_w[noise] = noise + w I[noise] on the rest samples. The integral carries the noise of
+    # the whole record, the contact included, into the rest after the lift-off: besides the
+    # short-range part (the noise's autocovariance summed over lags, from the residuals),
+    # Var(g . e) has the random walk's part (dt**2 sum_m G_m**2, G_m = sum_{j >= m} g_j over
+    # every sample m) and their covariance; channels are taken as independent
+    g = (Js @ np.linalg.inv(Js.T @ Js)[:, 0]) / scale[0]
+    idx = np.flatnonzero(m)
+    dt = 1.0 / fs
+    var_w = 0.0
+    taus = []
+    for c in range(k):
+        s2, tau_c = _noise_power(r[c], runs)
+        taus.append(tau_c)
+        gc = g[c * n_rest : (c + 1) * n_rest]
+        full = np.zeros(n)
+        full[idx] = gc
+        G = np.cumsum(full[::-1])[::-1]
+        var_w += s2 * (gc @ gc + (w * dt) ** 2 * (G @ G) + 2 * w * dt * (gc @ (G[idx] - 0.5 * gc)))
+    ac = float(np.mean(taus))
+    se_w = math.sqrt(max(var_w, 0.0))
     se = se_w / (2.0 * math.pi) / (1.0 + (w / (2.0 * fs)) ** 2)  # d fc / d w
     if not fc < 0.5 * fs:
         return fail(f"the fitted cut-off {fc:g} Hz is not below the Nyquist frequency", sol.nfev, rms, ac)
