@@ -24,7 +24,9 @@ peak-to-peak. Criterion (issue 6): below 5 % on every surface and speed. Also pr
 the paper's procedure as written (no high-pass compensation), the error against the
 unfiltered truth, the default without the rest after the lift-off (``post_baseline=None``:
 the drift line from the rest before the touch alone), the sensitivity to a +-5 % error in
-the assumed sensor cut-off, how many trials had a rest after the lift-off, and the
+the assumed sensor cut-off, the opt-in estimate of the cut-off on the rests (from the right
+prior and from priors off by +-5 %; the range of the estimates and whether their standard
+error matches their scatter), how many trials had a rest after the lift-off, and the
 throughput (trials/s) with its ratio to a bare reference measured in the same run (reading
 the file and one zero-phase low-pass of both channels).
 
@@ -58,6 +60,7 @@ from fingerfriction.forces import (
     resample_to_positions,
 )
 from fingerfriction.forces.readers import study_path
+from fingerfriction.sim import SensorParams
 
 STUDIES = Path("/work/studies")
 
@@ -179,7 +182,17 @@ def main(argv=None) -> int:
         "fc+5%": (ForceProcessingParams(sensor_highpass_hz=1.05 * fc, **kw), False),
         "pre fc-5%": (ForceProcessingParams(sensor_highpass_hz=0.95 * fc, post_baseline=None, **kw), False),
         "pre fc+5%": (ForceProcessingParams(sensor_highpass_hz=1.05 * fc, post_baseline=None, **kw), False),
+        # the cut-off estimated on the rests (opt-in), from the right prior and from +-5 % off
+        "est": (ForceProcessingParams(estimate_highpass=True, **kw), False),
+        "est fc-5%": (
+            ForceProcessingParams(sensor_highpass_hz=0.95 * fc, estimate_highpass=True, **kw), False
+        ),
+        "est fc+5%": (
+            ForceProcessingParams(sensor_highpass_hz=1.05 * fc, estimate_highpass=True, **kw), False
+        ),
     }
+    # the simulated sensor's cut-off is not written in the study: the simulator's default
+    fc_true = SensorParams().highpass_hz
     rows = []
     t_proc = t_ref = 0.0
     failures = []
@@ -255,6 +268,9 @@ def main(argv=None) -> int:
                     )
                 pv = cache[id(p)]
                 row[name] = rel_rms(pv.f_t, reference_profile(truth, pv, p, fs, notch=ref_notch))
+                est = next((h for h in pv.history if h["step"] == "estimate_highpass"), None)
+                if est is not None:
+                    row[f"{name} fc"] = (est["cutoff_hz"], est["se_hz"], est["success"])
             except (ForceDataError, ValueError):
                 row[name] = np.nan
         rows.append(row)
@@ -291,11 +307,14 @@ def main(argv=None) -> int:
         "  pre:     the default without the rest after the lift-off (post_baseline=None: drift\n"
         "           line fitted on the rest before the touch only, the chain before this option);\n"
         "  fc-5%/+5%: the default with the assumed sensor cut-off off by -5 % / +5 %;\n"
-        "  pre+-5%: the larger of the two for the pre variant (the sensitivity before this option)."
+        "  pre+-5%: the larger of the two for the pre variant (the sensitivity before this option);\n"
+        "  est, est-5%/+5%: the cut-off estimated on the rests (estimate_highpass=True, opt-in) from\n"
+        "           the right prior / a prior off by -5 % / +5 %."
     )
     hdr = (
         f"{'surface':<16}{'speed':>6}{'n':>4}{'ptp mN':>8}{'mean %':>8}{'max %':>7}{'no LP':>7}"
-        f"{'notch':>7}{'notch=':>7}{'paper':>7}{'pre':>7}{'fc-5%':>7}{'fc+5%':>7}{'pre+-5%':>8}  ok"
+        f"{'notch':>7}{'notch=':>7}{'paper':>7}{'pre':>7}{'fc-5%':>7}{'fc+5%':>7}{'pre+-5%':>8}"
+        f"{'est':>7}{'est-5%':>7}{'est+5%':>7}  ok"
     )
     print(hdr)
     print("-" * len(hdr))
@@ -309,6 +328,7 @@ def main(argv=None) -> int:
             f"{surf:<16}{v:>6.0f}{len(rs):>4}{np.mean([r['ptp_mN'] for r in rs]):>8.1f}{e.mean():>8.2f}"
             f"{e.max():>7.2f}{mx['err_raw']:>7.2f}{mx['notch']:>7.2f}{mx['notch_ll']:>7.2f}{mx['paper']:>7.1f}{mx['pre-only']:>7.2f}"
             f"{mx['fc-5%']:>7.2f}{mx['fc+5%']:>7.2f}{max(mx['pre fc-5%'], mx['pre fc+5%']):>8.2f}"
+            f"{mx['est']:>7.2f}{mx['est fc-5%']:>7.2f}{mx['est fc+5%']:>7.2f}"
             f"  {'yes' if ok else 'NO'}"
         )
     if args.x_source == "video":
@@ -331,6 +351,23 @@ def main(argv=None) -> int:
         print(
             f"  {k:>9}: max {np.nanmax(vals):6.2f} %, "
             f"trials over 5 %: {int(np.sum(vals >= 5))} of {len(rows)}"
+        )
+    print(f"\nsensor cut-off estimated on the rests (true: {fc_true:g} Hz, the simulator's SensorParams):")
+    for k in ("est", "est fc-5%", "est fc+5%"):
+        got = [r[f"{k} fc"] for r in rows if f"{k} fc" in r]
+        ok = np.array([g[2] for g in got], bool)
+        fcs = np.array([g[0] for g in got])[ok]
+        se = np.array([g[1] for g in got])[ok]
+        if not fcs.size:
+            print(f"  {k:>9}: no estimate")
+            continue
+        z = (fcs - fc_true) / se
+        print(
+            f"  {k:>9}: prior {variants[k][0].sensor_highpass_hz:g} Hz; {ok.sum()} of {len(rows)} "
+            "determined; "
+            f"fc from {fcs.min():.4f} to {fcs.max():.4f} Hz (mean {fcs.mean():.4f}, SD {fcs.std():.4f}); "
+            f"standard error median {np.median(se):.4f} Hz; RMS of (fc - true) / se = "
+            f"{np.sqrt(np.mean(z**2)):.2f} (1 if the standard error is honest)"
         )
     n = len(rows)
     print(

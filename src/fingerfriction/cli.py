@@ -347,6 +347,9 @@ def forces_cmd(
     from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
     highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none"),
     notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches"),
+    estimate_highpass: bool = typer.Option(
+        False, "--estimate-highpass", help="fit the sensor cut-off on the rests (--highpass-hz: the prior)"
+    ),
 ) -> None:
     """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window."""
     import json
@@ -362,7 +365,9 @@ def forces_cmd(
         if rec is None:
             raise ValueError(f"no trial {trial!r} in {study}/manifest.json")
         x, regions = _frame_positions(study, manifest, rec, positions, from_truth, from_video)
-        params = ForceProcessingParams(sensor_highpass_hz=highpass_hz or None, notch_q=notch_q)
+        params = ForceProcessingParams(
+            sensor_highpass_hz=highpass_hz or None, notch_q=notch_q, estimate_highpass=estimate_highpass
+        )
         prof = process_trial(study, manifest, trial, x, params=params, regions=regions, on_error="flag")
         if out is not None:
             prof.write_csv(out)
@@ -387,6 +392,13 @@ def forces_cmd(
         highlight=False,
     )
     console.print("steps: " + ", ".join(h["step"] for h in prof.history), highlight=False)
+    est = next((h for h in prof.history if h["step"] == "estimate_highpass"), None)
+    if est is not None and est["success"]:
+        console.print(
+            f"sensor cut-off estimated on the rests: {est['cutoff_hz']:.4f} +- {est['se_hz']:.4f} Hz "
+            f"(prior {est['prior_hz']:g} Hz)",
+            highlight=False,
+        )
     if out is not None:
         console.print(f"wrote {out}", highlight=False)
 

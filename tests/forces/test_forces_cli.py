@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pandas as pd
@@ -108,3 +109,17 @@ def test_forces_command_user_errors(study, tmp_path, capsys):
     assert run([str(d), "t1", "--positions", str(short)]) == 2
     err = capsys.readouterr().err
     assert "does not cover the 26 mm window" in err and "Traceback" not in err
+
+
+def test_forces_command_estimate_highpass(study, capsys):
+    d, _ = study
+    # a prior 20 % off: the cut-off (5 Hz in the fixture's sensor) is fitted on the rests
+    assert run([str(d), "t1", "--from-truth", "--highpass-hz", "6", "--estimate-highpass"]) == 0
+    text = " ".join(capsys.readouterr().out.split())  # rich wraps long lines
+    assert "estimate_highpass, compensate_highpass" in text
+    m = re.search(r"sensor cut-off estimated on the rests: ([\d.]+) \+- ([\d.]+) Hz \(prior 6 Hz\)", text)
+    assert m and float(m.group(1)) == pytest.approx(5.0, rel=0.005)
+    # invalid combination: a one-line error, no traceback
+    assert run([str(d), "t1", "--from-truth", "--highpass-hz", "0", "--estimate-highpass"]) == 2
+    err = capsys.readouterr().err
+    assert "estimate_highpass=True needs sensor_highpass_hz" in err and "Traceback" not in err
