@@ -207,9 +207,31 @@ def test_outline_smoothing_makes_a_slowly_opening_contact_edge_accurate():
 @pytest.mark.parametrize("kw, msg", [
     ({"outline_smooth_px": 20}, "outline_smooth_px must be 0, 1 or an odd"),
     ({"outline_smooth_px": -3}, "outline_smooth_px must be 0, 1 or an odd"),
-    ({"outline_smooth_px": 5, "outline_smooth_order": 5}, "outline_smooth_order must be an integer >= 0 and < "),
+    ({"outline_smooth_px": 5, "outline_smooth_order": 5}, "order must be an integer >= 0 and < outline"),
     ({"outline_smooth_order": 1.5}, "outline_smooth_order must be an integer"),
 ])
 def test_options_validate_outline_smoothing(kw, msg):
     with pytest.raises(ValueError, match=msg):
         AnalysisOptions(**kw)
+
+
+@pytest.mark.parametrize("window, order", [(41, 2), (41, 3), (21, 1), (5, 0), (15, 4)])
+def test_smooth_outline_compiled_path_equals_scipy_savgol(window, order):
+    from scipy.ndimage import correlate1d
+    from scipy.signal import savgol_coeffs
+
+    from fingerfriction.video.contact import smooth_outline
+
+    rng = np.random.default_rng(window + order)
+    f = 200 + rng.normal(0, 1, (6, 700))
+    f[:, :50] = np.nan
+    f[3, 300] = np.nan
+    f[5, 400:405] = np.nan
+    fin = np.isfinite(f)
+    ref = correlate1d(np.where(fin, f, 0.0), savgol_coeffs(window, order), axis=-1, mode="nearest")
+    bad = correlate1d((~fin).astype(float), np.ones(window), axis=-1, mode="constant", cval=1.0) > 0
+    ref = np.where(bad, f, ref)
+    got = smooth_outline(f, window, order)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(f))
+    np.testing.assert_allclose(got, ref, atol=1e-8, rtol=0)
+    np.testing.assert_array_equal(got[bad], f[bad])

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from scipy.ndimage import correlate1d
 from scipy.signal import savgol_coeffs
 
@@ -40,8 +41,7 @@ def smooth_outline(rows: np.ndarray, window: int, order: int = 2) -> np.ndarray:
     Not in the paper. Each sub-pixel outline row carries its own noise (about 0.03-0.04
     px on the simulated camera's shot noise); near a contact edge where the gap opens by
     only 1 px over 50-200 columns, that noise moves the 3 px crossing by several pixels.
-    A local polynomial fit over ``window`` columns averages it while keeping curvature
-    (:func:`scipy.signal.savgol_coeffs`, applied with :func:`scipy.ndimage.correlate1d`).
+    A local polynomial fit over ``window`` columns averages it while keeping curvature.
 
     Parameters
     ----------
@@ -57,12 +57,26 @@ def smooth_outline(rows: np.ndarray, window: int, order: int = 2) -> np.ndarray:
     (..., width) float ndarray
         Smoothed rows; a column whose window reaches a NaN or the end of the array keeps
         its raw value (no extrapolation), NaN stays NaN.
+
+    Notes
+    -----
+    Orders 0-1 and 2-3 (which share their coefficients for a centred window) run in a
+    compiled pass with running window sums (:func:`_sg_running`); others through
+    :func:`scipy.signal.savgol_coeffs` and :func:`scipy.ndimage.correlate1d`. Why
+    compiled: ``correlate1d`` with 41 taps took 33-41 us per 1260-column frame, about a
+    third of the whole per-frame analysis, against ~3 us for the running sums
+    (measured; the two agree to ~1e-9 px, checked in the tests).
     """
     rows = np.asarray(rows, dtype=float)
     if window <= 1:
         return rows
     if window % 2 == 0 or not 0 <= order < window:
         raise ValueError(f"window must be odd and > order, got window={window!r}, order={order!r}")
+    if order <= 3:
+        flat = np.ascontiguousarray(rows.reshape(-1, rows.shape[-1]))
+        out = np.empty_like(flat)
+        _sg_running(flat, window // 2, order >= 2, out)
+        return out.reshape(rows.shape)
     fin = np.isfinite(rows)
     sm = correlate1d(np.where(fin, rows, 0.0), savgol_coeffs(window, order), axis=-1, mode="nearest")
     # windows holding a NaN or running past either end keep the raw value
@@ -71,6 +85,63 @@ def smooth_outline(rows: np.ndarray, window: int, order: int = 2) -> np.ndarray:
     return np.where(bad, rows, sm)
 
 
+@njit(cache=True, nogil=True)
+def _sg_running(rows, m, quadratic, out):  # pragma: no cover - compiled
+    """Centred Savitzky-Golay fit of order 1 (``quadratic`` False) or 2 over ``2m+1``
+    columns of each row, by running sums of ``y``, ``j y`` and ``j^2 y``; raw values where
+    the window holds a NaN or leaves the row. The sums are re-anchored every 256 columns
+    to bound round-off."""
+    k, n = rows.shape
+    w = 2 * m + 1
+    D = (2.0 * m - 1.0) * (2.0 * m + 1.0) * (2.0 * m + 3.0)
+    A = 3.0 * (3.0 * m * m + 3.0 * m - 1.0) / D
+    B = 15.0 / D
+    for r in range(k):
+        y = rows[r]
+        o = out[r]
+        for c in range(n):
+            o[c] = y[c]
+        if n < w:
+            continue
+        c = m
+        while c < n - m:
+            # (re-)anchor: sums over the window centred on c, offsets j = i - c
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            nbad = 0
+            for j in range(-m, m + 1):
+                v = y[c + j]
+                if v != v:
+                    nbad += 1
+                else:
+                    s0 += v
+                    s1 += j * v
+                    s2 += j * j * v
+            stop = min(c + 256, n - m)
+            while True:
+                if nbad == 0:
+                    o[c] = A * s0 - B * s2 if quadratic else s0 / w
+                if c + 1 >= stop:
+                    break
+                # slide to c + 1: offsets shift by -1, drop y[c-m] (j=-m), add y[c+m+1] (j=m)
+                vo = y[c - m]
+                vi = y[c + m + 1]
+                if vo != vo:
+                    nbad -= 1
+                    vo = 0.0
+                if vi != vi:
+                    nbad += 1
+                    vi = 0.0
+                # sums with offsets j' = j - 1: s2' = s2 - 2 s1 + s0, s1' = s1 - s0
+                s0o = s0 - vo
+                s1o = s1 + m * vo  # remove the term j=-m: s1 - (-m) vo
+                s2o = s2 - m * m * vo
+                s2 = s2o - 2.0 * s1o + s0o + m * m * vi
+                s1 = s1o - s0o + m * vi
+                s0 = s0o + vi
+                c += 1
+            c += 1
 def contact_distance(f: np.ndarray, s: np.ndarray, *, metric: str = "euclidean",
                      tol_px: float = 3.0) -> np.ndarray:
     """Distance in px from each column's surface outline point to the finger.
