@@ -303,6 +303,10 @@ def accuracy(study, max_trials: int | None, metrics=("euclidean", "vertical"), s
                 if far.any():
                     print(f"    end points > 3 px off: {far.sum()}, slope there at most {cs[far].max():.4f} "
                           f"px/px, distance error there at most |{np.abs(ce[far]).max():.3f}| px")
+                ok = (ep <= 3) | (np.abs(ce) <= 0.1)
+                print(f"  well-posed figure: end point within 3 px along the surface OR where the true "
+                      f"distance is within 0.1 px of the criterion: {np.mean(ok):.4%} of {ok.size} "
+                      f"(target: all)")
         print("  blind spots per surface (all its trials), widths in mm: truth vs ours")
         for name, (T, M) in per_surface.items():
             bt = blind_spots(_stack(T))
