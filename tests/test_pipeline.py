@@ -438,8 +438,11 @@ def test_analyze_command_interrupted_by_ctrl_c_then_resumed(tiny_study, tmp_path
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
     cmd = [sys.executable, "-m", "fingerfriction.cli", "analyze", str(tiny_study), "--out", str(out),
            "--workers", "1", "--simulated"]
+    # a shell's background job inherits SIGINT ignored (and Python then installs no
+    # KeyboardInterrupt handler): restore the default, as for a command in a terminal
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 240
         while time.monotonic() < deadline and proc.poll() is None:
