@@ -323,11 +323,11 @@ def _run_video(study_dir: Path, trial: dict, surface_spec: dict, options: Mappin
     info = {"message": res.message, "mm_per_px": res.mm_per_px, "threshold": res.threshold,
             "area_px": res.area_px, "reference_frame": res.reference_frame,
             "flag_counts": res.flag_counts(), "timings": res.timings,
-            "clipped_frames": int(np.count_nonzero(res.clipped)) if res.clipped is not None else 0}
+            "clipped_frames": int(np.count_nonzero(res.clipped))}
     return {"t_s": float(v.get("t0_s", 0.0)) + k / fps, "x_mm": np.asarray(res.x, dtype=float),
             "regions": np.asarray(res.regions, dtype=float), "flags": _frame_reasons(res.flags),
             "frame": k, "info": info,
-            "clipped": res.clipped if res.clipped is not None else np.zeros(res.n_frames, bool)}
+            "clipped": res.clipped}
 
 
 def _run_forces(study_dir: Path, trial: dict, surface_spec: dict, video_out: dict, options: Mapping):

@@ -1271,12 +1271,9 @@ def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0
     if not fc < 0.5 * fs:
         return fail(f"the fitted cut-off {fc:g} Hz is not below the Nyquist frequency", sol.nfev, rms, ac)
     if not se <= max_rel_se * fc:
-        est = HighpassEstimate(prior, se, prior, n_rest, k, sol.nfev, rms, ac, False, "")
-        return replace(
-            est,
-            message=f"the cut-off is not determined by the rests: {fc:.4g} +- {se:.2g} Hz (standard error "
-            f"above max_rel_se={max_rel_se:g} of it)",
-        )
+        msg = (f"the cut-off is not determined by the rests: {fc:.4g} +- {se:.2g} Hz (standard error "
+               f"above max_rel_se={max_rel_se:g} of it)")
+        return HighpassEstimate(prior, se, prior, n_rest, k, sol.nfev, rms, ac, False, msg)
     return HighpassEstimate(fc, se, prior, n_rest, k, sol.nfev, rms, ac, True, "ok")
 
 
