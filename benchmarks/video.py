@@ -111,10 +111,13 @@ def speed(study, n_frames: int) -> None:
             cv2.threshold(c, cal.level, 255, cv2.THRESH_BINARY_INV, dst=buf)
             cv2.findContours(buf, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
 
-    def analysis():
-        an = FrameAnalyzer(cal, AnalysisOptions(), frames.shape[1:])
+    def analysis(opts=None):
+        an = FrameAnalyzer(cal, opts or AnalysisOptions(), frames.shape[1:])
         for i in range(0, k, 128):
             an.analyze_chunk(i, frames[i:i + 128])
+
+    def analysis_raw():  # without the outline smoothing of the contact test
+        analysis(AnalysisOptions(outline_smooth_px=0))
 
     def best_of(fn, reps=3):
         """frames/s from CPU time (per core, robust to other load) and from wall time."""
@@ -134,6 +137,9 @@ def speed(study, n_frames: int) -> None:
           f"(wall {w_floor:.0f})")
     print(f"  full analysis (outline, C_f, x, contact)      : {f_an:8.0f} frames/s per core "
           f"(wall {w_an:.0f}); {f_an / f_floor:.2f} x the floor; target >= 2000")
+    f_raw, w_raw = best_of(analysis_raw)
+    print(f"  the same without the outline smoothing     : {f_raw:8.0f} frames/s per core "
+          f"(wall {w_raw:.0f}); the smoothing costs {1e6 * (1 / f_an - 1 / f_raw):.1f} us per frame")
     print(f"  -> 300,000 frames on 2 cores: {300000 / (2 * f_an):.0f} s of analysis")
     print("  decode rate (same frames, full 1280x720, one thread):")
     with tempfile.TemporaryDirectory() as tmp:
