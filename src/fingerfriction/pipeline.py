@@ -190,7 +190,8 @@ class TrialResult:
     frames : pandas.DataFrame
         Per-frame table (:func:`fingerfriction.results.frames_table`).
     forces : pandas.DataFrame
-        Per-position table: ``x_mm``, ``F_T_N``, ``F_N_N``, ``n_samples``.
+        Per-position table: ``x_mm``, ``F_T_N``, ``F_N_N`` (paper's footing), ``F_T_abs_N``,
+        ``F_N_abs_N`` (absolute footing, NaN when unavailable), ``n_samples``.
     info : dict
         Stage diagnostics (calibration, threshold used, flagged-frame counts, ...).
     """
@@ -340,7 +341,8 @@ def _run_forces(study_dir: Path, trial: dict, surface_spec: dict, video_out: dic
         params=forces.ForceProcessingParams(**dict(options)), regions=video_out["regions"], on_error="raise",
     )
     info = {"flags": [f"{f.code}: {f.message}" for f in prof.flags],
-            "flat_segment_mm": list(prof.flat_segment_mm), "message": prof.message}
+            "flat_segment_mm": list(prof.flat_segment_mm), "message": prof.message,
+            "absolute": bool(prof.absolute), "absolute_message": prof.absolute_message}
     if not prof.success:  # on_error='raise' should have raised; never keep unusable values
         raise ValueError(f"force processing failed: {prof.message}")
     return prof.to_frame(), info

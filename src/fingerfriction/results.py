@@ -45,7 +45,10 @@ empty when the frame is good, else the reason it was flagged).
 
 Per-position table (``forces.parquet``): ``x_mm`` (finger position on the 0.01 mm grid),
 ``F_T_N`` and ``F_N_N`` (tangential and normal force in N, drift-corrected over the flat
-segment), ``n_samples`` (force samples averaged into the bin; 0 = interpolated).
+segment: the paper's footing), ``F_T_abs_N`` and ``F_N_abs_N`` (the same forces on the
+absolute footing: drift removed on the unloaded rests only, flat-ground level ``mu F_N``
+kept; NaN when the trial has no absolute level, see ``status.json`` ``info.forces.absolute``),
+``n_samples`` (force samples averaged into the bin; 0 = interpolated).
 """
 
 from __future__ import annotations
@@ -83,6 +86,10 @@ logger = logging.getLogger(__name__)
 
 RESULTS_FORMAT = "fingerfriction-results"
 RESULTS_SCHEMA_VERSION = 1
+#: Version of a trial's outputs (``status.json`` ``trial_format``): 2 added the absolute
+#: forces ``F_T_abs_N``, ``F_N_abs_N`` to ``forces.parquet``. A trial written with another
+#: version is not finished: ``analyze`` recomputes it.
+TRIAL_FORMAT = 2
 _TRIAL_ID = re.compile(r"^[A-Za-z0-9_.-]+$")
 
 
@@ -334,6 +341,8 @@ class ResultsStore:
         st = self.status(trial_id)
         if st is None or st.get("status") != "ok" or st.get("params_sha256") != params_sha256:
             return False
+        if st.get("trial_format", 1) != TRIAL_FORMAT:
+            return False
         d = self.trial_dir(trial_id)
         return (d / "frames.parquet").is_file() and (d / "forces.parquet").is_file()
 
@@ -347,7 +356,8 @@ class ResultsStore:
         (d / "status.json").unlink(missing_ok=True)
         atomic_write_parquet(d / "frames.parquet", frames)
         atomic_write_parquet(d / "forces.parquet", forces)
-        atomic_write_json(d / "status.json", {"trial": trial_id, "status": "ok", **status})
+        atomic_write_json(d / "status.json",
+                          {"trial": trial_id, "status": "ok", "trial_format": TRIAL_FORMAT, **status})
 
     def write_failure(self, trial_id: str, reason: str, status: dict) -> None:
         """Record a failed trial with its one-line reason; remove stale tables."""

@@ -541,6 +541,35 @@ def test_process_forces_recovers_the_profile_in_position():
     assert prof.x[np.argmax(prof.f_t)] == pytest.approx(-0.6, abs=0.03)
 
 
+def test_absolute_footing_keeps_the_flat_ground_level():
+    """F_T_abs keeps the 0.17 N flat friction (the flat-segment line does not touch it) and
+    F_N_abs the 0.3 N load; the paper's footing removes both levels."""
+    rec, tv, xv = synthetic_trial()
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0))
+    assert prof.absolute and prof.absolute_message == ""
+    truth = 0.17 + _feature(prof.x)
+    err = np.sqrt(np.mean((prof.f_t_abs - truth) ** 2)) / np.ptp(truth)
+    assert err < 0.02
+    assert np.median(prof.f_n_abs) == pytest.approx(0.3, abs=0.003)
+    flat = prof.x < -9.0
+    assert np.mean(prof.f_t_abs[flat]) == pytest.approx(0.17, abs=0.002)
+    assert abs(np.mean(prof.f_t[flat])) < 0.002  # the paper's footing: zero on flat ground
+    df = prof.to_frame()
+    assert list(df.columns) == ["x_mm", "F_T_N", "F_N_N", "F_T_abs_N", "F_N_abs_N", "n_samples"]
+    np.testing.assert_array_equal(df["F_T_abs_N"].to_numpy(), prof.f_t_abs)
+
+
+def test_no_absolute_footing_without_highpass_inversion_is_flagged():
+    rec, tv, xv = synthetic_trial(highpass=0)
+    prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0),
+                          params=ForceProcessingParams(sensor_highpass_hz=None, mains="notch"))
+    assert prof.success and not prof.absolute
+    assert "sensor_highpass_hz=None" in prof.absolute_message
+    assert [f.code for f in prof.flags] == ["no-absolute"]
+    assert prof.f_t_abs is None
+    assert prof.to_frame()["F_T_abs_N"].isna().all()
+
+
 def test_paper_procedure_without_highpass_compensation():
     """sensor_highpass_hz=None, mains="notch" is the paper's procedure: right for a sensor
     without high-pass, badly wrong for a 5 Hz piezo chain (why the compensation is on by
@@ -650,7 +679,7 @@ def test_profile_csv_round_trip(tmp_path):
     prof = process_forces(rec, tv, xv, feature_extent_mm=(-1.0, 1.0))
     prof.write_csv(tmp_path / "ft.csv")
     df = pd.read_csv(tmp_path / "ft.csv")
-    assert list(df.columns) == ["x_mm", "F_T_N", "F_N_N", "n_samples"]
+    assert list(df.columns) == ["x_mm", "F_T_N", "F_N_N", "F_T_abs_N", "F_N_abs_N", "n_samples"]
     np.testing.assert_allclose(df["F_T_N"], prof.f_t, rtol=1e-8, atol=1e-12)
     assert not list(tmp_path.glob("*.tmp"))
 

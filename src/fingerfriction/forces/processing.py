@@ -1786,7 +1786,20 @@ class ForceProfile:
         Position grid in mm (finger centre), ``resolution_mm`` apart over the window.
     f_t, f_n : (L,) ndarray
         Tangential and normal force in N at each position, relative to their linear trend
-        over the flat segment (NaN when ``success`` is False and nothing could be computed).
+        over the flat segment (the paper's footing; NaN when ``success`` is False and
+        nothing could be computed).
+    f_t_abs, f_n_abs : (L,) ndarray
+        The same forces on the absolute footing: the high-pass inverted and the drift
+        fitted on the unloaded rests removed, but *not* the paper's flat-segment line, so
+        that the flat-ground level ``F_T = mu F_N`` is kept. All NaN when ``absolute`` is
+        False.
+    absolute : bool
+        True when absolute levels could be had: the sensor's high-pass was inverted
+        (``sensor_highpass_hz`` set) and at least one unloaded rest (before the touch or
+        after the lift-off) anchored the drift. When False, ``absolute_message`` says why
+        and only the paper's footing (``f_t``, ``f_n``) exists.
+    absolute_message : str
+        Why the absolute footing is missing ('' when it is available).
     counts : (L,) ndarray of int
         Force samples averaged per position bin (0: interpolated).
     signals : ForceSignals or None
@@ -1821,6 +1834,10 @@ class ForceProfile:
     success: bool = True
     message: str = "ok"
     params: ForceProcessingParams = field(default_factory=ForceProcessingParams)
+    f_t_abs: np.ndarray | None = None
+    f_n_abs: np.ndarray | None = None
+    absolute: bool = False
+    absolute_message: str = ""
 
     @property
     def history(self) -> tuple:
@@ -1828,10 +1845,15 @@ class ForceProfile:
         return () if self.signals is None else self.signals.history
 
     def to_frame(self):
-        """``pandas.DataFrame`` with columns ``x_mm, F_T_N, F_N_N, n_samples``."""
+        """``pandas.DataFrame`` with columns ``x_mm, F_T_N, F_N_N, F_T_abs_N, F_N_abs_N,
+        n_samples`` (the absolute columns are NaN when ``absolute`` is False)."""
         import pandas as pd
 
-        return pd.DataFrame({"x_mm": self.x, "F_T_N": self.f_t, "F_N_N": self.f_n, "n_samples": self.counts})
+        nan = np.full(self.x.shape, np.nan)
+        f_t_abs = self.f_t_abs if self.f_t_abs is not None else nan
+        f_n_abs = self.f_n_abs if self.f_n_abs is not None else nan
+        return pd.DataFrame({"x_mm": self.x, "F_T_N": self.f_t, "F_N_N": self.f_n, "F_T_abs_N": f_t_abs,
+                             "F_N_abs_N": f_n_abs, "n_samples": self.counts})
 
     def write_csv(self, path) -> None:
         """Write :meth:`to_frame` to ``path`` atomically (temporary file, then rename)."""
@@ -2246,6 +2268,7 @@ def process_forces(
         sig = sig.notch(params.notch_hz, q=params.notch_q)
     if params.lowpass_hz is not None:
         sig = sig.lowpass(params.lowpass_hz, order=params.lowpass_order)
+    post = None
     if params.sensor_highpass_hz is not None:
         if params.estimate_highpass:
             fc, sig, post = _estimated_compensation(sig, base, params, flags)
@@ -2302,12 +2325,24 @@ def process_forces(
                     "inside the window: the drift fit includes static forces; set flat_segment_mm",
                 )
             )
+    # The absolute footing is the signal before the paper's flat-segment line: it keeps the
+    # flat-ground level mu F_N that the line removes.
+    absolute, absolute_message = _absolute_footing(params, base, post)
+    if not absolute:
+        flags.append(Flag("no-absolute", absolute_message))
+    sig_abs = sig
     sig = sig.remove_drift(mask, segment=how)
 
     # --- positions --------------------------------------------------------------------
     try:
         res_t = resample_to_positions(x_at, sig.f_t, window=window, resolution=params.resolution_mm)
         res_n = resample_to_positions(x_at, sig.f_n, window=window, resolution=params.resolution_mm)
+        f_t_abs = f_n_abs = None
+        if absolute:
+            f_t_abs = resample_to_positions(x_at, sig_abs.f_t, window=window,
+                                            resolution=params.resolution_mm).values
+            f_n_abs = resample_to_positions(x_at, sig_abs.f_n, window=window,
+                                            resolution=params.resolution_mm).values
     except ValueError as exc:  # the force samples, not just the frames, must span the window
         flags.append(Flag("window", f"at the force sample times, {exc}", "error"))
         return finish_error()
@@ -2356,4 +2391,19 @@ def process_forces(
         success=True,
         message="ok",
         params=params,
+        f_t_abs=f_t_abs,
+        f_n_abs=f_n_abs,
+        absolute=absolute,
+        absolute_message=absolute_message,
     )
+
+
+def _absolute_footing(params: ForceProcessingParams, base, post) -> tuple[bool, str]:
+    """Whether the forces have an absolute level, and why not (a one-line message)."""
+    if params.sensor_highpass_hz is None:
+        return False, ("sensor_highpass_hz=None: the sensor's high-pass is not inverted, so the forces "
+                       "are known only relative to the flat segment (the paper's footing)")
+    if base is None and post is None:
+        return False, ("no unloaded rest before the touch or after the lift-off anchors the drift: the "
+                       "forces are known only relative to the flat segment (the paper's footing)")
+    return True, ""
