@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._check import check_fs
+
 __all__ = [
     "FORCE_FORMATS",
     "ForceFileError",
@@ -88,7 +90,7 @@ class ForceRecord:
     channels: dict = field(default_factory=lambda: dict(DEFAULT_CHANNELS))
 
     def __post_init__(self) -> None:
-        fs = _check_fs(self.fs_hz)
+        fs = check_fs(self.fs_hz, "fs_hz")
         t0 = float(self.t0_s)
         if not math.isfinite(t0):
             raise ValueError(f"t0_s must be a finite time in s, got {self.t0_s!r}")
@@ -116,17 +118,6 @@ class ForceRecord:
     def times(self) -> np.ndarray:
         """``(n_samples,)`` sample times in s on the common clock, ``t0_s + n / fs_hz``."""
         return self.t0_s + np.arange(self.n_samples) / self.fs_hz
-
-
-def _check_fs(fs_hz, name: str = "fs_hz") -> float:
-    """A sampling frequency in Hz as a finite positive float, or a ValueError naming ``name``."""
-    try:
-        fs = float(fs_hz)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a sampling frequency in Hz, got {fs_hz!r}") from None
-    if not (math.isfinite(fs) and fs > 0):
-        raise ValueError(f"{name} must be a finite positive sampling frequency in Hz, got {fs_hz!r}")
-    return fs
 
 
 def _infer_format(path: Path) -> str:
@@ -405,7 +396,7 @@ def read_force_file(
         rate in the file that contradicts ``fs_hz``. ``OSError`` if the file is missing.
     """
     p = Path(path)
-    fs = _check_fs(fs_hz)
+    fs = check_fs(fs_hz, "fs_hz")
     chans = _check_channels_arg(channels)
     fmt = _infer_format(p) if format is None else str(format).lower()
     if fmt not in _READERS:
