@@ -1,6 +1,6 @@
-"""The friction model of Janko, Wiertlewski & Visell (2018), Eq. (1)-(4).
+"""The friction model of Janko, Wiertlewski & Visell (2018), Eq. (1)-(4), in two variants.
 
-Eq. (4) of the paper, for the contact regions ``C_i = [a_i, b_i]`` of one frame::
+The paper's Eq. (4), for the contact regions ``C_i = [a_i, b_i]`` of one frame::
 
     F = F_int + F_def
       = sum_i  int_{C_i} (p0 + p1 dh/dx) (sin alpha + mu cos alpha) dx
@@ -8,7 +8,49 @@ Eq. (4) of the paper, for the contact regions ``C_i = [a_i, b_i]`` of one frame:
 with ``alpha = atan(dh/dx)``. The interfacial part (Eq. 2 with the constant pressure
 ``sigma_p = p0``) is ``F_int = p0 sum_i int (sin alpha + mu cos alpha) dx`` and the
 deformation part (Eq. 3 with weight ``p1``) is ``F_def = p1 sum_i int dh/dx (sin alpha +
-mu cos alpha) dx``.
+mu cos alpha) dx``. This is the **paper variant** (:class:`FrictionParams`,
+:meth:`FrictionModel.forces`).
+
+The load-consistent variant (the package's default model)
+----------------------------------------------------------
+With a constant ``p0`` the model's normal load is proportional to the contact length, but
+the finger is force-controlled: when the contact splits or shrinks over a feature, the
+measured ``F_N`` stays near 0.3 N and the pressure rises. The **load-consistent Eq. (4)**
+(:class:`LoadParams`, :meth:`FrictionModel.load_forces`) keeps the paper's assumptions, a
+pressure that is uniform over the contact at any instant (the fluid-filled-membrane
+analogy of the paper) and Coulomb friction ``sigma_r = mu sigma_p`` (Eq. 2), and adds the
+one condition the paper leaves out: the stresses of Eq. (2) carry the measured normal
+load. Projecting the normal stress ``sigma_p`` (along the surface normal, pressing on the
+plate) and the friction stress ``mu sigma_p`` (along the surface, dragging the plate in
+the direction of motion) onto the vertical gives, per unit width (``D`` absorbed as in
+the paper)::
+
+    F_N(x) = p0(x) sum_i int_{C_i} (cos alpha - mu sin alpha) dx = p0(x) (K - mu S)
+
+so that, at each finger position ``x``::
+
+    p0(x)  = F_N(x) / (K - mu S)                                   (pressure, N/mm)
+    F_int  = p0(x) (S + mu K) = F_N(x) (S + mu K) / (K - mu S)     (Eq. 2)
+    F_def  = p1 (Q + mu S)                                         (Eq. 3, as in Eq. 4)
+
+with the three integrals of the next section. On flat ground (``S = Q = 0``) this is
+Amontons' law ``F_T = mu F_N`` exactly, so ``mu`` is the flat-ground ratio of the
+measured forces (:func:`fingerfriction.fit.flat_ground_mu`), and the only parameter left
+per trial is the deformation weight ``p1`` (N/mm, as the paper's). When ``F_N`` happens to
+be proportional to ``K - mu S`` (a constant pressure) the variant *is* the paper's Eq. (4)
+with ``p0 = F_N / (K - mu S)``. The deformation stress of Eq. (3) is taken as a purely
+tangential (dissipative) term and carries no load; measured on the simulated study,
+letting it carry load (the literal reading ``sigma_p = p0 + p1 dh/dx``) fits worse and
+gives negative ``p1`` in a third of the trials.
+
+Load-bearing contact. The paper's regions ``C_i`` are geometric: finger and surface within
+3 px (about 70 um) of each other. Under a soft finger the gap opens slowly at a contact
+edge, so each geometric region extends a strip of a few tenths of a millimetre beyond the
+load-bearing (mechanical, pressure > 0) contact, and a region that has just formed near a
+feature carries no load yet. The load-consistent variant therefore integrates over the
+regions inset by ``inset`` mm at each end (:func:`fingerfriction.regions.inset_regions`;
+``LoadParams.inset``, fitted per subject by the fit, 0 = the geometric regions as they
+are). For a prediction on a surface never recorded, ``F_N`` is the nominal load (0.3 N).
 
 Units
 -----
@@ -22,10 +64,12 @@ Implementation
 Because the integrands depend on ``x`` only through the slope ``s = dh/dx``, with
 ``sin alpha = s / sqrt(1 + s^2)`` and ``cos alpha = 1 / sqrt(1 + s^2)``, three
 antiderivatives ``S(x) = int sin alpha``, ``K(x) = int cos alpha`` and ``Q(x) = int s sin
-alpha`` are tabulated once per surface; each region then costs two interpolations:
-``F_int = p0 [dS + mu dK]`` and ``F_def = p1 [dQ + mu dS]``. This makes 10^5 frames x 3
-regions a few milliseconds, and it exposes the model's linearity in ``(p0, p1)`` that
-:mod:`fingerfriction.fit` uses for its closed-form least-squares fit.
+alpha`` are tabulated once per surface; each region then costs two interpolations
+(:meth:`FrictionModel.integrals`, the one place they are built). Both variants are
+combinations of the per-frame sums ``S, K, Q``: the paper's is
+``F = p0 (S + mu K) + p1 (Q + mu S)``, linear in ``(p0, p1)`` (:meth:`FrictionModel.basis`,
+used by :mod:`fingerfriction.fit` for its closed-form least squares); the load-consistent
+one is :func:`load_terms`. 10^5 frames x 3 regions cost a few milliseconds.
 """
 
 from __future__ import annotations
@@ -37,10 +81,27 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.integrate import cumulative_simpson
 
-from .regions import as_regions
+from .regions import as_regions, inset_regions
 from .surfaces import Surface
 
-__all__ = ["FrictionParams", "ModelForces", "FrictionModel", "friction_force"]
+__all__ = [
+    "MODELS",
+    "FrictionParams",
+    "LoadParams",
+    "ModelForces",
+    "FrictionModel",
+    "friction_force",
+    "load_terms",
+    "T_matrix",
+]
+
+#: The model variants: ``'load'`` (load-consistent Eq. 4, the default) and ``'paper'``
+#: (Eq. 4 as printed, constant pressure).
+MODELS = ("load", "paper")
+
+#: Smallest vertical support ``K - mu S`` (mm) of the load-bearing contact for which the
+#: load-consistent pressure is defined; below it (no load-bearing contact) it is NaN.
+MIN_SUPPORT_MM = 1e-3
 
 
 @dataclass(frozen=True)
@@ -83,13 +144,102 @@ class FrictionParams:
 
 
 @dataclass(frozen=True)
+class LoadParams:
+    """Parameters of the load-consistent Eq. (4) (see the module notes).
+
+    Parameters
+    ----------
+    mu : float
+        Coefficient of friction, dimensionless, ``0 <= mu <= 5`` (from flat ground).
+    p1 : float
+        Weight of the deformation term times D, in N/mm (any sign is accepted; a negative
+        one is flagged by the fit as unphysical).
+    inset : float
+        Inset in mm of each geometric contact region at both ends, giving the load-bearing
+        contact (>= 0; 0 = the regions as given).
+    """
+
+    mu: float
+    p1: float
+    inset: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("mu", "p1", "inset"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
+                raise ValueError(f"LoadParams.{name} must be a finite number, got {v!r}")
+            object.__setattr__(self, name, float(v))
+        if not 0.0 <= self.mu <= 5.0:
+            raise ValueError(f"LoadParams.mu must be in [0, 5], got {self.mu!r}")
+        if self.inset < 0:
+            raise ValueError(f"LoadParams.inset (mm) must be >= 0, got {self.inset!r}")
+
+    def to_json(self) -> str:
+        return json.dumps({"model": "load", **asdict(self)})
+
+    @classmethod
+    def from_json(cls, text: str) -> LoadParams:
+        d = json.loads(text)
+        return cls(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0))
+
+
+@dataclass(frozen=True)
 class ModelForces:
     """Model forces per frame, in N, each ``(n_frames,)``: Eq. (1) ``total = interfacial +
-    deformation``, with ``interfacial`` from Eq. (2) and ``deformation`` from Eq. (3)."""
+    deformation``, with ``interfacial`` from Eq. (2) and ``deformation`` from Eq. (3).
+    ``pressure`` is the load-consistent ``p0(x)`` in N/mm (None for the paper variant,
+    whose ``p0`` is a constant; NaN where the load-bearing contact is empty)."""
 
     total: np.ndarray
     interfacial: np.ndarray
     deformation: np.ndarray
+    pressure: np.ndarray | None = None
+
+
+def T_matrix(mu) -> np.ndarray:
+    """``(..., 3, 2)`` matrix mapping ``[S, K, Q]`` to the two columns of Eq. (4):
+    ``[S, K, Q] @ T(mu) = [S + mu K, Q + mu S]`` (the parts multiplying ``p0`` and ``p1``)."""
+    mu = np.asarray(mu, dtype=float)
+    T = np.zeros(mu.shape + (3, 2))
+    T[..., 0, 0] = 1.0
+    T[..., 1, 0] = mu
+    T[..., 0, 1] = mu
+    T[..., 2, 1] = 1.0
+    return T
+
+
+def load_terms(integrals, f_n, mu: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of the load-consistent Eq. (4) at each position (see the module notes).
+
+    Parameters
+    ----------
+    integrals : (n, 3) array_like
+        ``[S, K, Q]`` per position in mm (:meth:`FrictionModel.integrals`, over the
+        load-bearing contact; possibly median-filtered).
+    f_n : float or (n,) array_like
+        Normal force in N at each position (measured, or the nominal load).
+    mu : float
+        Coefficient of friction.
+
+    Returns
+    -------
+    f_int : (n,) ndarray
+        Interfacial force ``F_N (S + mu K) / (K - mu S)`` in N (Eq. 2); NaN where the
+        support ``K - mu S`` is below :data:`MIN_SUPPORT_MM`.
+    b_def : (n,) ndarray
+        ``Q + mu S`` in mm: ``F_def = p1 b_def`` (Eq. 3).
+    pressure : (n,) ndarray
+        ``p0(x) = F_N / (K - mu S)`` in N/mm; NaN where undefined.
+    """
+    I = np.asarray(integrals, dtype=float)
+    if I.ndim != 2 or I.shape[1] != 3:
+        raise ValueError(f"integrals must be an (n, 3) array of S, K, Q in mm, got shape {I.shape}")
+    S, K, Q = I.T
+    fn = np.broadcast_to(np.asarray(f_n, dtype=float), S.shape)
+    support = K - mu * S
+    ok = support > MIN_SUPPORT_MM
+    pressure = np.where(ok, fn / np.where(ok, support, 1.0), np.nan)
+    return pressure * (S + mu * K), Q + mu * S, pressure
 
 
 class FrictionModel:
@@ -134,6 +284,32 @@ class FrictionModel:
         K = K + np.where(x < xt[0], x - xt[0], 0.0) + np.where(x > xt[-1], x - xt[-1], 0.0)
         return S, K, Q
 
+    def integrals(self, regions) -> np.ndarray:
+        """Per-frame sums over the regions of the three integrals of Eq. (4).
+
+        Parameters
+        ----------
+        regions : (n_frames, n_max, 2) array_like
+            Contact regions in mm (see :mod:`fingerfriction.regions`).
+
+        Returns
+        -------
+        (n_frames, 3) ndarray
+            ``S = sum_i int_{C_i} sin alpha dx``, ``K = sum_i int_{C_i} cos alpha dx`` and
+            ``Q = sum_i int_{C_i} dh/dx sin alpha dx``, in mm (0 for a frame without
+            contact).
+        """
+        arr = as_regions(regions)
+        valid = ~np.isnan(arr[..., 0])
+        a = np.where(valid, arr[..., 0], 0.0)
+        b = np.where(valid, arr[..., 1], 0.0)
+        Sa, Ka, Qa = self._antiderivatives(a)
+        Sb, Kb, Qb = self._antiderivatives(b)
+        out = np.empty((arr.shape[0], 3))
+        for j, (lo, hi) in enumerate(((Sa, Sb), (Ka, Kb), (Qa, Qb))):
+            out[:, j] = np.sum(np.where(valid, hi - lo, 0.0), axis=1)
+        return out
+
     def basis(self, regions, mu: float) -> np.ndarray:
         """Per-frame integrals multiplying p0 and p1 in Eq. (4).
 
@@ -153,17 +329,7 @@ class FrictionModel:
         """
         if not (isinstance(mu, (int, float, np.integer, np.floating)) and math.isfinite(mu)):
             raise ValueError(f"mu must be a finite number, got {mu!r}")
-        arr = as_regions(regions)
-        valid = ~np.isnan(arr[..., 0])
-        a = np.where(valid, arr[..., 0], 0.0)
-        b = np.where(valid, arr[..., 1], 0.0)
-        Sa, Ka, Qa = self._antiderivatives(a)
-        Sb, Kb, Qb = self._antiderivatives(b)
-        dS, dK, dQ = Sb - Sa, Kb - Ka, Qb - Qa
-        out = np.empty((arr.shape[0], 2))
-        out[:, 0] = np.sum(np.where(valid, dS + mu * dK, 0.0), axis=1)
-        out[:, 1] = np.sum(np.where(valid, dQ + mu * dS, 0.0), axis=1)
-        return out
+        return self.integrals(regions) @ T_matrix(float(mu))
 
     def forces(self, regions, params: FrictionParams) -> ModelForces:
         """Eq. (1)-(4): model forces in N for every frame, with their two components."""
@@ -173,6 +339,31 @@ class FrictionModel:
         f_int = params.p0 * B[:, 0]
         f_def = params.p1 * B[:, 1]
         return ModelForces(total=f_int + f_def, interfacial=f_int, deformation=f_def)
+
+
+    def load_forces(self, regions, f_n, params: LoadParams) -> ModelForces:
+        """The load-consistent Eq. (4) (module notes): forces in N for every frame.
+
+        Parameters
+        ----------
+        regions : (n_frames, n_max, 2) array_like
+            Geometric contact regions in mm; inset by ``params.inset`` here.
+        f_n : float or (n_frames,) array_like
+            Normal force in N (measured at each frame, or the nominal load).
+        params : LoadParams
+
+        Returns
+        -------
+        ModelForces
+            With ``pressure`` ``p0(x)`` in N/mm; NaN forces where the load-bearing contact
+            is empty.
+        """
+        if not isinstance(params, LoadParams):
+            raise TypeError(f"params must be LoadParams, got {type(params).__name__}")
+        I = self.integrals(inset_regions(regions, params.inset))
+        f_int, b_def, pressure = load_terms(I, f_n, params.mu)
+        f_def = params.p1 * b_def
+        return ModelForces(total=f_int + f_def, interfacial=f_int, deformation=f_def, pressure=pressure)
 
 
 def friction_force(surface: Surface, regions, params: FrictionParams) -> ModelForces:
