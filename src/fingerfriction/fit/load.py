@@ -1,0 +1,627 @@
+"""The load-consistent variant of the fit (the package's default model).
+
+The model is Eq. (4) of Janko, Wiertlewski & Visell 2018 with the pressure taken from the
+measured normal force at each position (:mod:`fingerfriction.model`, "The load-consistent
+variant"): ``F_T = F_N (S + mu K) / (K - mu S) + p1 (Q + mu S)`` over the load-bearing
+contact. Its parameters are fitted in three steps, each where the data pin it:
+
+1. **mu per subject from flat-ground Coulomb friction** (:func:`flat_ground_mu`). Where the
+   finger touches only flat ground (every contact region before the feature, the same flat
+   segment as the paper's detrend) the model is Amontons' law ``F_T = mu F_N`` exactly, so
+   ``mu`` is the ratio of the absolute forces there. The ratio ``r(x) = F_T / F_N`` is
+   fitted per trial as ``mu_k + A_k exp(-u / lambda)`` (``u`` the distance from the start
+   of the flat segment, ``lambda`` shared by the subject's trials): a static-to-sliding
+   transient at the start of the slide (the paper's Discussion) would otherwise bias the
+   ratio upwards. The subject's ``mu`` is the mean of the trials' ``mu_k``, with a seeded
+   bootstrap confidence interval over trials.
+2. **The load-bearing inset per subject** (``LoadParams.inset``): the geometric contact
+   regions (the paper's 3-px criterion) are inset by ``delta`` mm at each end; ``delta``
+   minimises the subject's summed squared residual with ``p1`` profiled out per trial
+   (bounded scalar search, ``scipy.optimize.minimize_scalar``).
+3. **p1 per trial** by closed-form least squares on the absolute forces (the model is
+   linear in ``p1``), with a standard error that allows for the autocorrelated residuals
+   (Newey-West, Bartlett kernel over ``hac_mm`` of positions).
+
+Why ``mu`` is not refined jointly with the rest: on the simulated 180-trial study, mu from
+flat ground lands within 0.01 % of the truth (0.55, 0.60), while minimising the residual
+over ``mu`` and ``delta`` together moves it to 0.5448 and 0.5946 (-0.95 % and -0.90 %): the
+joint fit bends ``mu`` to absorb model mismatch at the features, where Eq. (4) is an
+approximation, whereas flat ground is where the model is exact (``benchmarks/science.py``
+prints both).
+
+A trial without absolute forces (no unloaded rest, or ``sensor_highpass_hz=None`` in the
+force stage) is fitted on the paper's footing instead: the nominal load stands in for
+``F_N`` and model and measurement are detrended over the flat segment alike, as the paper
+variant does; it is flagged ``no-absolute`` and takes no part in ``mu`` or ``delta``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize
+
+from ..model import FrictionModel, load_terms
+from ..regions import inset_regions
+from ..surfaces import Surface
+from .common import FitFlag, Trial, _check_kernel, _fit_labels, flat_detrend, flat_segment_mask, median_filter, nmse
+
+__all__ = [
+    "LoadFitOptions",
+    "FlatGroundMu",
+    "LoadTrialFit",
+    "LoadSubjectFit",
+    "flat_ground_mu",
+    "fit_load_subject",
+    "fit_load_trials",
+]
+
+MU_PER = ("subject", "trial")
+
+
+@dataclass(frozen=True)
+class LoadFitOptions:
+    """How the load-consistent model is fitted (see the module notes).
+
+    Parameters
+    ----------
+    median_kernel : int
+        Median filter window, in positions, on the per-position integrals ``S, K, Q``
+        (odd; 1 = off; default 11 as the paper variant).
+    inset : 'fit' or float
+        Inset in mm of the geometric regions giving the load-bearing contact: fitted per
+        subject (default), or fixed (0 = the geometric regions as they are).
+    inset_max : float
+        Upper bound in mm of the fitted inset (default 1 mm).
+    transient : bool
+        Model a static-to-sliding transient in the flat-ground ratio (default True).
+    transient_max_mm : float
+        Upper bound in mm of the transient's decay length (default 3 mm).
+    mu_per : {'subject', 'trial'}
+        The ``mu`` each trial's model uses: the subject's (default, as the paper) or the
+        trial's own flat-ground value (for data whose friction varies from trial to trial).
+    n_boot : int
+        Bootstrap resamples of the confidence interval of ``mu`` (default 2000).
+    seed : int
+        Seed of the bootstrap's ``numpy.random.Generator``.
+    level : float
+        Confidence level (default 0.95).
+    nominal_load : float
+        Normal force in N used for trials without absolute forces (default 0.3 N, the
+        paper's prescribed load).
+    min_load : float
+        Positions where the measured ``F_N`` is below this (N) are left out (finger
+        lifting or not yet loaded).
+    min_flat_mm : float
+        Least flat-ground travel in mm for a trial's own ``mu`` (default 1 mm).
+    hac_mm : float
+        Bandwidth in mm of the Newey-West standard error of ``p1`` (default 1 mm).
+    """
+
+    median_kernel: int = 11
+    inset: float | str = "fit"
+    inset_max: float = 1.0
+    transient: bool = True
+    transient_max_mm: float = 3.0
+    mu_per: str = "subject"
+    n_boot: int = 2000
+    seed: int = 0
+    level: float = 0.95
+    nominal_load: float = 0.3
+    min_load: float = 0.05
+    min_flat_mm: float = 1.0
+    hac_mm: float = 1.0
+
+    def __post_init__(self) -> None:
+        _check_kernel(self.median_kernel)
+        if isinstance(self.inset, str):
+            if self.inset != "fit":
+                raise ValueError(f"inset must be 'fit' or a length >= 0 in mm, got {self.inset!r}")
+        elif not (isinstance(self.inset, (int, float)) and math.isfinite(self.inset) and self.inset >= 0):
+            raise ValueError(f"inset must be 'fit' or a length >= 0 in mm, got {self.inset!r}")
+        for name in ("inset_max", "transient_max_mm", "nominal_load", "min_flat_mm", "hac_mm"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        if not (isinstance(self.min_load, (int, float)) and math.isfinite(self.min_load) and self.min_load >= 0):
+            raise ValueError(f"min_load must be a force >= 0 in N, got {self.min_load!r}")
+        if self.mu_per not in MU_PER:
+            raise ValueError(f"mu_per must be one of {MU_PER}, got {self.mu_per!r}")
+        if isinstance(self.n_boot, bool) or not isinstance(self.n_boot, int) or self.n_boot < 100:
+            raise ValueError(f"n_boot must be an integer >= 100, got {self.n_boot!r}")
+        if not (isinstance(self.level, float) and 0.5 < self.level < 1):
+            raise ValueError(f"level must be a confidence level in (0.5, 1), got {self.level!r}")
+        if not isinstance(self.transient, bool):
+            raise TypeError(f"transient must be True or False, got {self.transient!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class FlatGroundMu:
+    """Coulomb friction of one subject measured on flat ground (:func:`flat_ground_mu`).
+
+    Attributes
+    ----------
+    subject : str
+    mu : float
+        Mean of the trials' steady-sliding ``mu_k`` (dimensionless).
+    ci : (float, float)
+        Bootstrap percentile confidence interval of ``mu`` over trials (NaN with < 2 trials).
+    se : float
+        Bootstrap standard error of ``mu``.
+    level : float
+        Confidence level of ``ci``.
+    mu_trials : dict of str to float
+        ``mu_k`` per trial id (trials with too little flat ground are absent).
+    transient_mm : float
+        Decay length ``lambda`` in mm of the start transient (NaN when not modelled).
+    flags : tuple of FitFlag
+    """
+
+    subject: str
+    mu: float
+    ci: tuple[float, float]
+    se: float
+    level: float
+    mu_trials: dict
+    transient_mm: float
+    flags: tuple = ()
+
+
+@dataclass(frozen=True, eq=False)
+class LoadTrialFit:
+    """Result of fitting ``p1`` of the load-consistent Eq. (4) to one trial.
+
+    Attributes
+    ----------
+    mu : float
+        Friction coefficient used (fixed during the fit).
+    p1, p1_se : float
+        Deformation weight in N/mm and its standard error (Newey-West).
+    inset : float
+        Inset in mm of the load-bearing contact.
+    p0_mean : float
+        Mean load-consistent pressure ``p0(x)`` over the compared positions, N/mm (the
+        counterpart of the paper's constant ``p0``).
+    mu_flat : float
+        The trial's own flat-ground ``mu`` (NaN when it has too little flat ground).
+    objective : float
+        Conventional NMSE of the compared series.
+    objective_name, method : str
+        ``'nmse'`` and ``'lstsq'``.
+    success : bool
+        False for a fit that must not be used (unphysical ``p1 < 0``, nothing to compare).
+    message : str
+    footing : {'absolute', 'flat'}
+        The footing of the compared series: absolute forces, or the paper's flat-segment
+        footing for a trial without absolute forces.
+    used : (n,) bool ndarray
+        Positions compared (load-bearing contact and ``F_N >= min_load``).
+    measured, estimate : (n,) ndarray
+        Measured ``F_T`` and the model, in N, on ``footing`` (NaN where not ``used``).
+    interfacial, deformation, pressure : (n,) ndarray
+        ``F_int`` (Eq. 2) and ``F_def`` (Eq. 3) in N and ``p0(x)`` in N/mm.
+    subject : str
+    labels : dict
+    flags : tuple of FitFlag
+    """
+
+    mu: float
+    p1: float
+    p1_se: float
+    inset: float
+    p0_mean: float
+    mu_flat: float
+    objective: float
+    success: bool
+    message: str
+    footing: str
+    used: np.ndarray
+    measured: np.ndarray
+    estimate: np.ndarray
+    interfacial: np.ndarray
+    deformation: np.ndarray
+    pressure: np.ndarray
+    subject: str = ""
+    labels: dict = field(default_factory=dict)
+    flags: tuple = ()
+    objective_name: str = "nmse"
+    method: str = "lstsq"
+
+    def compared(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(measured, estimate)`` over the compared positions, in N (for Table 1)."""
+        return self.measured[self.used], self.estimate[self.used]
+
+
+@dataclass(frozen=True, eq=False)
+class LoadSubjectFit:
+    """Result of the load-consistent fit of one subject.
+
+    Attributes
+    ----------
+    subject : str
+    mu : float
+        Flat-ground ``mu`` (see ``flat``).
+    flat : FlatGroundMu or None
+        How ``mu`` was measured (None when no trial has absolute forces).
+    inset : float
+        Load-bearing inset in mm (fitted or given).
+    inset_fitted : bool
+    trials : tuple of LoadTrialFit
+        In the order of the input trials.
+    flags : tuple of FitFlag
+        Subject-level and trial-level flags.
+    success : bool
+        False when ``mu`` could not be measured or a trial fit failed.
+    message : str
+    model : str
+        ``'load'``.
+    """
+
+    subject: str
+    mu: float
+    flat: FlatGroundMu | None
+    inset: float
+    inset_fitted: bool
+    trials: tuple
+    flags: tuple
+    success: bool
+    message: str
+    model: str = "load"
+
+    @property
+    def mu_ci(self) -> tuple[float, float]:
+        """Confidence interval of ``mu`` (NaN when unavailable)."""
+        return self.flat.ci if self.flat is not None else (math.nan, math.nan)
+
+
+# ------------------------------------------------------------------------ flat-ground mu
+
+
+def _flat_ratio(trial: Trial, options: LoadFitOptions):
+    """(u, r) of a trial's flat segment: distance in mm from its start and F_T / F_N."""
+    mask = flat_segment_mask(trial.regions, trial.surface) & (trial.normal_abs >= options.min_load)
+    if np.count_nonzero(mask) < 3:
+        return None
+    x = trial.x[mask]
+    if float(x[-1] - x[0]) < options.min_flat_mm:
+        return None
+    return x - x[0], trial.force_abs[mask] / trial.normal_abs[mask]
+
+
+def _transient_rss(data, lam: float) -> tuple[float, np.ndarray]:
+    """Summed residual of ``r = mu_k + A_k exp(-u / lam)`` over trials, and the mu_k."""
+    total, mus = 0.0, np.empty(len(data))
+    for k, (u, r) in enumerate(data):
+        e = np.exp(-u / lam)
+        n, se, see = u.size, e.sum(), e @ e
+        sr, ser = r.sum(), e @ r
+        det = n * see - se * se
+        if det <= 1e-12 * n * see:  # the transient is not separable from a constant here
+            mus[k] = sr / n
+            total += float(np.sum((r - mus[k]) ** 2))
+            continue
+        mu = (see * sr - se * ser) / det
+        a = (n * ser - se * sr) / det
+        mus[k] = mu
+        total += float(np.sum((r - mu - a * e) ** 2))
+    return total, mus
+
+
+def flat_ground_mu(trials: Sequence[Trial], options: LoadFitOptions | None = None) -> FlatGroundMu:
+    """Coulomb friction of one subject from the flat ground before the feature.
+
+    Parameters
+    ----------
+    trials : sequence of Trial
+        One subject's trials with absolute forces (others are ignored).
+    options : LoadFitOptions, optional
+
+    Returns
+    -------
+    FlatGroundMu
+
+    Raises
+    ------
+    ValueError
+        Trials of several subjects, or no trial with absolute forces and enough flat
+        ground (the message says which).
+
+    Notes
+    -----
+    Per trial, over the flat segment (every contact region before the feature and
+    ``F_N >= min_load``), ``r(u) = F_T / F_N`` is fitted by ``mu_k + A_k exp(-u / lambda)``
+    with one ``lambda`` for the subject, chosen on a log grid over ``[0.05,
+    transient_max_mm]`` mm and refined by a bounded scalar search of the summed residual;
+    ``mu_k`` is the steady-sliding level. Without ``transient`` it is the mean ratio. The
+    subject's ``mu`` is the mean of the ``mu_k``; its confidence interval is the percentile
+    interval of ``n_boot`` bootstrap means over trials (seeded Generator).
+    """
+    options = options or LoadFitOptions()
+    trials = [t for t in trials if t.has_absolute]
+    subjects = sorted({t.subject for t in trials})
+    if len(subjects) > 1:
+        raise ValueError(f"flat_ground_mu needs trials of one subject, got subjects {subjects}")
+    if not trials:
+        raise ValueError("no trial with absolute forces: mu cannot be measured on flat ground "
+                         "(fit the paper's model instead)")
+    subject = subjects[0]
+    data, ids, flags = [], [], []
+    for t in trials:
+        d = _flat_ratio(t, options)
+        if d is None:
+            flags.append(FitFlag("warning", "short-flat", subject, t.id, "load",
+                                 f"less than {options.min_flat_mm:g} mm of flat ground before the feature: "
+                                 "the trial takes no part in mu"))
+            continue
+        data.append(d)
+        ids.append(t.id)
+    if not data:
+        raise ValueError(f"subject {subject}: no trial has {options.min_flat_mm:g} mm of flat ground with "
+                         "absolute forces before the feature: mu cannot be measured")
+    lam = math.nan
+    if options.transient:
+        hi = float(options.transient_max_mm)
+        grid = np.geomspace(0.05, hi, 40)
+        rss = np.array([_transient_rss(data, g)[0] for g in grid])
+        j = int(np.argmin(rss))
+        lo_b, hi_b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+        res = optimize.minimize_scalar(lambda g: _transient_rss(data, g)[0], bounds=(lo_b, hi_b),
+                                       method="bounded", options={"xatol": 1e-3})
+        lam = float(res.x)
+        mus = _transient_rss(data, lam)[1]
+        if j == grid.size - 1:
+            flags.append(FitFlag("warning", "transient-at-bound", subject, "", "load",
+                                 f"the start transient's decay length reached its bound {hi:g} mm: the "
+                                 "flat-ground ratio drifts over the whole flat segment"))
+    else:
+        mus = np.array([float(np.mean(r)) for _, r in data])
+    mu = float(np.mean(mus))
+    if mus.size >= 2:
+        rng = np.random.default_rng(options.seed)
+        boots = mus[rng.integers(0, mus.size, size=(options.n_boot, mus.size))].mean(axis=1)
+        a = 100 * (1 - options.level) / 2
+        ci = (float(np.percentile(boots, a)), float(np.percentile(boots, 100 - a)))
+        se = float(np.std(boots, ddof=1))
+    else:
+        ci, se = (math.nan, math.nan), math.nan
+        flags.append(FitFlag("warning", "mu-ci-unavailable", subject, "", "load",
+                             "mu comes from a single trial: no confidence interval"))
+    return FlatGroundMu(subject=subject, mu=mu, ci=ci, se=se, level=options.level,
+                        mu_trials=dict(zip(ids, (float(m) for m in mus), strict=True)),
+                        transient_mm=lam, flags=tuple(flags))
+
+
+# ------------------------------------------------------------------------ per-trial design
+
+
+def _hac_se(b: np.ndarray, e: np.ndarray, lags: int) -> float:
+    """Newey-West standard error of the slope of ``y = p1 b + e`` (Bartlett kernel)."""
+    g = b * e
+    n = g.size
+    lags = int(min(max(lags, 0), n - 1))
+    # autocovariances of g up to `lags` through the FFT (O(n log n))
+    m = 1 << int(math.ceil(math.log2(2 * n)))
+    f = np.fft.rfft(g, m)
+    acov = np.fft.irfft(f * np.conj(f), m)[: lags + 1]
+    w = 1.0 - np.arange(lags + 1) / (lags + 1.0)
+    s = acov[0] + 2.0 * float(np.sum(w[1:] * acov[1:]))
+    bb = float(b @ b)
+    return math.sqrt(max(s, 0.0)) / bb if bb > 0 else math.nan
+
+
+class _LoadDesign:
+    """One trial's data and cached integrals for the load-consistent fit."""
+
+    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel):
+        self.trial = trial
+        self.model = model
+        self.k = options.median_kernel
+        self.absolute = trial.has_absolute
+        if self.absolute:
+            self.F = trial.force_abs
+            self.FN = trial.normal_abs
+            self.load_ok = self.FN >= options.min_load
+        else:
+            self.F = trial.force
+            self.FN = np.full(trial.n, float(options.nominal_load))
+            self.load_ok = np.ones(trial.n, bool)
+            self.flat = flat_segment_mask(trial.regions, trial.surface)
+        step = float(np.median(np.diff(trial.x)))
+        self.lags = int(round(options.hac_mm / step)) if step > 0 else 0
+        self._cache: dict[float, np.ndarray] = {}
+
+    def integrals(self, inset: float) -> np.ndarray:
+        key = round(float(inset), 9)
+        if key not in self._cache:
+            if len(self._cache) > 4:
+                self._cache.clear()
+            raw = self.model.integrals(inset_regions(self.trial.regions, inset))
+            self._cache[key] = median_filter(raw, self.k)
+        return self._cache[key]
+
+    def terms(self, mu: float, inset: float):
+        """(used, y, b, f_int, b_def, pressure) of the linear problem ``y = p1 b``."""
+        f_int, b_def, pressure = load_terms(self.integrals(inset), self.FN, mu)
+        used = self.load_ok & np.isfinite(pressure)
+        F = self.F
+        if not self.absolute:  # the paper's footing: detrend model parts and measurement alike
+            m = self.flat & used
+            if np.count_nonzero(m) < 2:
+                return used & False, None, None, f_int, b_def, pressure
+            f_int = np.where(used, f_int, 0.0)
+            f_int = flat_detrend(self.trial.x, f_int, m)
+            b_def = flat_detrend(self.trial.x, b_def, m)
+            F = flat_detrend(self.trial.x, F, m)
+        y = (F - f_int)[used]
+        return used, y, b_def[used], f_int, b_def, pressure
+
+    def rss(self, mu: float, inset: float) -> float:
+        used, y, b, *_ = self.terms(mu, inset)
+        if y is None or y.size == 0:
+            return 0.0
+        bb = float(b @ b)
+        p1 = float(b @ y) / bb if bb > 0 else 0.0
+        r = y - p1 * b
+        return float(r @ r)
+
+
+def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float, model_name: str = "load") -> LoadTrialFit:
+    t = d.trial
+    labels = _fit_labels(t)
+    tid = t.id
+    flags: list[FitFlag] = []
+    used, y, b, f_int, b_def, pressure = d.terms(mu, inset)
+    n = t.n
+    nan = np.full(n, np.nan)
+    footing = "absolute" if d.absolute else "flat"
+    if not d.absolute:
+        flags.append(FitFlag("warning", "no-absolute", t.subject, tid, model_name,
+                             "no absolute forces: fitted on the paper's flat-segment footing with the nominal "
+                             "load standing in for F_N"))
+    if y is None or y.size < 3:
+        msg = "no position with load-bearing contact and a normal load to compare"
+        flags.append(FitFlag("error", "fit-failed", t.subject, tid, model_name, msg))
+        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, p0_mean=math.nan, mu_flat=mu_flat,
+                            objective=math.inf, success=False, message=msg, footing=footing, used=used,
+                            measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=pressure,
+                            subject=t.subject, labels=labels, flags=tuple(flags))
+    bb = float(b @ b)
+    success, parts = True, ["closed-form least squares"]
+    if bb > 0:
+        p1 = float(b @ y) / bb
+        p1_se = _hac_se(b, y - p1 * b, d.lags)
+    else:
+        p1, p1_se = 0.0, math.nan
+        flags.append(FitFlag("warning", "p1-not-identified", t.subject, tid, model_name,
+                             "the load-bearing contact never reaches a slope: p1 is not identified (F_def = 0)"))
+    if p1 < 0:
+        success = False
+        msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
+        parts.insert(0, msg)
+        flags.append(FitFlag("error", "negative-p1", t.subject, tid, model_name, msg))
+    n_out = int(n - np.count_nonzero(used))
+    if n_out:
+        level = "error" if n_out > 0.1 * n else "warning"
+        flags.append(FitFlag(level, "positions-left-out", t.subject, tid, model_name,
+                             f"{n_out} of {n} positions have no load-bearing contact or a normal force below the "
+                             "minimum and are left out of the fit"))
+        if level == "error":
+            success = False
+            parts.insert(0, f"{n_out} of {n} positions left out")
+    if np.any(pressure[used] < 0):
+        success = False
+        flags.append(FitFlag("error", "negative-pressure", t.subject, tid, model_name,
+                             "the measured normal force is negative at some compared positions"))
+    est = np.where(used, f_int + p1 * b_def, np.nan)
+    F = d.F if d.absolute else None
+    meas = np.full(n, np.nan)
+    if d.absolute:
+        meas[used] = F[used]
+    else:
+        meas[used] = y + f_int[used]  # the detrended measurement
+    obj = nmse(meas[used], est[used])
+    return LoadTrialFit(
+        mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset),
+        p0_mean=float(np.mean(pressure[used])), mu_flat=float(mu_flat), objective=float(obj),
+        success=success, message="; ".join(parts), footing=footing, used=used, measured=meas, estimate=est,
+        interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, p1 * b_def, np.nan),
+        pressure=pressure, subject=t.subject, labels=labels, flags=tuple(flags),
+    )
+
+
+# ------------------------------------------------------------------------ subject fit
+
+
+def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
+                     models: dict | None = None) -> LoadSubjectFit:
+    """Fit the load-consistent Eq. (4) to one subject's trials (see the module notes).
+
+    Parameters
+    ----------
+    trials : sequence of Trial
+        All trials of one subject; those with ``force_abs``/``normal_abs`` are fitted on
+        the absolute footing, the others on the paper's (flagged).
+    options : LoadFitOptions, optional
+    models : dict, optional
+        Surface -> FrictionModel cache shared between calls.
+
+    Returns
+    -------
+    LoadSubjectFit
+        ``success`` is False (with the reason in ``message`` and ``flags``) when ``mu``
+        cannot be measured (no trial with absolute forces and flat ground) or any trial
+        fit is unphysical; never a silent number.
+    """
+    options = options or LoadFitOptions()
+    trials = list(trials)
+    if not trials:
+        raise ValueError("trials is empty: need at least one Trial to fit a subject")
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+    subjects = sorted({t.subject for t in trials})
+    if len(subjects) != 1:
+        raise ValueError(f"fit_load_subject needs trials of one subject, got subjects {subjects}; "
+                         "use fit_load_trials")
+    subject = subjects[0]
+    models = {} if models is None else models
+    designs = []
+    for t in trials:
+        key: Surface = t.surface
+        if key not in models:
+            models[key] = FrictionModel(key)
+        designs.append(_LoadDesign(t, options, models[key]))
+    try:
+        flat = flat_ground_mu(trials, options)
+    except ValueError as exc:
+        msg = str(exc)
+        flag = FitFlag("error", "mu-unavailable", subject, "", "load", msg)
+        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, inset_fitted=False,
+                              trials=(), flags=(flag,), success=False, message=msg)
+    mu = flat.mu
+    flags = list(flat.flags)
+    absolute = [d for d in designs if d.absolute]
+
+    def mu_of(d: _LoadDesign) -> float:
+        if options.mu_per == "trial":
+            return flat.mu_trials.get(d.trial.id, mu)
+        return mu
+
+    if options.inset == "fit":
+        res = optimize.minimize_scalar(
+            lambda delta: sum(d.rss(mu_of(d), delta) for d in absolute),
+            bounds=(0.0, float(options.inset_max)), method="bounded", options={"xatol": 1e-3},
+        )
+        inset, fitted = float(res.x), True
+        if inset > 0.98 * options.inset_max:
+            flags.append(FitFlag("warning", "inset-at-bound", subject, "", "load",
+                                 f"the load-bearing inset reached its bound {options.inset_max:g} mm"))
+    else:
+        inset, fitted = float(options.inset), False
+    fits = tuple(_fit_design(d, mu_of(d), inset, flat.mu_trials.get(d.trial.id, math.nan)) for d in designs)
+    for f in fits:
+        flags.extend(f.flags)
+    n_bad = sum(not f.success for f in fits)
+    parts = [f"mu = {mu:.4f} (flat ground, {100 * flat.level:g} % CI [{flat.ci[0]:.4f}, {flat.ci[1]:.4f}]); "
+             f"load-bearing inset {inset:.3f} mm{' (fitted)' if fitted else ''}"]
+    if n_bad:
+        parts.append(f"{n_bad} of {len(fits)} trial fits failed or unphysical")
+    return LoadSubjectFit(subject=subject, mu=mu, flat=flat, inset=inset, inset_fitted=fitted, trials=fits,
+                          flags=tuple(flags), success=n_bad == 0, message="; ".join(parts))
+
+
+def fit_load_trials(trials: Sequence[Trial], options: LoadFitOptions | None = None) -> dict[str, LoadSubjectFit]:
+    """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
+    trials = list(trials)
+    if not trials:
+        raise ValueError("trials is empty")
+    by: dict[str, list[Trial]] = {}
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+        by.setdefault(t.subject, []).append(t)
+    models: dict = {}
+    return {s: fit_load_subject(ts, options, models=models) for s, ts in sorted(by.items())}
