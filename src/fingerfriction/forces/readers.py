@@ -47,6 +47,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._check import check_fs
+
 __all__ = [
     "FORCE_FORMATS",
     "FORCE_UNITS",
@@ -136,7 +138,7 @@ class ForceRecord:
     units: str = "N"
 
     def __post_init__(self) -> None:
-        fs = _check_fs(self.fs_hz)
+        fs = check_fs(self.fs_hz, "fs_hz")
         t0 = float(self.t0_s)
         if not math.isfinite(t0):
             raise ValueError(f"t0_s must be a finite time in s, got {self.t0_s!r}")
@@ -200,17 +202,6 @@ class ForceFileInfo:
     time0_s: float = 0.0
     header: bool | None = None
     delimiter: str | None = None
-
-
-def _check_fs(fs_hz, name: str = "fs_hz") -> float:
-    """A sampling frequency in Hz as a finite positive float, or a ValueError naming ``name``."""
-    try:
-        fs = float(fs_hz)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a sampling frequency in Hz, got {fs_hz!r}") from None
-    if not (math.isfinite(fs) and fs > 0):
-        raise ValueError(f"{name} must be a finite positive sampling frequency in Hz, got {fs_hz!r}")
-    return fs
 
 
 def infer_force_format(path: str | os.PathLike) -> str:
@@ -928,7 +919,7 @@ def read_force_file(
         file is missing.
     """
     p = Path(path)
-    fs = None if fs_hz is None else _check_fs(fs_hz)
+    fs = None if fs_hz is None else check_fs(fs_hz, "fs_hz")
     chans = _check_channels_arg(channels)
     scale = channel_scale(units, sensitivity_n_per_v, gain_v_per_n)
     try:
