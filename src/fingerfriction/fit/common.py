@@ -215,11 +215,14 @@ class Trial:
             v = np.asarray(v, dtype=float)
             if v.shape != x.shape:
                 raise ValueError(
-                    f"Trial.{name} must have one value per position: got shape {v.shape} for {x.size} positions"
+                    f"Trial.{name} must have one value per position: got shape {v.shape} "
+                    f"for {x.size} positions"
                 )
             if not np.all(np.isfinite(v)):
                 i = int(np.flatnonzero(~np.isfinite(v))[0])
-                raise ValueError(f"Trial.{name} has a non-finite value {float(v[i])!r} at index {i} (x={x[i]:g} mm)")
+                raise ValueError(
+                    f"Trial.{name} has a non-finite value {float(v[i])!r} at index {i} (x={x[i]:g} mm)"
+                )
             object.__setattr__(self, name, v)
         object.__setattr__(self, "x", x)
         object.__setattr__(self, "force", f)

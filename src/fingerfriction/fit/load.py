@@ -47,7 +47,16 @@ from scipy import optimize
 from ..model import FrictionModel, load_terms
 from ..regions import inset_regions
 from ..surfaces import Surface
-from .common import FitFlag, Trial, _check_kernel, _fit_labels, flat_detrend, flat_segment_mask, median_filter, nmse
+from .common import (
+    FitFlag,
+    Trial,
+    _check_kernel,
+    _fit_labels,
+    flat_detrend,
+    flat_segment_mask,
+    median_filter,
+    nmse,
+)
 
 __all__ = [
     "LoadFitOptions",
@@ -126,7 +135,8 @@ class LoadFitOptions:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if not (isinstance(self.min_load, (int, float)) and math.isfinite(self.min_load) and self.min_load >= 0):
+        m = self.min_load
+        if not (isinstance(m, (int, float)) and math.isfinite(m) and m >= 0):
             raise ValueError(f"min_load must be a force >= 0 in N, got {self.min_load!r}")
         if self.mu_per not in MU_PER:
             raise ValueError(f"mu_per must be one of {MU_PER}, got {self.mu_per!r}")
@@ -468,7 +478,8 @@ class _LoadDesign:
         return float(r @ r)
 
 
-def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float, model_name: str = "load") -> LoadTrialFit:
+def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float,
+                model_name: str = "load") -> LoadTrialFit:
     t = d.trial
     labels = _fit_labels(t)
     tid = t.id
@@ -479,13 +490,14 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float, model_n
     footing = "absolute" if d.absolute else "flat"
     if not d.absolute:
         flags.append(FitFlag("warning", "no-absolute", t.subject, tid, model_name,
-                             "no absolute forces: fitted on the paper's flat-segment footing with the nominal "
-                             "load standing in for F_N"))
+                             "no absolute forces: fitted on the paper's flat-segment footing with the "
+                             "nominal load standing in for F_N"))
     if y is None or y.size < 3:
         msg = "no position with load-bearing contact and a normal load to compare"
         flags.append(FitFlag("error", "fit-failed", t.subject, tid, model_name, msg))
-        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, p0_mean=math.nan, mu_flat=mu_flat,
-                            objective=math.inf, success=False, message=msg, footing=footing, used=used,
+        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, p0_mean=math.nan,
+                            mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
+                            footing=footing, used=used,
                             measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=pressure,
                             subject=t.subject, labels=labels, flags=tuple(flags))
     bb = float(b @ b)
@@ -496,7 +508,8 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float, model_n
     else:
         p1, p1_se = 0.0, math.nan
         flags.append(FitFlag("warning", "p1-not-identified", t.subject, tid, model_name,
-                             "the load-bearing contact never reaches a slope: p1 is not identified (F_def = 0)"))
+                             "the load-bearing contact never reaches a slope: p1 is not identified "
+                             "(F_def = 0)"))
     if p1 < 0:
         success = False
         msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
@@ -506,8 +519,8 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float, model_n
     if n_out:
         level = "error" if n_out > 0.1 * n else "warning"
         flags.append(FitFlag(level, "positions-left-out", t.subject, tid, model_name,
-                             f"{n_out} of {n} positions have no load-bearing contact or a normal force below the "
-                             "minimum and are left out of the fit"))
+                             f"{n_out} of {n} positions have no load-bearing contact or a normal force "
+                             "below the minimum and are left out of the fit"))
         if level == "error":
             success = False
             parts.insert(0, f"{n_out} of {n} positions left out")
@@ -613,7 +626,8 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                           flags=tuple(flags), success=n_bad == 0, message="; ".join(parts))
 
 
-def fit_load_trials(trials: Sequence[Trial], options: LoadFitOptions | None = None) -> dict[str, LoadSubjectFit]:
+def fit_load_trials(trials: Sequence[Trial],
+                    options: LoadFitOptions | None = None) -> dict[str, LoadSubjectFit]:
     """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
     trials = list(trials)
     if not trials:
