@@ -23,7 +23,8 @@ import jinja2
 import pandas as pd
 from markupsafe import Markup
 
-from ..results import atomic_write_text
+from .._atomic import atomic_write_text
+from .._progress import ProgressBar
 from ..stats import write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
@@ -138,14 +139,12 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
     ValueError
         Not a results folder, or no trial finished OK.
     """
-    from ..pipeline import _Progress
-
     data = load_report_data(results)
     out = Path(data.root) / "report"
     out.mkdir(parents=True, exist_ok=True)
     has_fit = data.fit is not None and any(t.model is not None for t in data.trials)
     files: list[Path] = []
-    bar = _Progress(progress, len(FIGURES) + 2, "report")
+    bar = ProgressBar(progress, len(FIGURES) + 2, "report")
     figures = []
     try:
         for stem, title, fn, needs_fit in FIGURES:
