@@ -190,17 +190,20 @@ def simulate_cmd(
     contact_model: Annotated[
         str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
     ] = "mechanics-bem",
+    realism: Annotated[bool, typer.Option(
+        "--realism", help="A harder study: friction drawn per trial (10 % SD), falling with load, and the "
+                          "normal force wandering over +-50 mN (fingerfriction.sim.RealismParams).")] = False,
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
     import time
 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from .sim import SimOptions, simulate_study
+    from .sim import RealismParams, SimOptions, simulate_study
     from .study import ManifestError
 
     kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
-                "contact_model": contact_model}
+                "contact_model": contact_model, "realism": RealismParams() if realism else None}
     if _split_list(surfaces):
         kw["surfaces"] = tuple(_split_list(surfaces))
     if _split_list(subjects):

@@ -20,7 +20,7 @@ import shutil
 import zlib
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +35,7 @@ from ._io import write_npz
 from .camera import Camera, CameraParams
 from .contact import ContactTable, SimFinger, build_table, get_provider
 from .kinematics import Kinematics, KinematicsParams, simulate_kinematics
-from .physics import SUBJECT_FORCE_LAWS, ForceLaw, true_forces
+from .physics import SUBJECT_FORCE_LAWS, ForceLaw, RealismParams, true_forces
 from .sensor import SensorParams, apply_sensor
 
 __all__ = ["SimOptions", "TrialSpec", "simulate_study", "simulate_trial", "plan_trial", "StudyFolderError"]
@@ -78,6 +78,10 @@ class SimOptions:
         Normal loads of the contact tables in N.
     video_end_mm : float
         The video stops at the first frame where the finger centre is past this position.
+    realism : RealismParams, optional
+        A harder experiment (:class:`~fingerfriction.sim.physics.RealismParams`): friction
+        drawn per trial, friction falling with load, the normal force wandering over the
+        full +-50 mN. None (default) keeps the default study's figures comparable.
     """
 
     reps: int = 5
@@ -93,8 +97,15 @@ class SimOptions:
     table_step: float = 0.02
     table_loads: tuple = (0.22, 0.3, 0.38)
     video_end_mm: float = 14.0
+    realism: RealismParams | None = None
 
     def __post_init__(self) -> None:
+        if self.realism is not None:
+            if not isinstance(self.realism, RealismParams):
+                raise TypeError(f"realism must be a RealismParams or None, got {type(self.realism).__name__}")
+            # the normal force wanders over the full +-50 mN
+            object.__setattr__(self, "kinematics", replace(
+                self.kinematics, force_sd_trial=self.realism.force_sd_trial, force_sd=self.realism.force_sd))
         if isinstance(self.reps, bool) or not isinstance(self.reps, (int, np.integer)) or self.reps < 1:
             raise ValueError(f"reps must be an integer >= 1, got {self.reps!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
@@ -180,6 +191,8 @@ class SimOptions:
             "kinematics": self.kinematics.to_dict(), "contact_model": self.contact_model,
             "table_step": self.table_step,
             "table_loads": list(self.table_loads), "video_end_mm": self.video_end_mm,
+            # only when set, so that the default study's record is unchanged
+            **({"realism": self.realism.to_dict()} if self.realism is not None else {}),
         }
 
     @classmethod
@@ -206,6 +219,8 @@ class SimOptions:
             for key in ("subjects", "surfaces", "speeds", "table_loads"):
                 if key in d:
                     d[key] = tuple(d[key])
+            if d.get("realism") is not None:
+                d["realism"] = RealismParams(**dict(d["realism"]))
             return cls(**d)
         except TypeError as exc:  # unknown field names
             raise ValueError(f"simulation options: {exc}") from None
@@ -230,6 +245,12 @@ class TrialSpec:
 def _rngs(spec: TrialSpec, seed: int):
     kin, sensor, camera = spec.seed_sequence(seed).spawn(3)
     return np.random.default_rng(kin), np.random.default_rng(sensor), np.random.default_rng(camera)
+
+
+def _realism_rng(spec: TrialSpec, seed: int) -> np.random.Generator:
+    """A fourth stream of the trial for the realism draws: the first three (kinematics,
+    sensor, camera) are the same as without it, so switching realism off changes nothing."""
+    return np.random.default_rng(spec.seed_sequence(seed).spawn(4)[3])
 
 
 @dataclass(frozen=True)
@@ -375,8 +396,13 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
     surf = surface_from_spec(spec.surface_spec)
 
     # forces
+    mu_scale, load_exp, f_ref = 1.0, 0.0, 0.3
+    if opts.realism is not None:
+        mu_scale = opts.realism.trial_mu_scale(_realism_rng(spec, opts.seed))
+        load_exp, f_ref = opts.realism.mu_load_exponent, opts.realism.f_ref_n
     f_t, f_int, f_def = true_forces(table, law, kin.x, kin.f_n, kin.sliding_distance,
-                                    kin.mean_speed, kin.in_contact)
+                                    kin.mean_speed, kin.in_contact, mu_scale=mu_scale,
+                                    load_exponent=load_exp, f_ref_n=f_ref)
     F1, F2 = apply_sensor(kin.f_n, f_t, rs, opts.sensor)
 
     # video + per-frame truth
@@ -422,6 +448,7 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
         "geom_tol_mm": np.float64(tol), "mm_per_px": np.float64(opts.camera.mm_per_px),
         "x0_px": np.float64(opts.camera.x0_px), "y0_row": np.float64(opts.camera.y0_row),
         "mean_speed_mm_s": np.float64(kin.mean_speed), "z_finger_force": kin.z,
+        "mu_trial": np.float64(law.mu * mu_scale), "mu_load_exponent": np.float64(load_exp),
     })
     return rec
 
