@@ -193,5 +193,33 @@ def test_load_params_validation_and_json():
         LoadParams(6, 0.1)
     with pytest.raises(TypeError, match="params must be LoadParams, got FrictionParams"):
         FrictionModel(get_surface("bump-2mm")).load_forces([(0.0, 1.0)], 0.3, FrictionParams(0.5, 0.1, 0.1))
-    with pytest.raises(ValueError, match=r"integrals must be an \(n, 3\) array"):
-        load_terms(np.zeros((4, 2)), 0.3, 0.5)
+    with pytest.raises(ValueError, match=r"region_integrals must be an \(n, k, 3\) array"):
+        load_terms(np.zeros((4, 2)), 0.5)
+    with pytest.raises(ValueError, match=r"sharing must be a finite exponent >= 0, got -1"):
+        load_terms(np.zeros((4, 2, 3)), 0.5, -1)
+    with pytest.raises(ValueError, match=r"LoadParams.sharing must be >= 0, got -0.5"):
+        LoadParams(0.5, 0.1, 0.0, -0.5)
+
+
+def test_load_sharing_between_regions():
+    """Region pressures p_i = F_N s_i^(gamma - 1) / sum_j s_j^gamma: gamma = 1 is one uniform
+    pressure, gamma < 1 puts more pressure on the shorter region; the loads add up to F_N."""
+    s = get_surface("bump-4mm")
+    m = FrictionModel(s)
+    r = [[(-9.0, -3.0), (-0.5, 0.5)]]  # a flat 6 mm region and the 1 mm top of the bump
+    R = m.region_integrals(r)
+    mu = 0.5
+    sup = R[0, :, 1] - mu * R[0, :, 0]
+    for gamma in (1.0, 0.5, 0.0):
+        g, b, support = load_terms(R, mu, gamma)
+        p = 0.3 * sup ** (gamma - 1) / np.sum(sup**gamma)
+        assert np.sum(p * sup) == pytest.approx(0.3, rel=1e-12)  # the loads add up to F_N
+        expect = np.sum(p * (R[0, :, 0] + mu * R[0, :, 1]))
+        assert 0.3 * g[0] == pytest.approx(expect, rel=1e-12)
+        assert support[0] == pytest.approx(sup.sum(), rel=1e-12)
+    f1 = m.load_forces(r, 0.3, LoadParams(mu, 0.0, sharing=1.0))
+    assert f1.pressure[0] == pytest.approx(0.3 / sup.sum(), rel=1e-12)
+    # more pressure on the bump top with gamma < 1: its upward slope pushes F_int up here
+    f5 = m.load_forces([[(-9.0, -3.0), (-1.5, -0.5)]], 0.3, LoadParams(mu, 0.0, sharing=0.5))
+    f10 = m.load_forces([[(-9.0, -3.0), (-1.5, -0.5)]], 0.3, LoadParams(mu, 0.0, sharing=1.0))
+    assert f5.interfacial[0] > f10.interfacial[0]

@@ -14,14 +14,15 @@ contact. Its parameters are fitted in three steps, each where the data pin it:
    transient at the start of the slide (the paper's Discussion) would otherwise bias the
    ratio upwards. The subject's ``mu`` is the mean of the trials' ``mu_k``, with a seeded
    bootstrap confidence interval over trials.
-2. **The load-bearing inset per subject** (``LoadParams.inset``): the geometric contact
-   regions (the paper's 3-px criterion) are inset by ``delta`` mm at each end; ``delta``
-   minimises the subject's summed squared residual with ``p1`` profiled out per trial
-   (an 11-point grid over ``[0, inset_max]``, then a bounded scalar search,
-   ``scipy.optimize.minimize_scalar``, in the best cell). Noise in ``F_N`` enters the
-   model through the pressure and pulls ``delta`` up (errors in variables: about
-   +0.05 mm with 1 % noise on ``F_N`` in the synthetic tests); with forces recovered as
-   well as the force stage does on the simulated study the effect is negligible.
+2. **The load-bearing contact per subject**: the inset ``delta`` (mm) of the geometric
+   regions (``LoadParams.inset``) and the load-sharing exponent ``gamma`` between
+   disconnected regions (``LoadParams.sharing``; 1 = one uniform pressure, the paper's)
+   minimise the subject's summed squared residual with ``p1`` profiled out per trial: a
+   grid over ``[0, inset_max] x [0, sharing_max]``, then a bounded Nelder-Mead
+   (``scipy.optimize.minimize``) from the best grid point. Noise in ``F_N`` enters the
+   model through the pressure and pulls ``delta`` up (errors in variables: about +0.05 mm
+   with 1 % noise on ``F_N`` in the synthetic tests); with forces recovered as well as the
+   force stage does on the simulated study the effect is negligible.
 3. **p1 per trial** by closed-form least squares on the absolute forces (the model is
    linear in ``p1``), with a standard error that allows for the autocorrelated residuals
    (Newey-West, Bartlett kernel over ``hac_mm`` of positions).
@@ -49,7 +50,6 @@ import numpy as np
 from scipy import optimize
 
 from ..model import FrictionModel, load_terms
-from ..regions import inset_regions
 from ..surfaces import Surface
 from .common import (
     FitFlag,
@@ -73,6 +73,8 @@ __all__ = [
 ]
 
 MU_PER = ("subject", "trial")
+#: Position stride of the search for the inset and the load sharing (see _LoadDesign).
+SEARCH_STRIDE = 3
 
 
 @dataclass(frozen=True)
@@ -89,6 +91,12 @@ class LoadFitOptions:
         subject (default), or fixed (0 = the geometric regions as they are).
     inset_max : float
         Upper bound in mm of the fitted inset (default 1 mm).
+    sharing : 'fit' or float
+        Load-sharing exponent ``gamma`` between disconnected regions: fitted per subject
+        (default), or fixed (1 = one uniform pressure over the whole contact, the paper's).
+    sharing_max : float
+        Upper bound of the fitted exponent (default 2: the load of a Hertzian line contact
+        grows as the square of its width).
     transient : bool
         Model a static-to-sliding transient in the flat-ground ratio (default True).
     transient_max_mm : float
@@ -117,6 +125,8 @@ class LoadFitOptions:
     median_kernel: int = 11
     inset: float | str = "fit"
     inset_max: float = 1.0
+    sharing: float | str = "fit"
+    sharing_max: float = 2.0
     transient: bool = True
     transient_max_mm: float = 3.0
     mu_per: str = "subject"
@@ -130,12 +140,14 @@ class LoadFitOptions:
 
     def __post_init__(self) -> None:
         _check_kernel(self.median_kernel)
-        if isinstance(self.inset, str):
-            if self.inset != "fit":
-                raise ValueError(f"inset must be 'fit' or a length >= 0 in mm, got {self.inset!r}")
-        elif not (isinstance(self.inset, (int, float)) and math.isfinite(self.inset) and self.inset >= 0):
-            raise ValueError(f"inset must be 'fit' or a length >= 0 in mm, got {self.inset!r}")
-        for name in ("inset_max", "transient_max_mm", "nominal_load", "min_flat_mm", "hac_mm"):
+        for name, what in (("inset", "a length >= 0 in mm"), ("sharing", "an exponent >= 0")):
+            v = getattr(self, name)
+            if isinstance(v, str):
+                if v != "fit":
+                    raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
+            elif isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
+        for name in ("inset_max", "sharing_max", "transient_max_mm", "nominal_load", "min_flat_mm", "hac_mm"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
@@ -196,6 +208,8 @@ class LoadTrialFit:
         Deformation weight in N/mm and its standard error (Newey-West).
     inset : float
         Inset in mm of the load-bearing contact.
+    sharing : float
+        Load-sharing exponent between regions.
     p0_mean : float
         The trial's pressure in N/mm, ``sum F_N / sum (K - mu S)`` over the compared
         positions (the counterpart of the paper's constant ``p0``).
@@ -226,6 +240,7 @@ class LoadTrialFit:
     p1: float
     p1_se: float
     inset: float
+    sharing: float
     p0_mean: float
     mu_flat: float
     objective: float
@@ -262,7 +277,10 @@ class LoadSubjectFit:
         How ``mu`` was measured (None when no trial has absolute forces).
     inset : float
         Load-bearing inset in mm (fitted or given).
-    inset_fitted : bool
+    sharing : float
+        Load-sharing exponent between regions (fitted or given).
+    fitted : tuple of str
+        Which of ``'inset'`` and ``'sharing'`` were fitted.
     trials : tuple of LoadTrialFit
         In the order of the input trials.
     flags : tuple of FitFlag
@@ -278,7 +296,8 @@ class LoadSubjectFit:
     mu: float
     flat: FlatGroundMu | None
     inset: float
-    inset_fitted: bool
+    sharing: float
+    fitted: tuple
     trials: tuple
     flags: tuple
     success: bool
@@ -459,35 +478,59 @@ class _LoadDesign:
             self.flat = flat_segment_mask(trial.regions, trial.surface)
         step = float(np.median(np.diff(trial.x)))
         self.lags = int(round(options.hac_mm / step)) if step > 0 else 0
-        self._cache: dict[float, np.ndarray] = {}
+        # Where every region lies on flat ground, F_int = mu F_N and F_def = 0 whatever the
+        # inset, the sharing and p1: those positions (and the median window around the
+        # others) are left out of the contact search, whose residual they do not change.
+        a, b = trial.surface.feature_extent
+        reg = trial.regions
+        touches = np.any((reg[..., 1] > a) & (reg[..., 0] < b), axis=1)
+        idx = np.flatnonzero(touches)
+        # The search also takes every SEARCH_STRIDE-th position (with a median window
+        # shortened alike): the residual is smooth in the parameters, and this makes the
+        # search 3x cheaper; the final fit of each trial uses every position.
+        if idx.size:
+            self.search = slice(max(int(idx[0]) - self.k, 0), min(int(idx[-1]) + self.k + 1, trial.n),
+                                SEARCH_STRIDE)
+        else:
+            self.search = slice(0, 0)
+        self.k_search = max(1, (self.k // SEARCH_STRIDE) | 1)
 
-    def integrals(self, inset: float) -> np.ndarray:
-        key = round(float(inset), 9)
-        if key not in self._cache:
-            if len(self._cache) > 4:
-                self._cache.clear()
-            raw = self.model.integrals(inset_regions(self.trial.regions, inset))
-            self._cache[key] = median_filter(raw, self.k)
-        return self._cache[key]
+    def parts(self, mu: float, inset: float, sharing: float, window: slice = slice(None)):
+        """``(g, b_def, support)`` of :func:`fingerfriction.model.load_terms` over the
+        positions ``window``, median-filtered along them like the paper's model estimate
+        (NaN where undefined)."""
+        R = self.model._region_integrals(self.trial.regions[window], inset)
+        g, b, support = load_terms(R, mu, sharing)
+        ok = np.isfinite(g)
+        k = self.k if window.step in (None, 1) else self.k_search
+        if k > 1 and ok.any():
+            idx = np.arange(g.size)
+            g = np.where(ok, median_filter(np.interp(idx, idx[ok], g[ok]), k), np.nan)
+            b = median_filter(b, k)
+        return g, b, support
 
-    def terms(self, mu: float, inset: float):
-        """(used, y, b, f_int, b_def, pressure) of the linear problem ``y = p1 b``."""
-        f_int, b_def, pressure = load_terms(self.integrals(inset), self.FN, mu)
-        used = self.load_ok & np.isfinite(pressure)
-        F = self.F
+    def terms(self, mu: float, inset: float, sharing: float, window: slice = slice(None)):
+        """(used, y, b, f_int, b_def, support) of the linear problem ``y = p1 b`` over
+        the positions ``window`` (the paper's footing needs them all: ``window`` is ignored)."""
+        if not self.absolute:
+            window = slice(None)
+        g, b_def, support = self.parts(mu, inset, sharing, window)
+        FN, F = self.FN[window], self.F[window]
+        used = self.load_ok[window] & np.isfinite(g)
+        f_int = FN * np.where(used, g, 0.0)
         if not self.absolute:  # the paper's footing: detrend model parts and measurement alike
             m = self.flat & used
             if np.count_nonzero(m) < 2:
-                return used & False, None, None, f_int, b_def, pressure
-            f_int = np.where(used, f_int, 0.0)
+                return used & False, None, None, f_int, b_def, support
             f_int = flat_detrend(self.trial.x, f_int, m)
             b_def = flat_detrend(self.trial.x, b_def, m)
             F = flat_detrend(self.trial.x, F, m)
         y = (F - f_int)[used]
-        return used, y, b_def[used], f_int, b_def, pressure
+        return used, y, b_def[used], f_int, b_def, support
 
-    def rss(self, mu: float, inset: float) -> float:
-        used, y, b, *_ = self.terms(mu, inset)
+    def rss(self, mu: float, inset: float, sharing: float) -> float:
+        """Residual with ``p1`` profiled out, over the positions near the feature."""
+        used, y, b, *_ = self.terms(mu, inset, sharing, self.search)
         if y is None or y.size == 0:
             return 0.0
         bb = float(b @ b)
@@ -496,15 +539,16 @@ class _LoadDesign:
         return float(r @ r)
 
 
-def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float,
+def _fit_design(d: _LoadDesign, mu: float, inset: float, sharing: float, mu_flat: float,
                 model_name: str = "load") -> LoadTrialFit:
     t = d.trial
     labels = _fit_labels(t)
     tid = t.id
     flags: list[FitFlag] = []
-    used, y, b, f_int, b_def, pressure = d.terms(mu, inset)
+    used, y, b, f_int, b_def, support = d.terms(mu, inset, sharing)
     n = t.n
     nan = np.full(n, np.nan)
+    pressure = d.FN / support
     footing = "absolute" if d.absolute else "flat"
     if not d.absolute:
         flags.append(FitFlag("warning", "no-absolute", t.subject, tid, model_name,
@@ -513,8 +557,8 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float,
     if y is None or y.size < 3:
         msg = "no position with load-bearing contact and a normal load to compare"
         flags.append(FitFlag("error", "fit-failed", t.subject, tid, model_name, msg))
-        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, p0_mean=math.nan,
-                            mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
+        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, sharing=sharing,
+                            p0_mean=math.nan, mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
                             footing=footing, used=used,
                             measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=pressure,
                             subject=t.subject, labels=labels, flags=tuple(flags))
@@ -542,29 +586,62 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, mu_flat: float,
         if level == "error":
             success = False
             parts.insert(0, f"{n_out} of {n} positions left out")
-    if np.any(pressure[used] < 0):
+    if np.any(d.FN[used] < 0):
         success = False
         flags.append(FitFlag("error", "negative-pressure", t.subject, tid, model_name,
                              "the measured normal force is negative at some compared positions"))
-    S, K = d.integrals(inset)[:, :2].T
     # the trial's pressure: total load over total vertical support (a ratio of sums stays
-    # unbiased under noise in F_N, a mean of the pointwise p0(x) would not)
-    p0_mean = float(np.sum(d.FN[used]) / np.sum((K - mu * S)[used]))
+    # unbiased under noise in F_N, a mean of the pointwise pressure would not)
+    p0_mean = float(np.sum(d.FN[used]) / np.sum(support[used]))
     est = np.where(used, f_int + p1 * b_def, np.nan)
-    F = d.F if d.absolute else None
     meas = np.full(n, np.nan)
     if d.absolute:
-        meas[used] = F[used]
+        meas[used] = d.F[used]
     else:
         meas[used] = y + f_int[used]  # the detrended measurement
     obj = nmse(meas[used], est[used])
     return LoadTrialFit(
-        mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset),
+        mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset), sharing=float(sharing),
         p0_mean=p0_mean, mu_flat=float(mu_flat), objective=float(obj),
         success=success, message="; ".join(parts), footing=footing, used=used, measured=meas, estimate=est,
         interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, p1 * b_def, np.nan),
         pressure=pressure, subject=t.subject, labels=labels, flags=tuple(flags),
     )
+
+
+def _fit_contact(designs, mu_of, options: LoadFitOptions) -> tuple[float, float, tuple]:
+    """The subject's load-bearing inset and load-sharing exponent (module notes, step 2)."""
+    free = [name for name in ("inset", "sharing") if getattr(options, name) == "fit"]
+    fixed = {name: float(getattr(options, name)) for name in ("inset", "sharing") if name not in free}
+    if not free or not designs:
+        return fixed.get("inset", 0.0), fixed.get("sharing", 1.0), ()
+    hi = {"inset": float(options.inset_max), "sharing": float(options.sharing_max)}
+
+    def total(v) -> float:
+        p = {**fixed, **dict(zip(free, (float(a) for a in v), strict=True))}
+        return sum(d.rss(mu_of(d), p["inset"], p["sharing"]) for d in designs)
+
+    # a coarse grid first (the summed residual can have shallow local minima), then a
+    # bounded Nelder-Mead from its best point, on parameters scaled to [0, 1]
+    axes = {"inset": np.linspace(0.0, hi["inset"], 6),
+            "sharing": hi["sharing"] * np.array([0.125, 0.25, 0.5, 0.75])}
+    mesh = np.meshgrid(*(axes[n] for n in free), indexing="ij")
+    points = np.stack([m.ravel() for m in mesh], axis=1)
+    values = [total(p) for p in points]
+    best = points[int(np.argmin(values))]
+    scale = np.array([hi[n] for n in free])
+    step = np.array([0.2 * hi["inset"] if n == "inset" else 0.125 * hi["sharing"] for n in free]) / scale
+    x0 = best / scale
+    simplex = np.vstack([x0] + [x0 + np.where(np.arange(len(free)) == i, step[i] / 2, 0.0)
+                                for i in range(len(free))])
+    res = optimize.minimize(lambda q: total(q * scale), x0, method="Nelder-Mead",
+                            bounds=[(0.0, 1.0)] * len(free),
+                            # 0.01 of each range (0.01 mm of inset, 0.02 of sharing), or a
+                            # residual settled to 1e-5 of its size: finer is below the noise
+                            options={"initial_simplex": np.clip(simplex, 0.0, 1.0), "xatol": 1e-2,
+                                     "fatol": 1e-5 * float(np.min(values)), "maxfev": 80})
+    out = {**fixed, **dict(zip(free, (float(v) for v in res.x * scale), strict=True))}
+    return out["inset"], out["sharing"], tuple(free)
 
 
 # ------------------------------------------------------------------------ subject fit
@@ -614,43 +691,35 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     except ValueError as exc:
         msg = str(exc)
         flag = FitFlag("error", "mu-unavailable", subject, "", "load", msg)
-        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, inset_fitted=False,
-                              trials=(), flags=(flag,), success=False, message=msg)
+        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, sharing=math.nan,
+                              fitted=(), trials=(), flags=(flag,), success=False, message=msg)
     mu = flat.mu
     flags = list(flat.flags)
-    absolute = [d for d in designs if d.absolute]
 
     def mu_of(d: _LoadDesign) -> float:
         if options.mu_per == "trial":
             return flat.mu_trials.get(d.trial.id, mu)
         return mu
 
-    if options.inset == "fit":
-        def total(delta: float) -> float:
-            return sum(d.rss(mu_of(d), delta) for d in absolute)
-
-        # A coarse grid first (the summed residual can have shallow local minima under
-        # noise), then a bounded scalar search in the best cell.
-        grid = np.linspace(0.0, float(options.inset_max), 11)
-        j = int(np.argmin([total(g) for g in grid]))
-        res = optimize.minimize_scalar(total, bounds=(grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]),
-                                       method="bounded", options={"xatol": 1e-3})
-        inset, fitted = float(res.x), True
-        if inset > 0.98 * options.inset_max:
-            flags.append(FitFlag("warning", "inset-at-bound", subject, "", "load",
-                                 f"the load-bearing inset reached its bound {options.inset_max:g} mm"))
-    else:
-        inset, fitted = float(options.inset), False
-    fits = tuple(_fit_design(d, mu_of(d), inset, flat.mu_trials.get(d.trial.id, math.nan)) for d in designs)
+    inset, sharing, fitted = _fit_contact([d for d in designs if d.absolute], mu_of, options)
+    bounds = (("inset", inset, options.inset_max), ("sharing", sharing, options.sharing_max))
+    for name, value, bound in bounds:
+        if name in fitted and value > 0.98 * bound:
+            what = "load-bearing inset" if name == "inset" else "load-sharing exponent"
+            flags.append(FitFlag("warning", f"{name}-at-bound", subject, "", "load",
+                                 f"the {what} reached its bound {bound:g}"))
+    fits = tuple(_fit_design(d, mu_of(d), inset, sharing, flat.mu_trials.get(d.trial.id, math.nan))
+                 for d in designs)
     for f in fits:
         flags.extend(f.flags)
     n_bad = sum(not f.success for f in fits)
     parts = [f"mu = {mu:.4f} (flat ground, {100 * flat.level:g} % CI [{flat.ci[0]:.4f}, {flat.ci[1]:.4f}]); "
-             f"load-bearing inset {inset:.3f} mm{' (fitted)' if fitted else ''}"]
+             f"load-bearing inset {inset:.3f} mm, load sharing {sharing:.2f}"
+             + (f" (fitted: {', '.join(fitted)})" if fitted else "")]
     if n_bad:
         parts.append(f"{n_bad} of {len(fits)} trial fits failed or unphysical")
-    return LoadSubjectFit(subject=subject, mu=mu, flat=flat, inset=inset, inset_fitted=fitted, trials=fits,
-                          flags=tuple(flags), success=n_bad == 0, message="; ".join(parts))
+    return LoadSubjectFit(subject=subject, mu=mu, flat=flat, inset=inset, sharing=sharing, fitted=fitted,
+                          trials=fits, flags=tuple(flags), success=n_bad == 0, message="; ".join(parts))
 
 
 def fit_load_trials(trials: Sequence[Trial],
