@@ -12,7 +12,7 @@ import pytest
 from fingerfriction.report import make_report
 from fingerfriction.report.data import load_report_data
 from fingerfriction.report.figures import FIGURES
-from fingerfriction.results import ResultsStore
+from fingerfriction.study.store import ResultsStore
 
 
 @pytest.fixture(scope="module")
@@ -135,7 +135,7 @@ def test_out_of_sample_validation_next_to_table1(report):
 def test_fit_without_validation_says_so(tmp_path):
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.pipeline import fit
+    from fingerfriction.study.fitting import fit
 
     write_synthetic_results(tmp_path / "r")
     (tmp_path / "r" / "fit").mkdir(parents=True)

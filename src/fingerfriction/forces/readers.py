@@ -32,8 +32,6 @@ __all__ = [
     "ForceFileError",
     "ForceRecord",
     "read_force_file",
-    "read_trial_forces",
-    "study_path",
 ]
 
 logger = logging.getLogger(__name__)
@@ -198,7 +196,7 @@ def _read_npz(path: Path, channels: dict) -> tuple[dict, dict]:
 
 
 def _read_csv(path: Path, channels: dict) -> tuple[dict, dict]:
-    import pandas as pd
+    import pandas as pd  # only for CSV files
 
     try:
         header = pd.read_csv(path, nrows=0)
@@ -231,11 +229,11 @@ def _split_name(name: str) -> list[str]:
 
 
 def _read_mat(path: Path, channels: dict) -> tuple[dict, dict]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     if h5py.is_hdf5(path):  # MATLAB v7.3 files are HDF5 with a 512-byte user block
         return _read_mat73(path, channels)
-    import scipy.io
+    import scipy.io  # only for MATLAB v5 files
 
     try:
         # simplify_cells turns structs into dicts; MATLAB objects (classdef) are not
@@ -260,7 +258,7 @@ def _read_mat(path: Path, channels: dict) -> tuple[dict, dict]:
 
 
 def _read_mat73(path: Path, channels: dict) -> tuple[dict, dict]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     out = {}
     with h5py.File(path, "r") as f:
@@ -285,7 +283,7 @@ def _read_mat73(path: Path, channels: dict) -> tuple[dict, dict]:
 
 
 def _dataset_names(f) -> list[str]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     found: list[str] = []
     f.visititems(lambda n, o: found.append(n) if isinstance(o, h5py.Dataset) else None)
@@ -293,7 +291,7 @@ def _dataset_names(f) -> list[str]:
 
 
 def _read_hdf5(path: Path, channels: dict) -> tuple[dict, dict]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     info: dict = {}
     try:
@@ -317,7 +315,7 @@ def _read_hdf5(path: Path, channels: dict) -> tuple[dict, dict]:
 
 
 def _read_tdms(path: Path, channels: dict) -> tuple[dict, dict]:
-    from nptdms import TdmsFile
+    from nptdms import TdmsFile  # only for TDMS files
 
     try:
         tdms = TdmsFile.read(path)
@@ -426,66 +424,3 @@ def read_force_file(
         )
     logger.debug("read %d samples x 2 channels from %s (%s)", f1.size, p, fmt)
     return ForceRecord(f1=f1, f2=f2, fs_hz=fs, t0_s=t0_s, path=str(p), format=fmt, channels=chans)
-
-
-def study_path(study_dir: str | os.PathLike, relpath, field: str) -> Path:
-    """Absolute path of a manifest path inside the study folder; refuses one that escapes it.
-
-    Parameters
-    ----------
-    study_dir : path-like
-        The study folder.
-    relpath : str
-        A path from the manifest, relative to the folder.
-    field : str
-        What to call it in the error message (``"force.path"``).
-    """
-    root = Path(study_dir).resolve()
-    if not isinstance(relpath, str) or not relpath or Path(relpath).is_absolute():
-        raise ValueError(f"{field} must be a relative path inside the study folder, got {relpath!r}")
-    target = (root / relpath).resolve()
-    if root != target and root not in target.parents:
-        raise ValueError(f"{field} {relpath!r} escapes the study folder {str(root)!r}")
-    return target
-
-
-def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceRecord:
-    """Read the force file of one trial of a study (``docs/study-format.md``).
-
-    Parameters
-    ----------
-    study_dir : path-like
-        The study folder (holding ``manifest.json``).
-    trial : mapping
-        One entry of the manifest's ``trials`` list; its ``force`` field gives ``path``,
-        ``format``, ``fs_hz``, ``n_samples``, ``channels``, ``units`` and ``t0_s``.
-
-    Returns
-    -------
-    ForceRecord
-
-    Raises
-    ------
-    ValueError
-        For a missing field, units other than ``"N"``, or a path that escapes the study
-        folder; and any error of :func:`read_force_file`.
-    """
-    tid = trial.get("id", "?") if isinstance(trial, Mapping) else "?"
-    force = trial.get("force") if isinstance(trial, Mapping) else None
-    if not isinstance(force, Mapping):
-        raise ValueError(f"trial {tid!r}: manifest entry has no 'force' object")
-    for key in ("path", "fs_hz"):
-        if key not in force:
-            raise ValueError(f"trial {tid!r}: manifest field force.{key} is missing")
-    units = force.get("units", "N")
-    if units != "N":
-        raise ValueError(f"trial {tid!r}: force.units is {units!r}; only 'N' (newtons) is supported")
-    target = study_path(study_dir, force["path"], f"trial {tid!r}: force.path")
-    return read_force_file(
-        target,
-        fs_hz=force["fs_hz"],
-        channels=force.get("channels"),
-        format=force.get("format"),
-        t0_s=force.get("t0_s", 0.0),
-        n_samples=force.get("n_samples"),
-    )

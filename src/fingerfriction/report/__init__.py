@@ -1,6 +1,6 @@
 """Figures, tables and a self-contained HTML report of an analysed (and fitted) study.
 
-:func:`make_report` reads a results folder (:mod:`fingerfriction.results`) and writes,
+:func:`make_report` reads a results folder (:mod:`fingerfriction.study.store`) and writes,
 into ``RESULTS/report/``: each figure as PNG and SVG (:mod:`.figures`), Table 1, the
 blind-spot table, the out-of-sample validation (``loso``, computed by
 ``fit``) and, for a simulated study, the recovered parameters next to the ground
@@ -25,6 +25,7 @@ from markupsafe import Markup
 
 from .._atomic import atomic_write_text
 from .._progress import ProgressBar
+from ..forces.signals import describe_history
 from ..stats import write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
@@ -49,7 +50,7 @@ class ReportResult:
         Table 1 in long format (None before the fit).
     loso : pandas.DataFrame or None
         Out-of-sample validation, rho per held-out surface (computed by ``fit``,
-        :func:`fingerfriction.pipeline.fit`; None if the fit did not validate).
+        :func:`fingerfriction.study.fitting.fit`; None if the fit did not validate).
     blindspots : pandas.DataFrame
         One row per blind spot per surface.
     truth : dict of str to pandas.DataFrame
@@ -77,6 +78,33 @@ def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
     body = "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
                    for row in df.itertuples(index=False))
     return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _parameter_rows(parameters: dict) -> list[tuple[str, str]]:
+    """The run record's analysis parameters as ``(stage.option, value)`` rows."""
+    rows = []
+    for stage, opts in parameters.items():
+        if isinstance(opts, dict):
+            rows += [(f"{stage}.{k}", _value_text(v)) for k, v in opts.items()]
+        else:
+            rows.append((str(stage), _value_text(opts)))
+    return rows
+
+
+def _value_text(v) -> str:
+    if v is None:
+        return "none"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_value_text(x) for x in v) if v else "none"
+    if isinstance(v, float):
+        return f"{v:g}"
+    return str(v)
+
+
+def _force_history(data: ReportData) -> list[tuple[str, list[str]]]:
+    """Per trial, the steps of its force processing as lines a person reads."""
+    return [(t.id, describe_history(t.force_history) if t.force_history is not None
+             else ["not recorded (the trial was analysed by an earlier version)"]) for t in data.trials]
 
 
 def make_report(results: str | os.PathLike, *, progress: bool = False) -> ReportResult:
@@ -164,7 +192,8 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
             params=Markup(_html_table(params)) if params is not None else None,
-            figures=figures, parameters=run.get("parameters", {}), versions=run.get("versions", {}),
+            figures=figures, parameters=_parameter_rows(run.get("parameters", {})),
+            versions=run.get("versions", {}), force_history=_force_history(data),
         )
         atomic_write_text(out / "index.html", page)
         files.append(out / "index.html")

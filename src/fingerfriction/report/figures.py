@@ -18,14 +18,15 @@ never opens a window); :func:`save_figure` writes it as PNG and SVG.
 from __future__ import annotations
 
 import io
+import warnings
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from .._atomic import atomic_write_bytes
 from ..blindspots import blind_spots, occupancy
 from ..regions import region_lengths
-from ..results import atomic_write_bytes
 from .data import ReportData, TrialData
 
 __all__ = ["fig3_occupancy", "fig4_forces", "fig6_model", "figS1_lengths", "figS3_components",
@@ -119,8 +120,6 @@ def _mean_sd(trials: list[TrialData], get, x_ref: np.ndarray | None = None):
 
 class _quiet:
     def __enter__(self):
-        import warnings
-
         self._w = warnings.catch_warnings()
         self._w.__enter__()
         warnings.simplefilter("ignore", RuntimeWarning)
