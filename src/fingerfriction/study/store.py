@@ -458,6 +458,11 @@ class ResultsStore:
         """``fit/loso.csv``, the out-of-sample validation table (its figure: ``loso.png``)."""
         return self.fit_dir / "loso.csv"
 
+    @property
+    def loso_figure_path(self) -> Path:
+        """``fit/loso.png``, the figure of the out-of-sample validation."""
+        return self.loso_path.with_suffix(".png")
+
     def clear_loso(self) -> None:
         """Remove ``fit/loso.csv`` and ``fit/loso.png`` (a validation of another fit)."""
         for name in ("loso.csv", "loso.png"):

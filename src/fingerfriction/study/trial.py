@@ -22,9 +22,10 @@ import numpy as np
 import pandas as pd
 
 from ..forces import ForceProcessingParams, ForceProfile, ForceRecord, process_forces, read_force_file
+from ..forces.readers import channel_scale
 from ..surfaces import Surface, surface_from_spec
 from ..video import FLAG_REASONS, AnalysisOptions, FrameFlag, analyze_video
-from .manifest import ForceInfo, Study, TrialRecord, load_manifest, resolve_path
+from .manifest import Study, TrialRecord, load_manifest, resolve_path
 from .params import AnalysisParams, force_params, video_options
 from .store import frames_table
 
@@ -202,6 +203,11 @@ def run_video(trial: TrialInput, options: AnalysisOptions | Mapping | None = Non
                        clipped=res.clipped, info=info)
 
 
+#: Fields of a manifest ``force`` entry passed to :func:`~fingerfriction.forces.read_force_file`.
+_FORCE_FIELDS = ("fs_hz", "channels", "format", "t0_s", "n_samples", "units", "sensitivity_n_per_v",
+                 "gain_v_per_n", "time", "delimiter")
+
+
 def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRecord | Mapping) -> ForceRecord:
     """Read the force file of one trial of a study (``docs/study-format.md``).
 
@@ -210,9 +216,11 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRec
     study_dir : path-like
         The study folder (holding ``manifest.json``).
     trial : TrialInput, TrialRecord or dict
-        The trial; a dict is one entry of the manifest's ``trials`` list, as parsed from
-        ``manifest.json`` (its ``force`` object is checked by the manifest parser,
-        :meth:`~fingerfriction.study.manifest.ForceInfo.from_dict`).
+        The trial. A dict is one entry of the manifest's ``trials`` list as parsed from
+        ``manifest.json``; its ``force`` field gives ``path`` and any of ``format``,
+        ``fs_hz``, ``n_samples``, ``channels``, ``units``, ``sensitivity_n_per_v``,
+        ``gain_v_per_n``, ``time``, ``delimiter``, ``t0_s`` (the keywords of
+        :func:`~fingerfriction.forces.read_force_file`, lab files included).
 
     Returns
     -------
@@ -221,20 +229,31 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRec
     Raises
     ------
     ValueError
-        A missing or malformed field, units other than ``"N"``, a path that escapes the
-        study folder; and any error of :func:`~fingerfriction.forces.read_force_file`.
+        For a missing path, a bad field, or a path that escapes the study folder
+        (:func:`~fingerfriction.study.manifest.resolve_path`); and any error of
+        :func:`~fingerfriction.forces.read_force_file`, prefixed with the trial id.
     """
     if isinstance(trial, TrialInput):
         trial = trial.record
     if isinstance(trial, TrialRecord):
-        tid, force = trial.id, trial.force
-    else:
-        tid = trial.get("id", "?") if isinstance(trial, Mapping) else "?"
-        force = ForceInfo.from_dict(trial.get("force") if isinstance(trial, Mapping) else None,
-                                    f"trial {tid!r}: force")
-    return read_force_file(resolve_path(study_dir, force.path, where=f"trial {tid!r}: force.path"),
-                           fs_hz=force.fs_hz, channels=force.channels, format=force.format, t0_s=force.t0_s,
-                           n_samples=force.n_samples)
+        f = trial.force
+        return read_force_file(resolve_path(study_dir, f.path, where=f"trial {trial.id!r}: force.path"),
+                               fs_hz=f.fs_hz, channels=f.channels, format=f.format, t0_s=f.t0_s,
+                               n_samples=f.n_samples)
+    tid = trial.get("id", "?") if isinstance(trial, Mapping) else "?"
+    force = trial.get("force") if isinstance(trial, Mapping) else None
+    if not isinstance(force, Mapping):
+        raise ValueError(f"trial {tid!r}: manifest entry has no 'force' object")
+    if "path" not in force:
+        raise ValueError(f"trial {tid!r}: manifest field force.path is missing")
+    try:
+        channel_scale(force.get("units", "N"), force.get("sensitivity_n_per_v"), force.get("gain_v_per_n"))
+    except ValueError as exc:
+        raise ValueError(f"trial {tid!r}: force.{exc}") from None
+    target = resolve_path(study_dir, force["path"], where=f"trial {tid!r}: force.path")
+    kw = {k: force[k] for k in _FORCE_FIELDS if force.get(k) is not None}
+    kw.setdefault("t0_s", 0.0)
+    return read_force_file(target, **kw)
 
 
 def process_trial_forces(trial: TrialInput, x_frames, *, params: ForceProcessingParams | None = None,
