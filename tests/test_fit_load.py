@@ -16,7 +16,7 @@ from fingerfriction.fit import (
 )
 from fingerfriction.fit.load import _hac_se
 from fingerfriction.surfaces import SURFACE_NAMES
-from fingerfriction.synthetic import synthetic_trial
+from fingerfriction.testing import synthetic_trial
 
 X = np.arange(-13.0, 13.0 + 1e-9, 0.01)
 
@@ -86,7 +86,7 @@ def _force_controlled_study(seed, *, mu=0.6, p1=0.05, inset=0.35, sharing=0.5, r
     LoadParams(mu, p1, inset, sharing) plus 1 % noise; the trials carry the regions as seen."""
     from fingerfriction.model import FrictionModel, LoadParams
     from fingerfriction.surfaces import get_surface
-    from fingerfriction.synthetic import _smooth_walk, finger_contact_regions
+    from fingerfriction.testing import _smooth_walk, finger_contact_regions
 
     rng = np.random.default_rng(seed)
     out = []

@@ -435,7 +435,7 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
 
     Examples
     --------
-    >>> from fingerfriction.synthetic import synthetic_trial
+    >>> from fingerfriction.testing import synthetic_trial
     >>> import numpy as np
     >>> t = synthetic_trial("bump-2mm", mu=0.55, p0=0.1, p1=0.3, rng=np.random.default_rng(0))
     >>> r = fit_trial(t, 0.55, options=FitOptions(median_kernel=1))
@@ -480,7 +480,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     trial, ``mu`` is identified only by the consistency of the three per-frame integrals
     across the trial, mostly through variations of the contact length (``K``). When the
     contact length hardly varies, the summed objective is nearly flat in ``mu``: on the
-    rigid-pad trials of :mod:`fingerfriction.synthetic` at 10 % noise it varies by < 1 %
+    rigid-pad trials of :mod:`fingerfriction.testing` at 10 % noise it varies by < 1 %
     over 0.30..0.90 and the selected ``mu`` can be off by 0.1 or more (0.40 for a true 0.60
     over 90 trials in ``benchmarks/fit.py``), while noise-free trials give the true value
     exactly; with a contact length varying by ~2 mm (``tests/test_fit.py``) ``mu`` comes
