@@ -86,10 +86,9 @@ def demo(
         fail(str(exc))
     a, f = res.analysis, res.fit
     _print_failures(a.failures)
-    _print_failures(f.failures, "fit", limit=3)
     _print_tables(res.report)
-    for subj, mu in f.mu.items():
-        console.print(f"subject {subj}: mu fitted {mu:.2f} ({f.messages[subj]})", highlight=False)
+    for line in f.lines:  # one line per subject and model, flags grouped (never one per trial)
+        console.print(line, highlight=False, soft_wrap=True)
     t = res.elapsed_s
     console.print(
         f"{a.n_trials} trials: simulate {t['simulate']:.0f} s, analyze {t['analyze']:.0f} s "
@@ -409,26 +408,36 @@ def analyze_cmd(
 @app.command("fit")
 def fit_cmd(
     results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
-    method: str = typer.Option("lstsq", help="p0, p1 fit: lstsq (closed form) or nelder-mead (paper)."),
-    mu_min: float = typer.Option(0.30, help="Smallest mu of the grid."),
-    mu_max: float = typer.Option(0.90, help="Largest mu of the grid."),
-    mu_step: float = typer.Option(0.01, help="Step of the mu grid."),
-    median: int = typer.Option(11, help="Median filter window on the model, samples (odd; 1 = off)."),
+    model: str = typer.Option("load", help="Default model: load (load-consistent Eq. 4) or paper (Eq. 4 "
+                                           "as printed). Both are fitted; this one is used by predict, "
+                                           "validate, render and comes first in the report."),
+    method: str = typer.Option("lstsq", help="The paper model's p0, p1 fit: lstsq (closed form) or "
+                                             "nelder-mead (as the paper)."),
+    mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid."),
+    mu_max: float = typer.Option(0.90, help="Largest mu of the paper model's grid."),
+    mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid."),
+    median: int = typer.Option(11, help="Median filter window on the models, samples (odd; 1 = off)."),
+    seed: int = typer.Option(0, help="Seed of the bootstrap confidence intervals."),
 ) -> None:
-    """mu per subject (grid search), p0 and p1 per trial, model forces with F_int and F_def."""
+    """Both model variants: mu per subject, per-trial parameters, Table 1 with CIs, flags."""
     from .study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
 
     try:
-        res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
-                  progress=True)
+        res = fit(results, model=model, mu_grid=(mu_min, mu_max, mu_step), method=method,
+                  median_kernel=median, progress=True, seed=seed)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    _print_failures(res.failures, "fit", limit=5)
-    for subj, mu in res.mu.items():
-        console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
+    unread = [(t, r) for t, r in res.failures if not any(f.trial == t for f in res.flags)]
+    if unread:
+        err_console.print(f"[red]{len(unread)} trial(s) could not be prepared for the fit[/], e.g. "
+                          f"{unread[0][0]}: {unread[0][1]}", highlight=False, soft_wrap=True)
+    for line in res.lines:
+        console.print(line, highlight=False, soft_wrap=True)
     where = f"{results}/fit/loso.csv" if res.loso is not None else res.loso_message
     console.print(f"out-of-sample validation (leave one surface out): {where}", highlight=False)
-    console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {results}/fit", highlight=False)
+    n_err = sum(f.level == "error" for f in res.flags)
+    console.print(f"{res.n_trials} trials fitted with both models ({model} the default), {n_err} error "
+                  f"flags, {len(res.flags) - n_err} warnings -> {results}/fit", highlight=False)
 
 
 def _print_tables(rep) -> None:

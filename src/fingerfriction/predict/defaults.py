@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 
-from ..model import FrictionModel, FrictionParams
+from ..model import MODELS, FrictionModel, FrictionParams, LoadParams
 from ..study.store import read_fit_table
 from ..surfaces import Surface, get_surface
 from .forward import DEFAULT_LOAD_N, _flat_length, _resolve_finger, forward_regions, sweep_window
@@ -120,10 +120,19 @@ def _params_from_mapping(d: dict, subject, where: str) -> FrictionParams:
     raise ValueError(f"{where}: subject {subject!r} entry needs 'p0' and 'p1' or a non-empty 'trials' list")
 
 
-def _params_from_pipeline_fit(d: dict, subject, path: str) -> FrictionParams:
+def _params_from_pipeline_fit(d: dict, subject, path: str, model: str | None = None):
     """``fingerfriction fit`` output: mu per subject in fit.json, p0/p1 per trial in the
-    trials.csv beside it; the subject's medians over its successful trials are used."""
-    mus = d["mu"]
+    trials.csv beside it; the subject's medians over its successful trials are used.
+
+    ``model`` picks the variant (default: the fit's default model, ``fit.json`` ``model``;
+    a fit written before the load-consistent model has only the paper's)."""
+    model = model or d.get("model", "paper")
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    per_model = (d.get("models") or {}).get(model)
+    if per_model is None and model != d.get("model", "paper"):
+        raise ValueError(f"{path}: the fit has no {model!r} model (it has {d.get('model', 'paper')!r})")
+    mus = per_model["mu"] if per_model else d["mu"]
     key = next((k for k in _subject_keys(subject) if k in mus), None)
     if key is None:
         raise ValueError(f"{path}: no fitted mu for subject {subject!r}; the fit has subjects {sorted(mus)}")
@@ -133,14 +142,19 @@ def _params_from_pipeline_fit(d: dict, subject, path: str) -> FrictionParams:
     if missing:
         raise ValueError(f"{tcsv}: missing column(s) {sorted(missing)}")
     sel = t[t["subject"] == key]
+    if "model" in sel.columns:
+        sel = sel[sel["model"] == model]
     if "success" in sel.columns:
         sel = sel[sel["success"].astype(str).str.lower() == "true"]
     if sel.empty:
-        raise ValueError(f"{tcsv}: no successful trial fit for subject {subject!r}")
+        raise ValueError(f"{tcsv}: no successful {model!r} trial fit for subject {subject!r}")
+    if model == "load":
+        return LoadParams(mu=float(mus[key]), p1=float(sel["p1"].median()),
+                          inset=float(per_model["inset_mm"][key]), sharing=float(per_model["sharing"][key]))
     return FrictionParams(mu=float(mus[key]), p0=float(sel["p0"].median()), p1=float(sel["p1"].median()))
 
 
-def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
+def load_params(path: str | os.PathLike, subject=None, *, model: str | None = None):
     """Read Eq. (4) parameters from a JSON file.
 
     Accepted forms: ``FrictionParams.to_json()`` (``{"mu", "p0", "p1"}``); a per-subject
@@ -149,7 +163,16 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
     "trials": [{"p0": ..., "p1": ...}, ...]}}}``, whose subject-level ``p0, p1`` are the
     medians over trials (a prediction has no trial of its own to fit); or the output of
     ``fingerfriction fit`` (``RESULTS``, ``RESULTS/fit`` or ``RESULTS/fit/fit.json``: mu
-    per subject, p0 and p1 medians over the subject's successful trials in ``trials.csv``).
+    per subject, p0 and p1 medians over the subject's successful trials in ``trials.csv``):
+    the fit's default model, or ``model`` (``'load'``: :class:`~fingerfriction.model.LoadParams`
+    with the subject's flat-ground mu, load-bearing inset, load sharing and median p1;
+    ``'paper'``: :class:`~fingerfriction.model.FrictionParams`). A JSON object with
+    ``"model": "load"`` and ``mu, p1`` (optionally ``inset``, ``sharing``) gives LoadParams
+    (``LoadParams.to_json()``).
+
+    Returns
+    -------
+    FrictionParams or LoadParams
 
     Raises
     ------
@@ -174,8 +197,11 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
     if not isinstance(d, dict):
         raise ValueError(f"{path}: expected a JSON object, got {type(d).__name__}")
     if isinstance(d.get("mu"), dict):
-        return _params_from_pipeline_fit(d, subject, path)
+        return _params_from_pipeline_fit(d, subject, path, model)
     try:
+        if d.get("model") == "load":
+            return LoadParams(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0),
+                              sharing=d.get("sharing", 1.0))
         return _params_from_mapping(d, subject, path)
     except (TypeError, KeyError) as exc:
         raise ValueError(f"{path}: malformed parameters ({exc})") from None

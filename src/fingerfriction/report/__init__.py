@@ -13,6 +13,7 @@ from __future__ import annotations
 import base64
 import html
 import logging
+import math
 import os
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -174,15 +175,68 @@ def _write_tables(data: ReportData, out: Path, has_fit: bool, files: list[Path])
     return t1, loso, bs, truth, fit_parameter_table(data)
 
 
-def _mu_notes(fit: dict) -> dict:
-    """Per subject, a note when the fitted mu sits at an end of the search grid."""
+MODEL_TITLES = {"load": "Load-consistent Eq. 4", "paper": "The paper's Eq. 4"}
+
+
+def _models(fit: dict) -> list[str]:
+    """The fit's model variants, its default first (a fit of one model: that one)."""
+    default = fit.get("model", "paper")
+    return [default, *[m for m in (fit.get("models") or {}) if m != default]]
+
+
+def _mu_rows(fit: dict) -> list[dict]:
+    """Per model and subject: mu with its confidence interval, or a warning when it sits at
+    an end of the paper variant's search grid."""
     grid = fit.get("mu_grid") or {}
-    notes = {}
-    for s, m in (fit.get("mu") or {}).items():
-        if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
-            notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
+    per_model = fit.get("models") or {fit.get("model", "paper"): {"mu": fit.get("mu", {})}}
+    rows = []
+    for m in _models(fit):
+        rec = per_model.get(m, {})
+        for s, mu in (rec.get("mu") or {}).items():
+            text, warn = f"subject {s}: &mu; = {mu:.4g}", ""
+            lo, hi = ((rec.get("mu_ci") or {}).get(s) or [None, None])
+            if lo is not None and hi is not None and math.isfinite(lo):
+                text += f" (95 % CI {lo:.4f}-{hi:.4f})"
+            if m == "paper" and grid and (abs(mu - grid.get("start", -1)) < 1e-9
+                                          or abs(mu - grid.get("stop", -1)) < 1e-9):
+                warn = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
                         "not a minimum inside the grid, the true value may lie beyond it")
-    return notes
+            rows.append({"model": MODEL_TITLES.get(m, m) + (" (default)" if m == _models(fit)[0] else ""),
+                         "text": Markup(text), "warn": warn})
+    return rows
+
+
+def _fit_warnings(fit: dict) -> list[str]:
+    """The fit's flags, grouped by model and kind: a count and the first example each."""
+    groups: dict[tuple[str, str, str], list[dict]] = {}
+    for f in fit.get("flags") or []:
+        groups.setdefault((f.get("model", ""), f.get("level", ""), f.get("code", "")), []).append(f)
+    out = []
+    for (m, level, code), fs in sorted(groups.items(), key=lambda kv: (kv[0][1] != "error", kv[0])):
+        first = fs[0]
+        where = f"{first['trial']}: " if first.get("trial") else f"subject {first.get('subject')}: "
+        n_trials = sum(1 for f in fs if f.get("trial"))
+        count = f"{n_trials} trial(s)" if n_trials else f"{len(fs)} subject(s)"
+        msg = first.get("message", "")
+        out.append(f"{MODEL_TITLES.get(m, m)} - {level} {code} ({count}), e.g. {where}{msg}")
+    return out
+
+
+def _by_model(df: pd.DataFrame | None, fit: dict, render) -> list[dict]:
+    """One block per model of a table with a ``model`` column (the fit's default first)."""
+    if df is None:
+        return []
+    notes = fit.get("model_notes") or {}
+    if "model" not in df.columns:
+        return [{"title": "", "note": "", "html": render(df)}]
+    out = []
+    for m in _models(fit):
+        sel = df[df["model"] == m].drop(columns="model")
+        if sel.empty:
+            continue
+        title = MODEL_TITLES.get(m, m) + (" - the default model" if m == _models(fit)[0] else "")
+        out.append({"title": title, "note": notes.get(m, ""), "html": render(sel)})
+    return out
 
 
 def make_report(results: str | os.PathLike, *, progress: bool = False) -> ReportResult:
@@ -243,10 +297,16 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         if not has_fit:
             notices.append(f"The model is not fitted: Fig. 6, Fig. S3 and Table 1 are left out; run "
                            f"`fingerfriction fit {data.root}` and then this report again.")
-        mu_notes = _mu_notes(data.fit or {})
-        n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
+        fit = data.fit or {}
+        ft = data.fit_trials
+        n_neg_p0 = 0
+        if ft is not None:
+            paper_rows = ft[ft["model"] == "paper"] if "model" in ft.columns else ft
+            n_neg_p0 = int((paper_rows["p0"] < 0).sum())
         page = template.render(
-            notices=notices, mu_notes=mu_notes, n_neg_p0=n_neg_p0,
+            notices=notices, mu_rows=_mu_rows(fit), n_neg_p0=n_neg_p0, fit_warnings=_fit_warnings(fit),
+            table1_models=_by_model(t1, fit, lambda d: Markup(_html_table(table1_display(d)))),
+            loso_models=_by_model(loso, fit, lambda d: Markup(_html_table(with_formatted_p(d)))),
             subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
             table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
                          if t1 is not None else None),
@@ -258,9 +318,8 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             n_ok=len(data.trials), n_trials=len(data.trials) + len(data.failed),
             subjects=data.subjects, surfaces=data.surface_names,
             speeds=", ".join(f"{v:g}" for v in data.speeds),
-            mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
-            table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
-            loso=Markup(_html_table(with_formatted_p(loso))) if loso is not None else None,
+            has_fit=has_fit, failed=data.failed, notes=data.notes,
+            table1=t1 is not None, loso=loso is not None,
             loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
