@@ -155,7 +155,8 @@ def test_fig4_says_which_footing_it_shows(data):
     # the fixture has absolute forces
     assert "Footing: absolute" in fig4_forces(data)._suptitle.get_text()
     paper_only = dataclasses.replace(data, trials=[
-        dataclasses.replace(t, forces=t.forces.drop(columns=["F_T_abs_N", "F_N_abs_N"])) for t in data.trials])
+        dataclasses.replace(t, forces=t.forces.drop(columns=["F_T_abs_N", "F_N_abs_N"]))
+        for t in data.trials])
     assert "the paper's" in fig4_forces(paper_only)._suptitle.get_text()  # no absolute level
     trials = []
     for t in data.trials:
