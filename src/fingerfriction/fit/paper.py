@@ -616,6 +616,9 @@ def paper_flags(fit: SubjectFit) -> list[FitFlag]:
     for tf in fit.trials:
         tid = str(tf.labels.get("trial", ""))
         if not tf.success:
-            code = "negative-p0" if tf.p0 < 0 else "fit-failed"
-            out.append(FitFlag("error", code, s, tid, "paper", tf.message))
+            if tf.p0 < 0:
+                out.append(FitFlag("error", "negative-p0", s, tid, "paper",
+                                   f"p0 = {tf.p0:.3g} N/mm < 0: an unphysical (negative) pressure"))
+            else:
+                out.append(FitFlag("error", "fit-failed", s, tid, "paper", tf.message))
     return out

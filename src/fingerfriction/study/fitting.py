@@ -54,6 +54,13 @@ MODEL_NOTES = {
 }
 
 
+#: How each model puts measurement and model on one footing (the report's figure titles).
+FOOTING = {
+    "load": "absolute (drift removed on the unloaded rests only; no detrend of either)",
+    "paper": "detrended (a line fitted on the flat before the feature, subtracted from both)",
+}
+
+
 @dataclass(frozen=True)
 class FitSummary:
     """Summary of :func:`fit`.
@@ -202,6 +209,7 @@ def fit(
     record = {
         "model": model,
         "model_notes": MODEL_NOTES,
+        "footing": FOOTING[model],
         "mu": {s: sf.mu for s, sf in fits[model].items()},
         "mu_ci": {s: list(_mu_ci(sf)) for s, sf in fits[model].items()},
         "models": {m: _model_record(m, fits[m], cpu[m]) for m in MODELS},
