@@ -43,7 +43,7 @@ def test_recovers_mu_p0_p1_within_2_percent_at_10_percent_noise(seed):
     as the mean and median over the trials (single trials scatter up to ~5 % at this noise,
     as the paper variant's do, see tests/test_fit.py)."""
     trials = _study(seed)
-    fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, sharing=1.0, **FIXTURE))
+    fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
     # the fixture's rigid pad unloads to a few mN on a bump top, where 10 % noise makes F_N
     # negative at some positions: flagged (a negative pressure), the only error allowed here
     assert {f.code for f in fit.flags if f.level == "error"} <= {"negative-pressure"}
@@ -62,28 +62,28 @@ def test_fitted_inset_finds_the_load_bearing_contact():
     """Forces made on the regions inset by 0.3 mm, trials carrying the regions as seen:
     exact without noise; with 5 % noise on F_T and 1 % on F_N within 0.05 mm (noise in F_N
     enters the model through the pressure and pulls the inset up: errors in variables)."""
-    exact = fit_load_subject(_study(2, inset=0.3, noise=0.0), LoadFitOptions(sharing=1.0, **FIXTURE))
+    exact = fit_load_subject(_study(2, inset=0.3, noise=0.0), LoadFitOptions(kappa=0.0, **FIXTURE))
     assert exact.inset == pytest.approx(0.3, abs=2e-3)
     rng = np.random.default_rng(2)
     trials = [synthetic_trial(s, mu=0.55, p0=0.03, p1=0.2, rng=rng, noise=0.05, noise_normal=0.01,
                               absolute=True, inset=0.3, labels={"trial": f"{s}-{r}"})
               for s in SURFACE_NAMES for r in range(2)]
-    fit = fit_load_subject(trials, LoadFitOptions(sharing=1.0, **FIXTURE))
+    fit = fit_load_subject(trials, LoadFitOptions(kappa=0.0, **FIXTURE))
     assert fit.fitted == ("inset",)
     assert fit.inset == pytest.approx(0.3, abs=0.05)
     assert np.median([t.p1 for t in fit.trials]) == pytest.approx(0.2, rel=0.15)
     # without the inset the same data fit worse
-    fit0 = fit_load_subject(trials, LoadFitOptions(inset=0.0, sharing=1.0, **FIXTURE))
+    fit0 = fit_load_subject(trials, LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
     def rss(f):
         return sum(float(np.nansum((t.measured - t.estimate) ** 2)) for t in f.trials)
 
     assert rss(fit) < 0.7 * rss(fit0)
 
 
-def _force_controlled_study(seed, *, mu=0.6, p1=0.05, inset=0.35, sharing=0.5, reps=2):
+def _force_controlled_study(seed, *, mu=0.6, p1=0.05, inset=0.35, kappa=3.0, reps=2):
     """Trials made by the load-consistent model itself: a finger pressing with 0.3 N
     (+-15 mN of slow wander) whose regions come from the synthetic rigid pad, F_T from
-    LoadParams(mu, p1, inset, sharing) plus 1 % noise; the trials carry the regions as seen."""
+    LoadParams(mu, p1, inset, kappa) plus 1 % noise; the trials carry the regions as seen."""
     from fingerfriction.model import FrictionModel, LoadParams
     from fingerfriction.surfaces import get_surface
     from fingerfriction.testing import _smooth_walk, finger_contact_regions
@@ -96,7 +96,7 @@ def _force_controlled_study(seed, *, mu=0.6, p1=0.05, inset=0.35, sharing=0.5, r
             delta = np.clip(0.05 + _smooth_walk(rng, X.size, 0.03, 60), 0.01, None)
             regions = finger_contact_regions(s, X, delta)
             fn = 0.3 + _smooth_walk(rng, X.size, 0.015, 80)
-            f = FrictionModel(s).load_forces(regions, fn, LoadParams(mu, p1, inset, sharing)).total
+            f = FrictionModel(s).load_forces(regions, fn, LoadParams(mu, p1, inset, kappa)).total
             ok = np.isfinite(f)
             if not ok.all():  # positions with no load-bearing contact: keep the others
                 f = np.interp(X, X[ok], f[ok])
@@ -107,14 +107,14 @@ def _force_controlled_study(seed, *, mu=0.6, p1=0.05, inset=0.35, sharing=0.5, r
     return out
 
 
-def test_force_controlled_finger_recovers_the_load_bearing_contact_and_sharing():
-    """Data made by the load-consistent model with known (mu, delta, gamma, p1): the fit
-    finds them back (delta and gamma are the finger's, fitted per subject)."""
+def test_force_controlled_finger_recovers_the_load_bearing_contact_and_kappa():
+    """Data made by the load-consistent model with known (mu, delta, kappa, p1): the fit
+    finds them back (delta and kappa are the finger's, fitted per subject)."""
     fit = fit_load_subject(_force_controlled_study(10), LoadFitOptions(median_kernel=1))
-    assert fit.fitted == ("inset", "sharing")
+    assert fit.fitted == ("inset", "kappa")
     assert fit.mu == pytest.approx(0.6, rel=0.01)
     assert fit.inset == pytest.approx(0.35, abs=0.03)
-    assert fit.sharing == pytest.approx(0.5, abs=0.1)
+    assert fit.kappa == pytest.approx(3.0, abs=0.3)
     assert np.median([t.p1 for t in fit.trials]) == pytest.approx(0.05, rel=0.05)
 
 
@@ -170,7 +170,7 @@ def test_hac_standard_error_matches_the_scatter_of_p1():
 
 def test_unphysical_and_fallback_fits_are_flagged_not_silent():
     trials = _study(6, p1=-0.1, reps=1)
-    fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, sharing=1.0, **FIXTURE))
+    fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
     assert not fit.success
     assert "6 of 6 trial fits failed or unphysical" in fit.message
     codes = {f.code for f in fit.flags}
@@ -181,7 +181,7 @@ def test_unphysical_and_fallback_fits_are_flagged_not_silent():
     t0 = good[0]
     bare = Trial(x=t0.x, force=t0.force, regions=t0.regions, surface=t0.surface, subject=t0.subject,
                  labels={"trial": "bare"})
-    fit = fit_load_subject([*good, bare], LoadFitOptions(inset=0.0, sharing=1.0, **FIXTURE))
+    fit = fit_load_subject([*good, bare], LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
     tf = fit.trials[-1]
     assert tf.footing == "flat"  # (its p1 is not asserted: the fixture's load is far from the nominal)
     assert tf.flags[0].code == "no-absolute"
@@ -196,7 +196,7 @@ def test_unphysical_and_fallback_fits_are_flagged_not_silent():
 
 def test_two_subjects_and_option_validation():
     fits = fit_load_trials(_study(8, reps=1, subject="S1") + _study(9, reps=1, mu=0.6, subject="S2"),
-                           LoadFitOptions(inset=0.0, sharing=1.0, **FIXTURE))
+                           LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
     assert fits["S1"].mu == pytest.approx(0.55, rel=0.02)
     assert fits["S2"].mu == pytest.approx(0.60, rel=0.02)
     with pytest.raises(ValueError, match="inset must be 'fit' or a length >= 0 in mm, got -1"):

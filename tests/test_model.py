@@ -185,7 +185,7 @@ def test_load_bearing_contact_is_the_inset_regions():
 
 
 def test_load_params_validation_and_json():
-    p = LoadParams(0.55, 0.03, 0.4)
+    p = LoadParams(0.55, 0.03, 0.4, 2.5)
     assert LoadParams.from_json(p.to_json()) == p
     with pytest.raises(ValueError, match=r"LoadParams.inset \(mm\) must be >= 0, got -0.1"):
         LoadParams(0.5, 0.1, -0.1)
@@ -193,33 +193,40 @@ def test_load_params_validation_and_json():
         LoadParams(6, 0.1)
     with pytest.raises(TypeError, match="params must be LoadParams, got FrictionParams"):
         FrictionModel(get_surface("bump-2mm")).load_forces([(0.0, 1.0)], 0.3, FrictionParams(0.5, 0.1, 0.1))
-    with pytest.raises(ValueError, match=r"region_integrals must be an \(n, k, 3\) array"):
+    with pytest.raises(ValueError, match=r"region_integrals must be an \(n, k, 5\) array"):
         load_terms(np.zeros((4, 2)), 0.5)
-    with pytest.raises(ValueError, match=r"sharing must be a finite exponent >= 0, got -1"):
-        load_terms(np.zeros((4, 2, 3)), 0.5, -1)
-    with pytest.raises(ValueError, match=r"LoadParams.sharing must be >= 0, got -0.5"):
+    with pytest.raises(ValueError, match=r"kappa must be a finite rate >= 0 in 1/mm, got -1"):
+        load_terms(np.zeros((4, 2, 5)), 0.5, -1)
+    with pytest.raises(ValueError, match=r"LoadParams.kappa \(1/mm\) must be >= 0, got -0.5"):
         LoadParams(0.5, 0.1, 0.0, -0.5)
 
 
-def test_load_sharing_between_regions():
-    """Region pressures p_i = F_N s_i^(gamma - 1) / sum_j s_j^gamma: gamma = 1 is one uniform
-    pressure, gamma < 1 puts more pressure on the shorter region; the loads add up to F_N."""
+def test_load_sharing_between_regions_rises_with_height():
+    """Region pressures p_i = F_N exp(kappa hbar_i) / sum_j s_j exp(kappa hbar_j): kappa = 0
+    is one uniform pressure, kappa > 0 puts more on the higher region; the loads add up
+    to F_N."""
     s = get_surface("bump-4mm")
     m = FrictionModel(s)
     r = [[(-9.0, -3.0), (-0.5, 0.5)]]  # a flat 6 mm region and the 1 mm top of the bump
     R = m.region_integrals(r)
     mu = 0.5
-    sup = R[0, :, 1] - mu * R[0, :, 0]
-    for gamma in (1.0, 0.5, 0.0):
-        g, b, support = load_terms(R, mu, gamma)
-        p = 0.3 * sup ** (gamma - 1) / np.sum(sup**gamma)
+    S, K, H, L = R[0, :, 0], R[0, :, 1], R[0, :, 3], R[0, :, 4]
+    np.testing.assert_allclose(L, [6.0, 1.0])
+    xs = np.linspace(-0.5, 0.5, 200001)
+    assert H[1] == pytest.approx(np.trapezoid(s.h(xs), xs), rel=1e-7)  # int h dx over the bump top
+    sup = K - mu * S
+    for kappa in (0.0, 2.0, 5.0):
+        g, b, support = load_terms(R, mu, kappa)
+        p = 0.3 * np.exp(kappa * H / L) / np.sum(sup * np.exp(kappa * H / L))
         assert np.sum(p * sup) == pytest.approx(0.3, rel=1e-12)  # the loads add up to F_N
-        expect = np.sum(p * (R[0, :, 0] + mu * R[0, :, 1]))
-        assert 0.3 * g[0] == pytest.approx(expect, rel=1e-12)
+        assert 0.3 * g[0] == pytest.approx(np.sum(p * (S + mu * K)), rel=1e-12)
         assert support[0] == pytest.approx(sup.sum(), rel=1e-12)
-    f1 = m.load_forces(r, 0.3, LoadParams(mu, 0.0, sharing=1.0))
-    assert f1.pressure[0] == pytest.approx(0.3 / sup.sum(), rel=1e-12)
-    # more pressure on the bump top with gamma < 1: its upward slope pushes F_int up here
-    f5 = m.load_forces([[(-9.0, -3.0), (-1.5, -0.5)]], 0.3, LoadParams(mu, 0.0, sharing=0.5))
-    f10 = m.load_forces([[(-9.0, -3.0), (-1.5, -0.5)]], 0.3, LoadParams(mu, 0.0, sharing=1.0))
-    assert f5.interfacial[0] > f10.interfacial[0]
+    f0 = m.load_forces(r, 0.3, LoadParams(mu, 0.0))
+    assert f0.pressure[0] == pytest.approx(0.3 / sup.sum(), rel=1e-12)
+    # on the rising flank of the bump: more pressure there with kappa > 0, so more F_int
+    r2 = [[(-9.0, -3.0), (-1.5, -0.5)]]
+    assert m.load_forces(r2, 0.3, LoadParams(mu, 0.0, kappa=4.0)).interfacial[0] > \
+        m.load_forces(r2, 0.3, LoadParams(mu, 0.0)).interfacial[0]
+    # two regions at the same height: kappa changes nothing (flat ground is Amontons' law)
+    flat = m.load_forces([[(-12.0, -8.0), (-7.0, -4.0)]], 0.3, LoadParams(mu, 0.1, kappa=6.0))
+    assert flat.total[0] == pytest.approx(mu * 0.3, rel=1e-12)

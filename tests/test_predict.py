@@ -349,7 +349,7 @@ def test_loso_load_model_exact_on_forward_generated_study(forward_study):
     from fingerfriction.predict import leave_one_surface_out
 
     trials = _load_study_trials(forward_study, reps=2, noise=0.0)
-    opts = LoadFitOptions(median_kernel=1, inset=0.0, sharing=1.0)
+    opts = LoadFitOptions(median_kernel=1, inset=0.0, kappa=0.0)
     res = leave_one_surface_out(trials, model="load", load_options=opts, forward_step=LOSO_STEP)
     t = res.table
     assert set(t["model"]) == {"load"}
@@ -361,7 +361,7 @@ def test_loso_load_model_exact_on_forward_generated_study(forward_study):
     for row in per.itertuples():
         assert row.mu == pytest.approx(LOSO_MU[row.subject], rel=1e-9)
         assert row.p1 == pytest.approx(0.04, rel=1e-6)
-        assert row.inset == 0.0 and row.sharing == 1.0 and np.isnan(row.p0)
+        assert row.inset_mm == 0.0 and row.kappa_per_mm == 0.0 and np.isnan(row.p0)
 
 
 def test_loso_bad_input(forward_study):
@@ -429,7 +429,7 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
         sel = trials[(trials["subject"] == "2") & (trials["model"] == "load")]
         load = fj["models"]["load"]
         assert load_params(src, "2") == LoadParams(fj["mu"]["2"], sel["p1"].median(), load["inset_mm"]["2"],
-                                                   load["sharing"]["2"])
+                                                   load["kappa_per_mm"]["2"])
         sel = trials[(trials["subject"] == "2") & (trials["model"] == "paper")]
         assert load_params(src, "2", model="paper") == FrictionParams(
             fj["models"]["paper"]["mu"]["2"], sel["p0"].median(), sel["p1"].median())

@@ -29,23 +29,29 @@ pressure ``p_i`` (per unit width, ``D`` absorbed as in the paper), the load it c
 with the integrals of the next section taken over ``C_i``; ``s_i`` (mm) is the region's
 vertical support. The loads of all regions add up to the measured ``F_N(x)`` at each finger
 position ``x``. How the load is shared between disconnected regions is the one thing the
-paper's single constant pressure decides and that the video cannot show; it is written
+paper's single constant pressure decides and that the video cannot show. A soft finger
+pressed onto a relief is indented most where the surface is highest (the finger rides on a
+bump, is lifted onto a step), so the pressure of a region is written to rise with its
+mean height ``hbar_i`` (mm)::
 
-    P_i = F_N s_i^gamma / sum_j s_j^gamma,   p_i = F_N s_i^(gamma - 1) / sum_j s_j^gamma
+    p_i = F_N exp(kappa hbar_i) / sum_j s_j exp(kappa hbar_j)
 
-so that ``gamma = 1`` is the paper's assumption, one pressure ``F_N / sum_j s_j`` over the
-whole contact, and ``gamma < 1`` gives a short region, such as the top of a bump the
-finger rides on, a higher pressure than a long one. Then::
+so that ``kappa = 0`` (1/mm) is the paper's assumption, one pressure ``F_N / sum_j s_j``
+over the whole contact, and a region ``1 / kappa`` mm higher than another carries ``e``
+times its pressure. Then::
 
     F_int(x) = sum_i p_i (S_i + mu K_i) = F_N(x) g(x)                 (Eq. 2)
     F_def(x) = p1 sum_i (Q_i + mu S_i)                                (Eq. 3, as in Eq. 4)
 
-On flat ground (``S = Q = 0``) this is Amontons' law ``F_T = mu F_N`` exactly, whatever the
-contact, so ``mu`` is the flat-ground ratio of the measured forces
-(:func:`fingerfriction.fit.flat_ground_mu`), and the only parameter per trial is the
-deformation weight ``p1`` (N/mm, as the paper's). When ``F_N`` happens to be the load of a
-constant pressure, ``F_N = p0 sum_i s_i`` with ``gamma = 1``, the variant *is* the paper's
-Eq. (4). The deformation stress of Eq. (3) is taken as a tangential (dissipative) term
+On flat ground (``S = Q = 0``, every region at the same height) this is Amontons' law
+``F_T = mu F_N`` exactly, whatever the contact, so ``mu`` is the flat-ground ratio of the
+measured forces (:func:`fingerfriction.fit.flat_ground_mu`), and the only parameter per
+trial is the deformation weight ``p1`` (N/mm, as the paper's). When ``F_N`` happens to be
+the load of a constant pressure, ``F_N = p0 sum_i s_i`` with ``kappa = 0``, the variant
+*is* the paper's Eq. (4). Measured on the simulated study, sharing the load by height fits
+the held-out surfaces better than sharing it by region length (a power of ``s_i``): a
+short region is the top of a bump but also the lower flat left behind a step, and only
+height tells them apart. The deformation stress of Eq. (3) is taken as a tangential (dissipative) term
 that carries no load; measured on the simulated study, letting it carry load (the literal
 reading ``sigma_p = p0 + p1 dh/dx``) fits worse and gives negative ``p1`` in a third of the
 trials.
@@ -57,7 +63,7 @@ load-bearing (mechanical, pressure > 0) contact, and a region that has just form
 feature carries no load yet. The load-consistent variant therefore integrates over the
 regions inset by ``inset`` mm at each end (:func:`fingerfriction.regions.inset_regions`;
 ``FrictionModel.region_integrals(..., inset=)``; 0 = the geometric regions as they are).
-``inset`` and ``gamma`` (``LoadParams.sharing``) are properties of the finger, fitted per
+``inset`` and ``kappa`` (``LoadParams.kappa``) are properties of the finger, fitted per
 subject by :mod:`fingerfriction.fit`; for a prediction on a surface never recorded, ``F_N``
 is the nominal load (0.3 N).
 
@@ -167,18 +173,18 @@ class LoadParams:
     inset : float
         Inset in mm of each geometric contact region at both ends, giving the load-bearing
         contact (>= 0; 0 = the regions as given).
-    sharing : float
-        Load-sharing exponent ``gamma`` between disconnected regions (>= 0; 1 = one uniform
-        pressure over the whole contact, the paper's assumption).
+    kappa : float
+        Rise of the pressure with the mean height of a region, in 1/mm (>= 0; 0 = one
+        uniform pressure over the whole contact, the paper's assumption).
     """
 
     mu: float
     p1: float
     inset: float = 0.0
-    sharing: float = 1.0
+    kappa: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("mu", "p1", "inset", "sharing"):
+        for name in ("mu", "p1", "inset", "kappa"):
             v = getattr(self, name)
             if not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
                 raise ValueError(f"LoadParams.{name} must be a finite number, got {v!r}")
@@ -187,8 +193,8 @@ class LoadParams:
             raise ValueError(f"LoadParams.mu must be in [0, 5], got {self.mu!r}")
         if self.inset < 0:
             raise ValueError(f"LoadParams.inset (mm) must be >= 0, got {self.inset!r}")
-        if self.sharing < 0:
-            raise ValueError(f"LoadParams.sharing must be >= 0, got {self.sharing!r}")
+        if self.kappa < 0:
+            raise ValueError(f"LoadParams.kappa (1/mm) must be >= 0, got {self.kappa!r}")
 
     def to_json(self) -> str:
         return json.dumps({"model": "load", **asdict(self)})
@@ -196,7 +202,7 @@ class LoadParams:
     @classmethod
     def from_json(cls, text: str) -> LoadParams:
         d = json.loads(text)
-        return cls(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0), sharing=d.get("sharing", 1.0))
+        return cls(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0), kappa=d.get("kappa", 0.0))
 
 
 @dataclass(frozen=True)
@@ -225,51 +231,58 @@ def T_matrix(mu) -> np.ndarray:
 
 
 def load_terms(region_integrals, mu: float,
-               sharing: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               kappa: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The load-independent parts of the load-consistent Eq. (4) (see the module notes).
 
     Parameters
     ----------
-    region_integrals : (n, k, 2 or 3) array_like
-        ``[S_i, K_i(, Q_i)]`` of every region at each position in mm
-        (:meth:`FrictionModel.region_integrals`, over the load-bearing contact), 0 for unused
-        slots.
+    region_integrals : (n, k, 5) array_like
+        ``[S_i, K_i, Q_i, H_i, L_i]`` of every region at each position
+        (:meth:`FrictionModel.region_integrals`, over the load-bearing contact): the three
+        integrals of Eq. (4) in mm, ``H_i = int_{C_i} h dx`` in mm^2 and the length ``L_i``
+        in mm; 0 for unused slots.
     mu : float
         Coefficient of friction.
-    sharing : float
-        Load-sharing exponent ``gamma`` between disconnected regions (1: one uniform
-        pressure over the whole contact, the paper's assumption).
+    kappa : float
+        Rise of the pressure with a region's mean height ``H_i / L_i``, in 1/mm (0: one
+        uniform pressure over the whole contact, the paper's assumption).
 
     Returns
     -------
     g : (n,) ndarray
         ``F_int / F_N = sum_i w_i (S_i + mu K_i)``, dimensionless, with the region
-        pressures per unit load ``w_i = s_i^(gamma - 1) / sum_j s_j^gamma`` (1/mm) and
-        ``s_i = K_i - mu S_i`` a region's vertical support; NaN where no region has a
-        support above :data:`MIN_SUPPORT_MM`.
+        pressures per unit load ``w_i = exp(kappa hbar_i) / sum_j s_j exp(kappa hbar_j)``
+        (1/mm) and ``s_i = K_i - mu S_i`` a region's vertical support; NaN where no region
+        has a support above :data:`MIN_SUPPORT_MM`.
     b_def : (n,) ndarray
-        ``sum_i (Q_i + mu S_i)`` in mm: ``F_def = p1 b_def`` (Eq. 3); NaN without ``Q``.
+        ``sum_i (Q_i + mu S_i)`` in mm: ``F_def = p1 b_def`` (Eq. 3).
     support : (n,) ndarray
         ``sum_i s_i`` in mm, the total vertical support: ``F_N / support`` is the mean
         pressure over the load-bearing contact (N/mm).
     """
     I = np.asarray(region_integrals, dtype=float)
-    if I.ndim != 3 or I.shape[2] not in (2, 3):
+    if I.ndim != 3 or I.shape[2] != 5:
         raise ValueError(
-            f"region_integrals must be an (n, k, 3) array of S_i, K_i, Q_i in mm, got shape {I.shape}"
+            "region_integrals must be an (n, k, 5) array of S_i, K_i, Q_i, H_i, L_i, got shape "
+            f"{I.shape}"
         )
-    if not (math.isfinite(sharing) and sharing >= 0):
-        raise ValueError(f"sharing must be a finite exponent >= 0, got {sharing!r}")
-    S, K = I[..., 0], I[..., 1]
+    if not (math.isfinite(kappa) and kappa >= 0):
+        raise ValueError(f"kappa must be a finite rate >= 0 in 1/mm, got {kappa!r}")
+    S, K, Q, H, L = (I[..., j] for j in range(5))
     sup = K - mu * S
     ok = sup > MIN_SUPPORT_MM
-    s_ok = np.where(ok, sup, 1.0)
-    w = np.where(ok, s_ok**sharing, 0.0)
-    total = w.sum(axis=1)
+    if kappa:
+        hbar = np.where(ok, H / np.where(L > 0, L, 1.0), -np.inf)
+        top = np.max(hbar, axis=1, keepdims=True)
+        rel = np.exp(kappa * np.where(ok, hbar - np.where(np.isfinite(top), top, 0.0), 0.0))
+        rel = np.where(ok, rel, 0.0)  # pressure per unit load, up to the normalisation
+    else:
+        rel = ok.astype(float)
+    total = np.sum(rel * np.where(ok, sup, 0.0), axis=1)
     any_ok = total > 0
-    per = np.where(ok, w / s_ok, 0.0) / np.where(any_ok, total, 1.0)[:, None]
+    per = rel / np.where(any_ok, total, 1.0)[:, None]
     g = np.where(any_ok, np.sum(per * (S + mu * K), axis=1), np.nan)
-    b = np.sum(I[..., 2] + mu * S, axis=1) if I.shape[2] == 3 else np.full(I.shape[0], np.nan)
+    b = np.sum(Q + mu * S, axis=1)
     support = np.where(any_ok, np.sum(np.where(ok, sup, 0.0), axis=1), np.nan)
     return g, b, support
 
@@ -305,12 +318,15 @@ class FrictionModel:
         self._S = cumulative_simpson(s * c, x=x, initial=0.0)  # int sin(alpha) dx
         self._K = cumulative_simpson(c, x=x, initial=0.0)  # int cos(alpha) dx
         self._Q = cumulative_simpson(s * s * c, x=x, initial=0.0)  # int s sin(alpha) dx
+        h = np.asarray(surface.h(x), dtype=float)
+        self._H = cumulative_simpson(h, x=x, initial=0.0)  # int h dx (mean heights of regions)
+        self._h_ends = (float(h[0]), float(h[-1]))
         # Outside the table the surface is flat: sin = 0, cos = 1, s sin = 0.
         self._end_slope = (float(s[0]), float(s[-1]))
         # The table is uniform, so a position's cell is found by arithmetic: measured 4x
         # faster than np.interp's binary search on the 10^4-point tables (the load-consistent
         # fit evaluates them ~10^4 times per subject), with the same values.
-        self._table = np.stack([self._S, self._K, self._Q], axis=-1)
+        self._table = np.stack([self._S, self._K, self._Q, self._H], axis=-1)
         self._x0, self._dx = float(x[0]), float(x[1] - x[0])
 
     def _antiderivatives(self, x: np.ndarray):
@@ -320,11 +336,12 @@ class FrictionModel:
         i = np.minimum(u.astype(np.intp), n - 2)
         t = (u - i)[..., None]
         v = self._table[i] * (1.0 - t) + self._table[i + 1] * t
-        S, K, Q = v[..., 0], v[..., 1], v[..., 2]
-        # beyond the table the surface is flat: K grows as x, S and Q stay
+        # beyond the table the surface is flat: K grows as x, H as h x, S and Q stay
         xt0, xt1 = self._x[0], self._x[-1]
-        K = K + np.where(x < xt0, x - xt0, 0.0) + np.where(x > xt1, x - xt1, 0.0)
-        return S, K, Q
+        below, above = np.where(x < xt0, x - xt0, 0.0), np.where(x > xt1, x - xt1, 0.0)
+        v[..., 1] += below + above
+        v[..., 3] += self._h_ends[0] * below + self._h_ends[1] * above
+        return v  # (..., 4): S, K, Q, H
 
     def integrals(self, regions) -> np.ndarray:
         """Per-frame sums over the regions of the three integrals of Eq. (4).
@@ -341,7 +358,7 @@ class FrictionModel:
             ``Q = sum_i int_{C_i} dh/dx sin alpha dx``, in mm (0 for a frame without
             contact).
         """
-        return self.region_integrals(regions).sum(axis=1)
+        return self.region_integrals(regions).sum(axis=1)[:, :3]
 
     def region_integrals(self, regions, *, inset: float = 0.0) -> np.ndarray:
         """The three integrals of Eq. (4) over each region separately.
@@ -357,8 +374,10 @@ class FrictionModel:
 
         Returns
         -------
-        (n_frames, n_max, 3) ndarray
-            ``[S_i, K_i, Q_i]`` in mm (see :meth:`integrals`); 0 for unused slots.
+        (n_frames, n_max, 5) ndarray
+            ``[S_i, K_i, Q_i, H_i, L_i]``: the integrals of :meth:`integrals` in mm, the
+            integral of the height ``H_i = int h dx`` in mm^2 and the length ``L_i`` in mm
+            of each (inset) region; 0 for unused slots.
         """
         d = float(inset)
         if not (math.isfinite(d) and d >= 0):
@@ -373,9 +392,12 @@ class FrictionModel:
         valid = b > a  # False for the NaN slots too
         a = np.where(valid, a, 0.0)
         b = np.where(valid, b, 0.0)
-        Sa, Ka, Qa = self._antiderivatives(a)
-        Sb, Kb, Qb = self._antiderivatives(b)
-        return np.stack([np.where(valid, hi - lo, 0.0) for lo, hi in ((Sa, Sb), (Ka, Kb), (Qa, Qb))], axis=-1)
+        lo = self._antiderivatives(a)
+        hi = self._antiderivatives(b)
+        out = np.empty(arr.shape[:2] + (5,))
+        out[..., :4] = np.where(valid[..., None], hi - lo, 0.0)
+        out[..., 4] = np.where(valid, b - a, 0.0)
+        return out
 
     def basis(self, regions, mu: float) -> np.ndarray:
         """Per-frame integrals multiplying p0 and p1 in Eq. (4).
@@ -428,7 +450,7 @@ class FrictionModel:
         if not isinstance(params, LoadParams):
             raise TypeError(f"params must be LoadParams, got {type(params).__name__}")
         R = self.region_integrals(regions, inset=params.inset)
-        g, b_def, support = load_terms(R, params.mu, params.sharing)
+        g, b_def, support = load_terms(R, params.mu, params.kappa)
         fn = np.broadcast_to(np.asarray(f_n, dtype=float), g.shape)
         f_int = fn * g
         f_def = np.where(np.isfinite(g), params.p1 * b_def, np.nan)

@@ -180,7 +180,7 @@ def test_fig4_says_which_footing_it_shows(data):
 def test_fig6_names_its_footing_and_marks_region_events(data):
     fig = fig6_model(data)
     title = fig._suptitle.get_text()
-    assert "Footing: detrended" in title and "steps where" in title
+    assert "Footing: absolute" in title and "steps where" in title  # the load-consistent default
     panels = [ax for ax in fig.axes if ax.get_title()]
     assert all(re.search(r"\(n = \d+\)$", ax.get_title()) for ax in panels)
     # the synthetic regions split continuously at the gap (no finite jump in contact): no event

@@ -15,11 +15,15 @@ contact. Its parameters are fitted in three steps, each where the data pin it:
    ratio upwards. The subject's ``mu`` is the mean of the trials' ``mu_k``, with a seeded
    bootstrap confidence interval over trials.
 2. **The load-bearing contact per subject**: the inset ``delta`` (mm) of the geometric
-   regions (``LoadParams.inset``) and the load-sharing exponent ``gamma`` between
-   disconnected regions (``LoadParams.sharing``; 1 = one uniform pressure, the paper's)
-   minimise the subject's summed squared residual with ``p1`` profiled out per trial: a
-   grid over ``[0, inset_max] x [0, sharing_max]``, then a bounded Nelder-Mead
-   (``scipy.optimize.minimize``) from the best grid point. Noise in ``F_N`` enters the
+   regions (``LoadParams.inset``) and the rise ``kappa`` (1/mm) of a region's pressure with
+   its height (``LoadParams.kappa``; 0 = one uniform pressure, the paper's) minimise the
+   subject's summed squared residual with ``p1`` profiled out per trial: a grid over
+   ``[0, inset_max] x [0, kappa_max]``, then a bounded Nelder-Mead
+   (``scipy.optimize.minimize``) from the best grid point. ``kappa`` is then held where
+   every trial's ``p1`` stays >= 0 (the deformation term dissipates; measured on the
+   simulated study, the residual alone would take ``kappa`` to about 2.5/mm where 40 of
+   180 trials get a slightly negative ``p1``), flagged ``kappa-limited``, and the inset
+   refitted at that ``kappa``. Noise in ``F_N`` enters the
    model through the pressure and pulls ``delta`` up (errors in variables: about +0.05 mm
    with 1 % noise on ``F_N`` in the synthetic tests); with forces recovered as well as the
    force stage does on the simulated study the effect is negligible.
@@ -73,7 +77,7 @@ __all__ = [
 ]
 
 MU_PER = ("subject", "trial")
-#: Position stride of the search for the inset and the load sharing (see _LoadDesign).
+#: Position stride of the search for the inset and kappa (see _LoadDesign).
 SEARCH_STRIDE = 3
 
 
@@ -91,12 +95,12 @@ class LoadFitOptions:
         subject (default), or fixed (0 = the geometric regions as they are).
     inset_max : float
         Upper bound in mm of the fitted inset (default 1 mm).
-    sharing : 'fit' or float
-        Load-sharing exponent ``gamma`` between disconnected regions: fitted per subject
-        (default), or fixed (1 = one uniform pressure over the whole contact, the paper's).
-    sharing_max : float
-        Upper bound of the fitted exponent (default 2: the load of a Hertzian line contact
-        grows as the square of its width).
+    kappa : 'fit' or float
+        Rise of a region's pressure with its mean height, in 1/mm: fitted per subject
+        (default), or fixed (0 = one uniform pressure over the whole contact, the paper's).
+    kappa_max : float
+        Upper bound in 1/mm of the fitted rise (default 8: a region 0.125 mm higher than
+        another carries e times its pressure).
     transient : bool
         Model a static-to-sliding transient in the flat-ground ratio (default True).
     transient_max_mm : float
@@ -130,8 +134,8 @@ class LoadFitOptions:
     median_kernel: int = 11
     inset: float | str = "fit"
     inset_max: float = 1.0
-    sharing: float | str = "fit"
-    sharing_max: float = 2.0
+    kappa: float | str = "fit"
+    kappa_max: float = 8.0
     transient: bool = True
     transient_max_mm: float = 3.0
     mu_per: str = "subject"
@@ -146,14 +150,15 @@ class LoadFitOptions:
 
     def __post_init__(self) -> None:
         _check_kernel(self.median_kernel)
-        for name, what in (("inset", "a length >= 0 in mm"), ("sharing", "an exponent >= 0")):
+        for name, what in (("inset", "a length >= 0 in mm"), ("kappa", "a rate >= 0 in 1/mm")):
             v = getattr(self, name)
             if isinstance(v, str):
                 if v != "fit":
                     raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
             elif isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
-        for name in ("inset_max", "sharing_max", "transient_max_mm", "nominal_load", "min_flat_mm", "hac_mm"):
+        for name in ("inset_max", "kappa_max", "transient_max_mm", "nominal_load", "min_flat_mm",
+                     "hac_mm"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
@@ -217,8 +222,8 @@ class LoadTrialFit:
         Deformation weight in N/mm and its standard error (Newey-West).
     inset : float
         Inset in mm of the load-bearing contact.
-    sharing : float
-        Load-sharing exponent between regions.
+    kappa : float
+        Rise of a region's pressure with its height, 1/mm.
     p0_mean : float
         The trial's pressure in N/mm, ``sum F_N / sum (K - mu S)`` over the compared
         positions (the counterpart of the paper's constant ``p0``).
@@ -249,7 +254,7 @@ class LoadTrialFit:
     p1: float
     p1_se: float
     inset: float
-    sharing: float
+    kappa: float
     p0_mean: float
     mu_flat: float
     objective: float
@@ -286,10 +291,10 @@ class LoadSubjectFit:
         How ``mu`` was measured (None when no trial has absolute forces).
     inset : float
         Load-bearing inset in mm (fitted or given).
-    sharing : float
-        Load-sharing exponent between regions (fitted or given).
+    kappa : float
+        Rise of a region's pressure with its height in 1/mm (fitted or given).
     fitted : tuple of str
-        Which of ``'inset'`` and ``'sharing'`` were fitted.
+        Which of ``'inset'`` and ``'kappa'`` were fitted.
     trials : tuple of LoadTrialFit
         In the order of the input trials.
     flags : tuple of FitFlag
@@ -305,7 +310,7 @@ class LoadSubjectFit:
     mu: float
     flat: FlatGroundMu | None
     inset: float
-    sharing: float
+    kappa: float
     fitted: tuple
     trials: tuple
     flags: tuple
@@ -488,7 +493,7 @@ class _LoadDesign:
         step = float(np.median(np.diff(trial.x)))
         self.lags = int(round(options.hac_mm / step)) if step > 0 else 0
         # Where every region lies on flat ground, F_int = mu F_N and F_def = 0 whatever the
-        # inset, the sharing and p1: those positions (and the median window around the
+        # inset, kappa and p1: those positions (and the median window around the
         # others) are left out of the contact search, whose residual they do not change.
         a, b = trial.surface.feature_extent
         reg = trial.regions
@@ -506,12 +511,12 @@ class _LoadDesign:
         # residual by under 0.1 % there and would cost half of the search's time.
         self.k_search = 1
 
-    def parts(self, mu: float, inset: float, sharing: float, window: slice = slice(None)):
+    def parts(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
         """``(g, b_def, support)`` of :func:`fingerfriction.model.load_terms` over the
         positions ``window``, median-filtered along them like the paper's model estimate
         (NaN where undefined)."""
         R = self.model._region_integrals(self.trial.regions[window], inset)
-        g, b, support = load_terms(R, mu, sharing)
+        g, b, support = load_terms(R, mu, kappa)
         ok = np.isfinite(g)
         k = self.k if window.step in (None, 1) else self.k_search
         if k > 1 and ok.any():
@@ -520,12 +525,12 @@ class _LoadDesign:
             b = median_filter(b, k)
         return g, b, support
 
-    def terms(self, mu: float, inset: float, sharing: float, window: slice = slice(None)):
+    def terms(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
         """(used, y, b, f_int, b_def, support) of the linear problem ``y = p1 b`` over
         the positions ``window`` (the paper's footing needs them all: ``window`` is ignored)."""
         if not self.absolute:
             window = slice(None)
-        g, b_def, support = self.parts(mu, inset, sharing, window)
+        g, b_def, support = self.parts(mu, inset, kappa, window)
         FN, F = self.FN[window], self.F[window]
         used = self.load_ok[window] & np.isfinite(g)
         f_int = FN * np.where(used, g, 0.0)
@@ -539,24 +544,29 @@ class _LoadDesign:
         y = (F - f_int)[used]
         return used, y, b_def[used], f_int, b_def, support
 
-    def rss(self, mu: float, inset: float, sharing: float) -> float:
+    def rss(self, mu: float, inset: float, kappa: float) -> float:
         """Residual with ``p1`` profiled out, over the positions near the feature."""
-        used, y, b, *_ = self.terms(mu, inset, sharing, self.search)
+        return self.solve(mu, inset, kappa)[1]
+
+    def solve(self, mu: float, inset: float, kappa: float, *, full: bool = False) -> tuple[float, float]:
+        """``(p1, residual)`` by least squares, over the positions near the feature (the
+        search's) or, with ``full``, every position as the trial's own fit uses them."""
+        used, y, b, *_ = self.terms(mu, inset, kappa, slice(None) if full else self.search)
         if y is None or y.size == 0:
-            return 0.0
+            return 0.0, 0.0
         bb = float(b @ b)
         p1 = float(b @ y) / bb if bb > 0 else 0.0
         r = y - p1 * b
-        return float(r @ r)
+        return p1, float(r @ r)
 
 
-def _fit_design(d: _LoadDesign, mu: float, inset: float, sharing: float, mu_flat: float,
+def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: float,
                 model_name: str = "load") -> LoadTrialFit:
     t = d.trial
     labels = _fit_labels(t)
     tid = t.id
     flags: list[FitFlag] = []
-    used, y, b, f_int, b_def, support = d.terms(mu, inset, sharing)
+    used, y, b, f_int, b_def, support = d.terms(mu, inset, kappa)
     n = t.n
     nan = np.full(n, np.nan)
     pressure = d.FN / support
@@ -568,7 +578,7 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, sharing: float, mu_flat
     if y is None or y.size < 3:
         msg = "no position with load-bearing contact and a normal load to compare"
         flags.append(FitFlag("error", "fit-failed", t.subject, tid, model_name, msg))
-        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, sharing=sharing,
+        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, kappa=kappa,
                             p0_mean=math.nan, mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
                             footing=footing, used=used,
                             measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=pressure,
@@ -612,12 +622,41 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, sharing: float, mu_flat
         meas[used] = y + f_int[used]  # the detrended measurement
     obj = nmse(meas[used], est[used])
     return LoadTrialFit(
-        mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset), sharing=float(sharing),
+        mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset), kappa=float(kappa),
         p0_mean=p0_mean, mu_flat=float(mu_flat), objective=float(obj),
         success=success, message="; ".join(parts), footing=footing, used=used, measured=meas, estimate=est,
         interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, p1 * b_def, np.nan),
         pressure=pressure, subject=t.subject, labels=labels, flags=tuple(flags),
     )
+
+
+def _physical_kappa(designs: list, mu_of, inset: float, kappa: float, *, steps: int = 8) -> float:
+    """The largest ``kappa <= kappa`` at which every trial's least-squares ``p1`` is >= 0.
+
+    The deformation term of Eq. (3) resists the motion (it dissipates energy), so a
+    negative weight is unphysical; a larger ``kappa`` moves the force on the slopes from
+    ``F_def`` to ``F_int`` and can push ``p1`` below 0 on the trials with the least
+    deformation (the 4 mm steps). Bisection on ``[0, kappa]`` with the search's positions,
+    then a check with every position (what the trials' own fits use), stepping down by
+    2 % until it holds.
+    """
+    def feasible(k: float, full: bool) -> bool:
+        return all(d.solve(mu_of(d), inset, k, full=full)[0] >= 0 for d in designs)
+
+    if feasible(kappa, True):
+        return kappa
+    lo, hi = 0.0, kappa
+    if not feasible(lo, False):
+        return 0.0  # p1 < 0 even with one uniform pressure: flagged per trial by the fit
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if feasible(mid, False) else (lo, mid)
+    k = lo
+    for _ in range(20):
+        if k <= 0 or feasible(k, True):
+            break
+        k *= 0.98
+    return max(k, 0.0)
 
 
 def _search_designs(designs: list, n_max: int) -> list:
@@ -639,38 +678,38 @@ def _search_designs(designs: list, n_max: int) -> list:
 
 
 def _fit_contact(designs, mu_of, options: LoadFitOptions) -> tuple[float, float, tuple]:
-    """The subject's load-bearing inset and load-sharing exponent (module notes, step 2)."""
-    free = [name for name in ("inset", "sharing") if getattr(options, name) == "fit"]
-    fixed = {name: float(getattr(options, name)) for name in ("inset", "sharing") if name not in free}
+    """The subject's load-bearing inset and pressure rise with height (module notes, step 2)."""
+    free = [name for name in ("inset", "kappa") if getattr(options, name) == "fit"]
+    fixed = {name: float(getattr(options, name)) for name in ("inset", "kappa") if name not in free}
     if not free or not designs:
-        return fixed.get("inset", 0.0), fixed.get("sharing", 1.0), ()
-    hi = {"inset": float(options.inset_max), "sharing": float(options.sharing_max)}
+        return fixed.get("inset", 0.0), fixed.get("kappa", 0.0), ()
+    hi = {"inset": float(options.inset_max), "kappa": float(options.kappa_max)}
 
     def total(v) -> float:
         p = {**fixed, **dict(zip(free, (float(a) for a in v), strict=True))}
-        return sum(d.rss(mu_of(d), p["inset"], p["sharing"]) for d in designs)
+        return sum(d.rss(mu_of(d), p["inset"], p["kappa"]) for d in designs)
 
     # a coarse grid first (the summed residual can have shallow local minima), then a
     # bounded Nelder-Mead from its best point, on parameters scaled to [0, 1]
     axes = {"inset": np.linspace(0.0, hi["inset"], 6),
-            "sharing": hi["sharing"] * np.array([0.125, 0.25, 0.5, 0.75])}
+            "kappa": hi["kappa"] * np.array([0.0, 0.125, 0.25, 0.5, 0.75])}
     mesh = np.meshgrid(*(axes[n] for n in free), indexing="ij")
     points = np.stack([m.ravel() for m in mesh], axis=1)
     values = [total(p) for p in points]
     best = points[int(np.argmin(values))]
     scale = np.array([hi[n] for n in free])
-    step = np.array([0.2 * hi["inset"] if n == "inset" else 0.125 * hi["sharing"] for n in free]) / scale
+    step = np.array([0.2 * hi[n] if n == "inset" else 0.125 * hi[n] for n in free]) / scale
     x0 = best / scale
     simplex = np.vstack([x0] + [x0 + np.where(np.arange(len(free)) == i, step[i] / 2, 0.0)
                                 for i in range(len(free))])
     res = optimize.minimize(lambda q: total(q * scale), x0, method="Nelder-Mead",
                             bounds=[(0.0, 1.0)] * len(free),
-                            # 0.01 of each range (0.01 mm of inset, 0.02 of sharing), or a
+                            # 0.01 of each range (0.01 mm of inset, 0.08/mm of kappa), or a
                             # residual settled to 1e-5 of its size: finer is below the noise
                             options={"initial_simplex": np.clip(simplex, 0.0, 1.0), "xatol": 1e-2,
                                      "fatol": 1e-5 * float(np.min(values)), "maxfev": 80})
     out = {**fixed, **dict(zip(free, (float(v) for v in res.x * scale), strict=True))}
-    return out["inset"], out["sharing"], tuple(free)
+    return out["inset"], out["kappa"], tuple(free)
 
 
 # ------------------------------------------------------------------------ subject fit
@@ -720,7 +759,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     except ValueError as exc:
         msg = str(exc)
         flag = FitFlag("error", "mu-unavailable", subject, "", "load", msg)
-        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, sharing=math.nan,
+        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
                               fitted=(), trials=(), flags=(flag,), success=False, message=msg)
     mu = flat.mu
     flags = list(flat.flags)
@@ -730,25 +769,40 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
             return flat.mu_trials.get(d.trial.id, mu)
         return mu
 
-    inset, sharing, fitted = _fit_contact(_search_designs([d for d in designs if d.absolute],
-                                                          options.search_trials), mu_of, options)
-    bounds = (("inset", inset, options.inset_max), ("sharing", sharing, options.sharing_max))
+    absolute = [d for d in designs if d.absolute]
+    search = _search_designs(absolute, options.search_trials)
+    inset, kappa, fitted = _fit_contact(search, mu_of, options)
+    if "kappa" in fitted:  # the physical limit: every trial's deformation weight p1 >= 0
+        best = kappa
+        kappa = _physical_kappa(absolute, mu_of, inset, kappa)
+        if kappa < best:
+            if "inset" in fitted:  # the best inset at the limited kappa
+                res = optimize.minimize_scalar(lambda v: sum(d.rss(mu_of(d), v, kappa) for d in search),
+                                               bounds=(0.0, float(options.inset_max)), method="bounded",
+                                               options={"xatol": 1e-3})
+                inset = float(res.x)
+                kappa = _physical_kappa(absolute, mu_of, inset, kappa)
+            flags.append(FitFlag("warning", "kappa-limited", subject, "", "load",
+                                 f"the pressure's rise with height is limited to {kappa:.2f}/mm, where every "
+                                 f"trial's deformation weight p1 stays >= 0 (the residual alone would take "
+                                 f"{best:.2f}/mm)"))
+    bounds = (("inset", inset, options.inset_max), ("kappa", kappa, options.kappa_max))
     for name, value, bound in bounds:
         if name in fitted and value > 0.98 * bound:
-            what = "load-bearing inset" if name == "inset" else "load-sharing exponent"
+            what = "load-bearing inset" if name == "inset" else "rise of the pressure with height"
             flags.append(FitFlag("warning", f"{name}-at-bound", subject, "", "load",
                                  f"the {what} reached its bound {bound:g}"))
-    fits = tuple(_fit_design(d, mu_of(d), inset, sharing, flat.mu_trials.get(d.trial.id, math.nan))
+    fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan))
                  for d in designs)
     for f in fits:
         flags.extend(f.flags)
     n_bad = sum(not f.success for f in fits)
     parts = [f"mu = {mu:.4f} (flat ground, {100 * flat.level:g} % CI [{flat.ci[0]:.4f}, {flat.ci[1]:.4f}]); "
-             f"load-bearing inset {inset:.3f} mm, load sharing {sharing:.2f}"
+             f"load-bearing inset {inset:.3f} mm, pressure rise with height {kappa:.2f}/mm"
              + (f" (fitted: {', '.join(fitted)})" if fitted else "")]
     if n_bad:
         parts.append(f"{n_bad} of {len(fits)} trial fits failed or unphysical")
-    return LoadSubjectFit(subject=subject, mu=mu, flat=flat, inset=inset, sharing=sharing, fitted=fitted,
+    return LoadSubjectFit(subject=subject, mu=mu, flat=flat, inset=inset, kappa=kappa, fitted=fitted,
                           trials=fits, flags=tuple(flags), success=n_bad == 0, message="; ".join(parts))
 
 

@@ -150,7 +150,8 @@ def _params_from_pipeline_fit(d: dict, subject, path: str, model: str | None = N
         raise ValueError(f"{tcsv}: no successful {model!r} trial fit for subject {subject!r}")
     if model == "load":
         return LoadParams(mu=float(mus[key]), p1=float(sel["p1"].median()),
-                          inset=float(per_model["inset_mm"][key]), sharing=float(per_model["sharing"][key]))
+                          inset=float(per_model["inset_mm"][key]),
+                          kappa=float(per_model["kappa_per_mm"][key]))
     return FrictionParams(mu=float(mus[key]), p0=float(sel["p0"].median()), p1=float(sel["p1"].median()))
 
 
@@ -165,9 +166,9 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
     ``fingerfriction fit`` (``RESULTS``, ``RESULTS/fit`` or ``RESULTS/fit/fit.json``: mu
     per subject, p0 and p1 medians over the subject's successful trials in ``trials.csv``):
     the fit's default model, or ``model`` (``'load'``: :class:`~fingerfriction.model.LoadParams`
-    with the subject's flat-ground mu, load-bearing inset, load sharing and median p1;
+    with the subject's flat-ground mu, load-bearing inset, pressure rise kappa and median p1;
     ``'paper'``: :class:`~fingerfriction.model.FrictionParams`). A JSON object with
-    ``"model": "load"`` and ``mu, p1`` (optionally ``inset``, ``sharing``) gives LoadParams
+    ``"model": "load"`` and ``mu, p1`` (optionally ``inset``, ``kappa``) gives LoadParams
     (``LoadParams.to_json()``).
 
     Returns
@@ -201,7 +202,7 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
     try:
         if d.get("model") == "load":
             return LoadParams(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0),
-                              sharing=d.get("sharing", 1.0))
+                              kappa=d.get("kappa", 0.0))
         return _params_from_mapping(d, subject, path)
     except (TypeError, KeyError) as exc:
         raise ValueError(f"{path}: malformed parameters ({exc})") from None

@@ -108,7 +108,7 @@ def load_prediction(model: FrictionModel, regions: np.ndarray, f_n, params: Load
         contact is empty.
     """
     R = model.region_integrals(regions, inset=params.inset)
-    g, b, _ = load_terms(R, params.mu, params.sharing)
+    g, b, _ = load_terms(R, params.mu, params.kappa)
     ok = np.isfinite(g)
     if median_kernel > 1 and ok.any():
         idx = np.arange(g.size)
@@ -210,7 +210,7 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     Table 1 (:func:`fingerfriction.stats.ensemble_correlation`, which detrends every trial).
 
     ``model='load'`` (default): the load-consistent Eq. (4) (:mod:`fingerfriction.model`)
-    with the subject's flat-ground ``mu``, load-bearing inset and load sharing, and the
+    with the subject's flat-ground ``mu``, load-bearing inset and pressure rise with height, and the
     median ``p1``; the pressure comes from the **nominal load** (``load``, the prescribed
     0.3 N), as for any surface never recorded. Measured and predicted forces are both on
     the absolute footing. Two more columns separate the losses: the same prediction with
@@ -356,7 +356,7 @@ def _in_table1_order(table: pd.DataFrame, subjects: list) -> pd.DataFrame:
 def _training_params(model: str, sf, ok: list):
     """A subject's parameters for its held-out trials: the medians of its training trials'."""
     if model == "load":
-        return LoadParams(sf.mu, float(np.median([f.p1 for f in ok])), sf.inset, sf.sharing)
+        return LoadParams(sf.mu, float(np.median([f.p1 for f in ok])), sf.inset, sf.kappa)
     return FrictionParams(sf.mu, float(np.median([f.p0 for f in ok])), float(np.median([f.p1 for f in ok])))
 
 
@@ -411,8 +411,8 @@ def _loso_row(model: str, subject, surf: Surface, trials, ins, got: dict, params
         "mu": params.mu if params else nan,
         "p0": getattr(params, "p0", nan) if params else nan,
         "p1": params.p1 if params else nan,
-        "inset": getattr(params, "inset", nan) if params else nan,
-        "sharing": getattr(params, "sharing", nan) if params else nan,
+        "inset_mm": getattr(params, "inset", nan) if params else nan,
+        "kappa_per_mm": getattr(params, "kappa", nan) if params else nan,
     }
 
 

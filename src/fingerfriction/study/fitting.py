@@ -6,7 +6,7 @@ then the out-of-sample validation (leave one surface out,
 
 * ``'load'`` (the default model): the load-consistent Eq. (4), ``mu`` per subject from
   flat-ground Coulomb friction with a confidence interval, the load-bearing contact
-  (inset, load sharing) per subject, ``p1`` per trial, on the absolute forces;
+  (inset, pressure rise with height) per subject, ``p1`` per trial, on the absolute forces;
 * ``'paper'``: Eq. (4) as printed, ``mu`` per subject by grid search, ``p0, p1`` per trial
   on the paper's flat-segment footing.
 
@@ -249,7 +249,7 @@ def _model_record(name: str, fits: dict, cpu_s: float) -> dict:
         rec["mu_trials"] = {s: (sf.flat.mu_trials if sf.flat else {}) for s, sf in fits.items()}
         rec["transient_mm"] = {s: (sf.flat.transient_mm if sf.flat else math.nan) for s, sf in fits.items()}
         rec["inset_mm"] = {s: sf.inset for s, sf in fits.items()}
-        rec["sharing"] = {s: sf.sharing for s, sf in fits.items()}
+        rec["kappa_per_mm"] = {s: sf.kappa for s, sf in fits.items()}
         rec["fitted"] = {s: list(sf.fitted) for s, sf in fits.items()}
         rec["p1_median"] = {s: _median([t.p1 for t in sf.trials if t.success]) for s, sf in fits.items()}
     else:
@@ -279,7 +279,7 @@ def _write_outputs(store: ResultsStore, trials: list, grids: dict, meta: dict, f
                              "mu": tf.mu, "p0": tf.p0_mean if m == "load" else tf.p0, "p1": tf.p1,
                              "p1_se": getattr(tf, "p1_se", math.nan),
                              "inset_mm": getattr(tf, "inset", math.nan),
-                             "sharing": getattr(tf, "sharing", math.nan),
+                             "kappa_per_mm": getattr(tf, "kappa", math.nan),
                              "footing": getattr(tf, "footing", "flat"), "objective": tf.objective,
                              "success": tf.success, "message": tf.message})
                 per_trial.setdefault(tid, {})[m] = tf
@@ -321,7 +321,7 @@ def _subject_row(model: str, subject: str, sf) -> dict:
     n_bad = sum(not t.success for t in sf.trials)
     lo, hi = _mu_ci(sf)
     return {"subject": subject, "model": model, "mu": sf.mu, "mu_lo": lo, "mu_hi": hi,
-            "inset_mm": getattr(sf, "inset", math.nan), "sharing": getattr(sf, "sharing", math.nan),
+            "inset_mm": getattr(sf, "inset", math.nan), "kappa_per_mm": getattr(sf, "kappa", math.nan),
             "transient_mm": sf.flat.transient_mm if getattr(sf, "flat", None) else math.nan,
             "n_trials": len(sf.trials), "n_failed": n_bad, "success": sf.success, "message": sf.message}
 
@@ -339,7 +339,7 @@ def summary_lines(fits: dict, flags: Sequence, model: str) -> list[str]:
                 lo, hi = sf.mu_ci
                 p1 = _median([t.p1 for t in sf.trials if t.success])
                 head = (f"mu = {sf.mu:.4f} (95 % CI {lo:.4f}-{hi:.4f}), load-bearing inset "
-                        f"{sf.inset:.2f} mm, load sharing {sf.sharing:.2f}, p1 median {p1:.3g} N/mm")
+                        f"{sf.inset:.2f} mm, pressure rise {sf.kappa:.2f}/mm, p1 median {p1:.3g} N/mm")
             else:
                 p0 = _median([t.p0 for t in sf.trials])
                 head = f"mu = {sf.mu:.3f} (grid search), p0 median {p0:.3g} N/mm"

@@ -22,11 +22,11 @@ Layout of a results folder (schema version 1)::
         fit.json                      default model, per-subject mu (+ 95 % CI), per-model
                                       parameters and CPU time, mu grid, options, flags
                                       (level, code, subject, trial, model, message), counts
-        subjects.csv                  subject, model, mu, mu_lo, mu_hi, inset_mm, sharing,
+        subjects.csv                  subject, model, mu, mu_lo, mu_hi, inset_mm, kappa_per_mm,
                                       transient_mm, n_trials, n_failed, success, message
         trials.csv                    trial, model, subject, surface, speed, mu, p0 (the
                                       load model: the trial's pressure), p1, p1_se, inset_mm,
-                                      sharing, footing, objective, success, message
+                                      kappa_per_mm, footing, objective, success, message
         table1.csv                    Table 1 of both models (model, subject, scale, shape,
                                       rho, rho_lo, rho_hi, p, ...)
         loso.csv, loso.png            the out-of-sample validation (leave one surface out),
