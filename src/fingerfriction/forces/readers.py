@@ -25,7 +25,8 @@ What lab files need beyond a clean two-column file in newtons:
   (``gain_v_per_n``); the record is in newtons either way.
 * **Rates from the file.** ``fs_hz`` may be omitted when the file states its rate (TDMS
   ``wf_increment``, an HDF5 ``fs_hz`` attribute, a time column); when both are given
-  they must agree.
+  they must agree. A TDMS waveform's ``wf_start_offset`` places sample 0 as a time
+  column's first value does (it is 0 in files written by DAQmx without a pre-trigger).
 
 :func:`probe_force_file` and :func:`list_channels` tell what a file holds (its channels,
 sample count and rate) without a manifest: ``fingerfriction init`` uses them.
@@ -186,8 +187,8 @@ class ForceFileInfo:
         Sampling rate in Hz that the file states (TDMS ``wf_increment``, an HDF5
         attribute, a time column), or None.
     time0_s : float
-        Time in s of sample 0 in the file's own clock (the first value of a time column;
-        0 without one).
+        Time in s of sample 0 in the file's own clock (the first value of a time column,
+        a TDMS waveform's ``wf_start_offset``; 0 without one).
     header : bool or None
         CSV: whether the first line names the columns (None for other formats).
     delimiter : str or None
@@ -710,6 +711,9 @@ def _read_tdms(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
         inc = ch.properties.get("wf_increment")
         if key != "time" and inc is not None and float(inc) > 0:
             info.setdefault("fs_hz", 1.0 / float(inc))
+        start = ch.properties.get("wf_start_offset")
+        if key == "F1" and start is not None and math.isfinite(float(start)):
+            info["time0_s"] = float(start)  # the waveform's time of sample 0, in s
     return out, info
 
 
@@ -831,7 +835,7 @@ def probe_force_file(
     if chans:
         n = _check_lengths(data, chans, p)
     fs = info.get("fs_hz")
-    t_first = 0.0
+    t_first = float(info.get("time0_s", 0.0))
     if "time" in data:
         if data["time"].size != (n if n is not None else data["time"].size):
             raise ForceFileError(f"time column {wanted['time']!r} of {str(p)!r} has {data['time'].size} "
@@ -888,7 +892,7 @@ def read_force_file(
     t0_s : float, optional
         Time in s on the trial's common clock of the file's time zero (manifest
         ``force.t0_s``): sample ``n`` is at ``t0_s + n / fs_hz``, or at ``t0_s + time[n]``
-        with a time column.
+        with a time column (``t0_s + wf_start_offset + n / fs_hz`` for a TDMS waveform).
     n_samples : int, optional
         Expected number of samples (manifest ``force.n_samples``); a different file
         length is an error, since it means ``fs_hz`` or the file does not match the trial.
@@ -940,6 +944,8 @@ def read_force_file(
         file_fs, t_first = _time_axis(data["time"], name=time, path=p)
         rtol, what = TIME_COLUMN_RTOL, f"time column {time!r} gives a sampling rate of"
         t0 += t_first
+    else:
+        t0 += float(info.get("time0_s", 0.0))  # TDMS wf_start_offset
     if fs is None:
         if file_fs is None:
             raise ForceFileError(
