@@ -95,3 +95,28 @@ def test_no_fps_for_a_tiff_is_a_problem(lab):
     res = build_manifest(lab, _opts(fps=None))
     assert res.problems == (
         "raw/S1_SU4_40mms_1.tif: the video does not state its frame rate; give it (--fps)",)
+
+
+def test_command_line_values():
+    from fingerfriction.study_init import parse_force_options, parse_mapping
+
+    got = parse_force_options(channels=["tdms:Piezo/ai0,Piezo/ai1", "csv:1,2"], time=["csv:0"], units=["V"],
+                              sensitivity=["10,20"], gain=[], fs_hz=["csv:5000"], t0_s=["-0.01"])
+    assert got == {
+        "tdms": {"channels": {"F1": "Piezo/ai0", "F2": "Piezo/ai1"}},
+        "csv": {"channels": {"F1": 1, "F2": 2}, "time": 0, "fs_hz": 5000.0},
+        None: {"units": "V", "sensitivity_n_per_v": {"F1": 10.0, "F2": 20.0}, "t0_s": -0.01},
+    }
+    assert parse_force_options(gain=["0.1"]) == {None: {"gain_v_per_n": 0.1}}
+    with pytest.raises(ValueError, match=r"--channels takes two values F1,F2 .* got 'ai0'"):
+        parse_force_options(channels=["ai0"])
+    with pytest.raises(ValueError, match=r"--sensitivity must be a number, got 'ten'"):
+        parse_force_options(sensitivity=["ten"])
+    with pytest.raises(ValueError, match=r"--units is given twice for csv files"):
+        parse_force_options(units=["csv:V", "csv:mV"])
+    assert parse_mapping(["SU4=step-up-4mm", "B=bump:W=3,H=0.5"], "--surface") == {
+        "SU4": "step-up-4mm", "B": "bump:W=3,H=0.5"}
+    assert parse_mapping(["0.4", "bump-4mm=0.8"], "--surface-height-mm", convert=float,
+                         allow_default=True) == {None: 0.4, "bump-4mm": 0.8}
+    with pytest.raises(ValueError, match=r"--surface takes KEY=VALUE, got 'SU4'"):
+        parse_mapping(["SU4"], "--surface")

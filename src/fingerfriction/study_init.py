@@ -27,7 +27,8 @@ from .forces.readers import FORCE_FORMATS, infer_force_format, read_force_file
 from .surfaces import SURFACE_NAMES, surface_from_spec
 from .video.readers import probe_video
 
-__all__ = ["InitOptions", "InitTrial", "InitResult", "build_manifest", "FORCE_OPTION_KEYS"]
+__all__ = ["InitOptions", "InitTrial", "InitResult", "build_manifest", "FORCE_OPTION_KEYS",
+           "parse_force_options", "parse_mapping"]
 
 #: Manifest ``force`` fields that :attr:`InitOptions.force` may set.
 FORCE_OPTION_KEYS = ("channels", "time", "units", "sensitivity_n_per_v", "gain_v_per_n", "fs_hz", "t0_s",
@@ -285,3 +286,94 @@ def build_manifest(root: str | os.PathLike, options: InitOptions, *, matches: Ma
 def _one_line(exc: BaseException, rel: str) -> str:
     msg = " ".join(str(exc).split()).strip("'\"")
     return msg if rel in msg else f"{rel}: {msg}"
+
+
+# --------------------------------------------------------------------------------------
+# command-line values -> options (the parsing behind `fingerfriction init`)
+# --------------------------------------------------------------------------------------
+
+
+def _split_format(value: str) -> tuple[str | None, str]:
+    fmt, sep, rest = value.partition(":")
+    if sep and fmt.lower() in FORCE_FORMATS:
+        return fmt.lower(), rest
+    return None, value
+
+
+def _pair(value: str, option: str, convert) -> dict:
+    parts = [p.strip() for p in value.split(",")]
+    if len(parts) != 2 or not all(parts):
+        raise ValueError(f"{option} takes two values F1,F2 separated by a comma, got {value!r}")
+    return {"F1": convert(parts[0]), "F2": convert(parts[1])}
+
+
+def _name_or_index(text: str):
+    return int(text) if text.isdigit() else text
+
+
+def _number(option: str):
+    def convert(text: str) -> float:
+        try:
+            return float(text)
+        except ValueError:
+            raise ValueError(f"{option} must be a number, got {text!r}") from None
+    return convert
+
+
+def _one_or_pair(value: str, option: str) -> float | dict:
+    return _pair(value, option, _number(option)) if "," in value else _number(option)(value)
+
+
+def parse_force_options(*, channels=(), time=(), units=(), sensitivity=(), gain=(), fs_hz=(),
+                        t0_s=()) -> dict:
+    """Force-file options of the command line -> :attr:`InitOptions.force`.
+
+    Every value may start with a format and a colon to apply to files of that format only
+    (``tdms:Piezo/ai0,Piezo/ai1``); without one it applies to every format. Channels are
+    ``F1,F2`` (names, or 0-based column indices for CSV); ``sensitivity`` (N/V) and
+    ``gain`` (V/N) are one number for both channels or ``F1,F2``.
+
+    Raises
+    ------
+    ValueError
+        A malformed value, naming the option; the same option given twice for the same
+        format.
+    """
+    spec = {
+        "channels": (channels, "--channels", lambda v: _pair(v, "--channels", _name_or_index)),
+        "time": (time, "--time", _name_or_index),
+        "units": (units, "--units", str),
+        "sensitivity_n_per_v": (sensitivity, "--sensitivity", lambda v: _one_or_pair(v, "--sensitivity")),
+        "gain_v_per_n": (gain, "--gain", lambda v: _one_or_pair(v, "--gain")),
+        "fs_hz": (fs_hz, "--fs-hz", _number("--fs-hz")),
+        "t0_s": (t0_s, "--force-t0-s", _number("--force-t0-s")),
+    }
+    out: dict = {}
+    for key, (values, option, convert) in spec.items():
+        for value in values or ():
+            fmt, rest = _split_format(str(value))
+            entry = out.setdefault(fmt, {})
+            if key in entry:
+                where = f" for {fmt} files" if fmt else ""
+                raise ValueError(f"{option} is given twice{where}: {entry[key]!r} and {rest!r}")
+            entry[key] = convert(rest.strip())
+    return out
+
+
+def parse_mapping(values, option: str, *, convert=str, allow_default: bool = False) -> dict:
+    """``KEY=VALUE`` command-line values -> dict (``None`` key for a bare ``VALUE`` when
+    ``allow_default``)."""
+    out: dict = {}
+    for value in values or ():
+        key, sep, rest = str(value).partition("=")
+        if not sep:
+            if not allow_default:
+                raise ValueError(f"{option} takes KEY=VALUE, got {value!r}")
+            key, rest = None, value
+        elif not key.strip():
+            raise ValueError(f"{option} takes KEY=VALUE, got {value!r}")
+        k = key.strip() if key is not None else None
+        if k in out:
+            raise ValueError(f"{option} is given twice for {k or 'every key'!r}")
+        out[k] = convert(rest.strip())
+    return out
