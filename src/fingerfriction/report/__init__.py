@@ -1,6 +1,6 @@
 """Figures, tables and a self-contained HTML report of an analysed (and fitted) study.
 
-:func:`make_report` reads a results folder (:mod:`fingerfriction.results`) and writes,
+:func:`make_report` reads a results folder (:mod:`fingerfriction.study.store`) and writes,
 into ``RESULTS/report/``: each figure as PNG and SVG (:mod:`.figures`), Table 1, the
 blind-spot table, the out-of-sample validation (``loso``, computed by
 ``fit``) and, for a simulated study, the recovered parameters next to the ground
@@ -25,10 +25,20 @@ from markupsafe import Markup
 
 from .._atomic import atomic_write_text
 from .._progress import ProgressBar
+from ..forces.signals import describe_history
 from ..stats import write_table
+from ..study.store import ResultsStore
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
-from .tables import blindspot_table, fit_parameter_table, loso_table, table1, table1_display, truth_tables
+from .tables import (
+    blindspot_table,
+    fit_parameter_table,
+    loso_table,
+    table1,
+    table1_display,
+    truth_tables,
+    with_formatted_p,
+)
 
 __all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
 
@@ -49,12 +59,17 @@ class ReportResult:
         Table 1 in long format (None before the fit).
     loso : pandas.DataFrame or None
         Out-of-sample validation, rho per held-out surface (computed by ``fit``,
-        :func:`fingerfriction.pipeline.fit`; None if the fit did not validate).
+        :func:`fingerfriction.study.fitting.fit`; None if the fit did not validate).
     blindspots : pandas.DataFrame
         One row per blind spot per surface.
     truth : dict of str to pandas.DataFrame
         Recovered against true parameters (simulated studies).
     n_trials, n_failed : int
+    fitted : bool
+        Whether the results were fitted (Fig. 6, Fig. S3 and Table 1 need the fit).
+    notices : tuple of str
+        What the top of the page says before anything else (e.g. the model is not
+        fitted); the CLI prints them too.
     """
 
     html: Path
@@ -65,6 +80,33 @@ class ReportResult:
     n_trials: int
     n_failed: int
     loso: pd.DataFrame | None = None
+    fitted: bool = False
+    notices: tuple[str, ...] = ()
+
+
+#: Captions of the figures in the HTML report (the figure titles carry the essentials).
+CAPTIONS = {
+    "fig3_occupancy": (
+        "Normalised proportion of time each surface location was in contact (Fig. 3 of the paper), "
+        "counted over the frames in which the finger slides through the analysis window: the rest at "
+        "touch-down is left out (counted, it added a step at the resting contact's leading edge, near "
+        "x = -9.6 mm in the simulated studies). The occupancy tapers towards the ends of the swept span, "
+        "which the contact covers for a shorter time inside the window. Blind spots: never in contact in "
+        "any frame of any trial (the blind-spot table)."),
+    "fig4_forces": (
+        "Measured tangential force per surface and subject, one curve per speed (mean; band +- 1 SD where "
+        "more than one trial; n written by each curve), offset by 25 mN per speed as in the paper. The "
+        "footing is named in the title: the absolute one avoids the paper's flat-segment line extrapolated "
+        "over the 26 mm window, which makes curves drift at the far end."),
+    "fig6_model": (
+        "Measured and modelled force on the footing the fit compares them on (title). Ticks: where a "
+        "contact region appears or vanishes in a trial; the model, an integral over the detected regions, "
+        "steps there (at contact onset the video finds a region of finite length on the slope at once), "
+        "while the measured force changes continuously."),
+    "figS1_lengths": "Contact lengths L_i of the regions C_i against finger position, every frame of every "
+                     "trial.",
+    "figS3_components": "Interfacial (Eq. 2) and deformation (Eq. 3) parts of the fitted model.",
+}
 
 
 def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
@@ -77,6 +119,70 @@ def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
     body = "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
                    for row in df.itertuples(index=False))
     return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _parameter_rows(parameters: dict) -> list[tuple[str, str]]:
+    """The run record's analysis parameters as ``(stage.option, value)`` rows."""
+    rows = []
+    for stage, opts in parameters.items():
+        if isinstance(opts, dict):
+            rows += [(f"{stage}.{k}", _value_text(v)) for k, v in opts.items()]
+        else:
+            rows.append((str(stage), _value_text(opts)))
+    return rows
+
+
+def _value_text(v) -> str:
+    if v is None:
+        return "none"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_value_text(x) for x in v) if v else "none"
+    if isinstance(v, float):
+        return f"{v:g}"
+    return str(v)
+
+
+def _force_history(data: ReportData) -> list[tuple[str, list[str]]]:
+    """Per trial, the steps of its force processing as lines a person reads."""
+    return [(t.id, describe_history(t.force_history) if t.force_history is not None
+             else ["not recorded (the trial was analysed by an earlier version)"]) for t in data.trials]
+
+
+def _write_tables(data: ReportData, out: Path, has_fit: bool, files: list[Path]):
+    """Write Table 1, the out-of-sample table, the blind spots and the truth tables (CSV,
+    Markdown, Table 1 also LaTeX) into ``out``, appending to ``files``; returns
+    ``(table1, loso, blindspots, truth, fitted parameters)``."""
+    t1 = table1(data) if has_fit else None
+    if t1 is not None:
+        for ext in ("csv", "md", "tex"):  # the CSV keeps the numbers, the others read as text
+            write_table(t1 if ext == "csv" else with_formatted_p(t1), out / f"table1.{ext}")
+            files.append(out / f"table1.{ext}")
+    loso = loso_table(data) if has_fit else None
+    if loso is not None:
+        for ext in ("csv", "md"):
+            write_table(loso if ext == "csv" else with_formatted_p(loso), out / f"loso.{ext}")
+            files.append(out / f"loso.{ext}")
+    bs = blindspot_table(data)
+    for ext in ("csv", "md"):
+        write_table(bs, out / f"blindspots.{ext}")
+        files.append(out / f"blindspots.{ext}")
+    truth = truth_tables(data)
+    for key, df in truth.items():
+        for ext in ("csv", "md"):
+            write_table(df, out / f"truth_{key}.{ext}")
+            files.append(out / f"truth_{key}.{ext}")
+    return t1, loso, bs, truth, fit_parameter_table(data)
+
+
+def _mu_notes(fit: dict) -> dict:
+    """Per subject, a note when the fitted mu sits at an end of the search grid."""
+    grid = fit.get("mu_grid") or {}
+    notes = {}
+    for s, m in (fit.get("mu") or {}).items():
+        if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
+            notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
+                        "not a minimum inside the grid, the true value may lie beyond it")
+    return notes
 
 
 def make_report(results: str | os.PathLike, *, progress: bool = False) -> ReportResult:
@@ -118,26 +224,10 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
                             "png_b64": base64.b64encode(blobs["png"]).decode("ascii")})
             bar.advance(stem)
 
-        t1 = table1(data) if has_fit else None
-        if t1 is not None:
-            for ext in ("csv", "md", "tex"):
-                write_table(t1, out / f"table1.{ext}")
-                files.append(out / f"table1.{ext}")
-        loso = loso_table(data) if has_fit else None
-        if loso is not None:
-            for ext in ("csv", "md"):
-                write_table(loso, out / f"loso.{ext}")
-                files.append(out / f"loso.{ext}")
-        bs = blindspot_table(data)
-        for ext in ("csv", "md"):
-            write_table(bs, out / f"blindspots.{ext}")
-            files.append(out / f"blindspots.{ext}")
-        truth = truth_tables(data)
-        for key, df in truth.items():
-            for ext in ("csv", "md"):
-                write_table(df, out / f"truth_{key}.{ext}")
-                files.append(out / f"truth_{key}.{ext}")
-        params = fit_parameter_table(data)
+        t1, loso, bs, truth, params = _write_tables(data, out, has_fit, files)
+        loso_png = ResultsStore(data.root).loso_figure_path
+        loso_img = (base64.b64encode(loso_png.read_bytes()).decode("ascii")
+                    if loso is not None and loso_png.is_file() else None)
         bar.advance("tables")
 
         titles = {"mu": "Friction coefficient per subject",
@@ -149,7 +239,18 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         template = env.from_string(
             resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
         run = data.run
+        notices = []
+        if not has_fit:
+            notices.append(f"The model is not fitted: Fig. 6, Fig. S3 and Table 1 are left out; run "
+                           f"`fingerfriction fit {data.root}` and then this report again.")
+        mu_notes = _mu_notes(data.fit or {})
+        n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
         page = template.render(
+            notices=notices, mu_notes=mu_notes, n_neg_p0=n_neg_p0,
+            subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
+            table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
+                         if t1 is not None else None),
+            loso_img=loso_img, captions=CAPTIONS,
             study_name=Path(run.get("study", "study")).name, study=run.get("study", ""),
             results=str(data.root),
             generated=datetime.now(UTC).isoformat(timespec="seconds"),
@@ -159,12 +260,13 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             speeds=", ".join(f"{v:g}" for v in data.speeds),
             mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
             table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
-            loso=Markup(_html_table(loso)) if loso is not None else None,
+            loso=Markup(_html_table(with_formatted_p(loso))) if loso is not None else None,
             loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
             params=Markup(_html_table(params)) if params is not None else None,
-            figures=figures, parameters=run.get("parameters", {}), versions=run.get("versions", {}),
+            figures=figures, parameters=_parameter_rows(run.get("parameters", {})),
+            versions=run.get("versions", {}), force_history=_force_history(data),
         )
         atomic_write_text(out / "index.html", page)
         files.append(out / "index.html")
@@ -172,4 +274,5 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
     finally:
         bar.close()
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
-                        n_trials=len(data.trials), n_failed=len(data.failed), loso=loso)
+                        n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
+                        notices=tuple(notices))

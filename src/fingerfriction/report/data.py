@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..results import ResultsStore, regions_from_table
-from ..surfaces import Surface, surface_from_spec
+from ..study.store import ResultsStore, regions_from_table
+from ..surfaces import Surface
 
 __all__ = ["TrialData", "ReportData", "load_report_data"]
 
@@ -36,7 +36,9 @@ class TrialData:
         Per-position table (``x_mm, F_T_N, t_s``).
     model : pandas.DataFrame or None
         Fit output per position (``x_mm, F_T_N, F_hat_N, F_model_N, F_int_N, F_def_N``)
-        when :func:`fingerfriction.pipeline.fit` has run.
+        when :func:`fingerfriction.study.fitting.fit` has run.
+    status : dict
+        The trial's ``status.json`` (inputs, stage diagnostics under ``info``).
     """
 
     id: str
@@ -48,6 +50,43 @@ class TrialData:
     regions: np.ndarray
     forces: pd.DataFrame
     model: pd.DataFrame | None = None
+    status: dict = field(default_factory=dict)
+
+    def sliding(self, *, min_speed_fraction: float = 0.2, half_span: int = 10) -> np.ndarray:
+        """Frames in which the finger slides through the analysis window, ``(n_frames,)`` bool.
+
+        The frames whose position x(t) lies inside the span of the force grid (the
+        paper's 26 mm window, "Force data processing") and whose speed, a central
+        difference over ``2 * half_span`` frames, is at least ``min_speed_fraction`` of
+        the median speed of those frames. This leaves out the rest at touch-down (and
+        any pause), in which a recording can spend a tenth of its frames with the
+        finger still: counted as contact time, it lights up the resting contact's span
+        in the occupancy map (Fig. 3) with a step at its edge.
+        """
+        fr = self.frames
+        x = fr["x_mm"].to_numpy(float)
+        t = fr["t_s"].to_numpy(float)
+        xg = self.forces["x_mm"].to_numpy(float) if len(self.forces) else np.array([np.nan])
+        lo, hi = (np.nanmin(xg), np.nanmax(xg)) if np.isfinite(xg).any() else (-np.inf, np.inf)
+        with np.errstate(invalid="ignore"):
+            inside = np.isfinite(x) & (x >= lo) & (x <= hi)
+        k = int(half_span)
+        v = np.full(x.size, np.nan)
+        if x.size > 2 * k:
+            v[k:-k] = (x[2 * k:] - x[:-2 * k]) / (t[2 * k:] - t[:-2 * k])
+        ok = inside & np.isfinite(v)
+        if not ok.any():
+            return inside
+        v_ref = float(np.median(np.abs(v[ok])))
+        with np.errstate(invalid="ignore"):
+            return inside & (np.abs(v) >= min_speed_fraction * v_ref)
+
+    @property
+    def force_history(self) -> list | None:
+        """Every step of the trial's force processing with its parameters and fitted values
+        (``status.json``, ``info.forces.history``); None for a trial analysed before the
+        history was stored."""
+        return ((self.status.get("info") or {}).get("forces") or {}).get("history")
 
 
 @dataclass(eq=False)
@@ -125,8 +164,7 @@ def load_report_data(results) -> ReportData:
     """
     store = ResultsStore(results)
     run = store.read_run()
-    surfaces = {k: surface_from_spec(v) for k, v in (run.get("surfaces") or {}).items()}
-    model_dir = store.fit_dir / "model"
+    surfaces = store.surfaces()
     trials, failed = [], []
     for m in run.get("trials", []):
         tid = m["id"]
@@ -135,23 +173,19 @@ def load_report_data(results) -> ReportData:
             failed.append((tid, (st or {}).get("reason") or "not analysed (run interrupted?)"))
             continue
         frames = store.read_frames(tid)
-        model = None
-        mp = model_dir / f"{tid}.parquet"
-        if mp.is_file():
-            model = pd.read_parquet(mp)
+        model = store.read_model(tid)
         trials.append(TrialData(
             id=tid, subject=str(m.get("subject")), surface=str(m.get("surface")),
             speed_mm_s=float(m.get("speed_mm_s") or math.nan), repetition=m.get("repetition"),
-            frames=frames, regions=regions_from_table(frames), forces=store.read_forces(tid), model=model))
+            frames=frames, regions=regions_from_table(frames), forces=store.read_forces(tid), model=model,
+            status=st))
     if not trials:
         raise ValueError(f"{str(store.root)!r}: no trial finished OK; nothing to report")
-    fit = fit_trials = None
-    if (store.fit_dir / "fit.json").is_file():
-        fit = json.loads((store.fit_dir / "fit.json").read_text(encoding="utf-8"))
-        fit_trials = pd.read_csv(store.fit_dir / "trials.csv", dtype={"subject": str})
-    loso = None
-    if fit is not None and (store.fit_dir / "loso.csv").is_file():
-        loso = pd.read_csv(store.fit_dir / "loso.csv", dtype={"subject": str})
+    fit = store.read_fit_record()
+    fit_trials = loso = None
+    if fit is not None:
+        fit_trials = store.read_fit_table()
+        loso = store.read_loso()
     truth = truth_dir = None
     notes = []
     if run.get("truth"):
