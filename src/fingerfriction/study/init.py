@@ -1,6 +1,6 @@
 """Build a study manifest from a folder of lab recordings (``fingerfriction init``).
 
-The recordings are found by file-name patterns (:mod:`fingerfriction.filepatterns`);
+The recordings are found by file-name patterns (:mod:`fingerfriction.study.patterns`);
 what the files say about themselves (frame counts, frame rates, image sizes, sample
 counts, sampling rates) is read from them (:func:`~fingerfriction.video.readers.probe_video`,
 :func:`~fingerfriction.forces.readers.read_force_file`); what they cannot say (channel
@@ -22,10 +22,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .filepatterns import MatchResult, list_candidates, match_recordings
-from .forces.readers import FORCE_FORMATS, infer_force_format, read_force_file
-from .surfaces import SURFACE_NAMES, surface_from_spec
-from .video.readers import probe_video
+from ..forces.readers import FORCE_FORMATS, infer_force_format, read_force_file
+from ..surfaces import SURFACE_NAMES, surface_from_spec
+from ..video.readers import probe_video
+from .patterns import MatchResult, list_candidates, match_recordings
 
 __all__ = ["InitOptions", "InitTrial", "InitResult", "build_manifest", "FORCE_OPTION_KEYS",
            "parse_force_options", "parse_mapping"]
@@ -45,7 +45,7 @@ class InitOptions:
     Parameters
     ----------
     video, forces : tuple of str
-        File-name patterns (:mod:`fingerfriction.filepatterns`), relative to the study
+        File-name patterns (:mod:`fingerfriction.study.patterns`), relative to the study
         folder; one or more each.
     surfaces : dict
         File-name token -> surface: a built-in name (``'bump-2mm'``), a parametric spec
@@ -140,7 +140,7 @@ class InitResult:
         The manifest (``docs/study-format.md``) of the trials without problems.
     trials : tuple of InitTrial
         Every trial found, in order; those with a ``problem`` are not in the manifest.
-    unmatched : tuple of filepatterns.Unmatched
+    unmatched : tuple of patterns.Unmatched
         Paths not used, with the reason.
     problems : tuple of str
         One line per problem (a file that cannot be read, an unknown surface token...),
@@ -215,8 +215,8 @@ def build_manifest(root: str | os.PathLike, options: InitOptions, *, matches: Ma
         The study folder: the patterns are relative to it, and so are the manifest's paths.
     options : InitOptions
     matches : MatchResult, optional
-        A matching already done (default: :func:`~fingerfriction.filepatterns.match_recordings`
-        on :func:`~fingerfriction.filepatterns.list_candidates`).
+        A matching already done (default: :func:`~fingerfriction.study.patterns.match_recordings`
+        on :func:`~fingerfriction.study.patterns.list_candidates`).
     created_by : str
         For the manifest's ``created_by``.
 
@@ -228,7 +228,7 @@ def build_manifest(root: str | os.PathLike, options: InitOptions, *, matches: Ma
     Raises
     ------
     ValueError
-        A missing folder; a malformed pattern (:class:`~fingerfriction.filepatterns.PatternError`).
+        A missing folder; a malformed pattern (:class:`~fingerfriction.study.patterns.PatternError`).
     """
     root = Path(root)
     if not root.is_dir():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fingerfriction.study_init import InitOptions, build_manifest
+from fingerfriction.study.init import InitOptions, build_manifest
 from fingerfriction.video.writers import write_video
 
 V = "raw/S{subject}_{surface}_{speed}mms_{repetition}.cine"
@@ -98,7 +98,7 @@ def test_no_fps_for_a_tiff_is_a_problem(lab):
 
 
 def test_command_line_values():
-    from fingerfriction.study_init import parse_force_options, parse_mapping
+    from fingerfriction.study.init import parse_force_options, parse_mapping
 
     got = parse_force_options(channels=["tdms:Piezo/ai0,Piezo/ai1", "csv:1,2"], time=["csv:0"], units=["V"],
                               sensitivity=["10,20"], gain=[], fs_hz=["csv:5000"], t0_s=["-0.01"])
