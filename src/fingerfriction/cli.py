@@ -376,9 +376,17 @@ def analyze_cmd(
     simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
                                    "experiment (only matter with --position cf-centroid: narrower window, "
                                    "x(t) extended; see README)."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="List the trials that would be computed and why "
+                                 "(new, input changed, manifest entry changed, parameters changed); run "
+                                 "and write nothing."),
 ) -> None:
-    """Every trial through video analysis and force processing, in parallel (resumable)."""
-    from .study.analyze import analyze  # heavy (Dask, both stages); imported when the command runs
+    """Every trial through video analysis and force processing, in parallel (resumable).
+
+    The study is checked first (as `fingerfriction check`): mistakes in the manifest stop
+    the run; a trial whose recordings do not match its entry fails, the others go on. A
+    finished trial is computed again when its input files, its manifest entry or the
+    analysis parameters changed."""
+    from .study.analyze import StudyCheckError, analyze, plan_analysis  # heavy (Dask, both stages)
     from .study.params import POSITIONS, AnalysisParams, sim_params  # heavy (both stages), as above
 
     try:
@@ -388,15 +396,59 @@ def analyze_cmd(
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
-        res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True,
-                      params=params)
+        if dry_run:
+            plan = plan_analysis(study, out, params=params, force=force)
+        else:
+            res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True,
+                          params=params)
+    except StudyCheckError as exc:
+        _print_problems(exc.problems)
+        fail(f"{len(exc.problems)} problem(s) in the manifest; nothing was run")
     except (ValueError, OSError) as exc:
         fail(str(exc))
+    if dry_run:
+        t = Table(title=f"analyze --dry-run: {study} -> {out}")
+        for c in ("trial", "action", "why"):
+            t.add_column(c)
+        for p in plan.trials:
+            t.add_row(p.trial_id, "compute" if p.action == "compute" else "skip", p.reason)
+        console.print(t)
+        console.print(f"would compute {len(plan.todo)} and skip {len(plan.skipped)} of {len(plan.trials)} "
+                      "trials; nothing was run or written", highlight=False)
+        return
     _print_failures(res.failures)
     console.print(
         f"{res.n_computed} computed, {res.n_skipped} already done, {res.n_failed} failed "
         f"of {res.n_trials} trials in {res.elapsed_s:.1f} s ({res.scheduler}, {res.n_workers} workers) "
         f"-> {res.results}", highlight=False)
+
+
+def _print_problems(problems, limit: int | None = None) -> None:
+    problems = list(problems)
+    for p in problems[:limit]:
+        err_console.print(escape(str(p)), highlight=False, soft_wrap=True)
+    if limit is not None and len(problems) > limit:
+        err_console.print(f"... and {len(problems) - limit} more", highlight=False)
+
+
+@app.command("check")
+def check_cmd(
+    study: str = typer.Argument(..., help="Study folder (with manifest.json), or the manifest."),
+) -> None:
+    """Validate a study and list every problem at once: each manifest field of each trial,
+    and each recording against its entry (present, readable, frame count and rate, image
+    size, force channels, sample count and rate). Exit status 2 if there is any."""
+    from .study.check import check_study  # heavy (video and force readers); imported when run
+
+    res = check_study(study)
+    n_bad = len({p.trial for p in res.problems if p.trial is not None})
+    _print_problems(res.problems)
+    n_ok = len(res.study.trials) if res.study is not None else 0
+    if res.problems:
+        whole = "" if res.study is not None else "; the manifest as a whole cannot be read"
+        fail(f"{len(res.problems)} problem(s): {n_ok} of {res.n_entries} trials are fine, "
+             f"{n_bad} have problems{whole}")
+    console.print(f"{res.manifest}: {n_ok} trials, no problem found", highlight=False)
 
 
 @app.command("fit")
@@ -583,6 +635,133 @@ def validate_cmd(
         t.add_row(str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
                   f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
     console.print(t)
+
+@app.command("init")
+def init_cmd(
+    study: Annotated[str, typer.Argument(metavar="STUDY", help="Folder of the recordings; manifest.json is "
+                                         "written there, with paths relative to it.")],
+    video: Annotated[list[str], typer.Option(
+        "--video", metavar="PATTERN", help="File-name pattern of the videos, relative to STUDY, e.g. "
+        "'raw/S{subject}_{surface}_{speed}mms_{repetition}.cine'; {subject}, {surface}, {speed} (mm/s) are "
+        "needed, {repetition} and other {fields} are optional, * matches anything. Repeat for several.")],
+    forces: Annotated[list[str], typer.Option(
+        "--forces", metavar="PATTERN", help="File-name pattern of the force files, with the same fields "
+                                            "(repeat for several).")],
+    surface: Annotated[list[str] | None, typer.Option(
+        "--surface", metavar="TOKEN=SURFACE", help="The surface a file-name token stands for: a built-in "
+        "name (bump-2mm), a spec (bump:W=3,H=0.5) or an x,h CSV (repeat). Default: the token itself.")
+    ] = None,
+    channels: Annotated[list[str] | None, typer.Option(
+        "--channels", metavar="[FORMAT:]F1,F2", help="Names (or CSV column indices) of the two piezo "
+        "channels, e.g. 'Piezo/ai0,Piezo/ai1' or 'csv:1,2'. Default F1,F2.")] = None,
+    time: Annotated[list[str] | None, typer.Option(
+        "--time", metavar="[FORMAT:]COLUMN", help="A time column in s (name or CSV index): its rate is "
+        "checked against --fs-hz or gives it, its first value places sample 0.")] = None,
+    units: Annotated[list[str] | None, typer.Option(
+        "--units", metavar="[FORMAT:]N|V|mV", help="Units of the channels in the files (default N).")] = None,
+    sensitivity: Annotated[list[str] | None, typer.Option(
+        "--sensitivity", metavar="[FORMAT:]N_PER_V[,N_PER_V]", help="Channels in volts: the charge "
+        "amplifiers' sensitivity in N/V, one for both or F1,F2.")] = None,
+    gain: Annotated[list[str] | None, typer.Option(
+        "--gain", metavar="[FORMAT:]V_PER_N[,V_PER_N]", help="Channels in volts: the gain in V/N "
+        "(instead of --sensitivity).")] = None,
+    fs_hz: Annotated[list[str] | None, typer.Option(
+        "--fs-hz", metavar="[FORMAT:]HZ", help="Force sampling rate in Hz for files that do not state it "
+        "(checked against those that do).")] = None,
+    force_t0_s: Annotated[list[str] | None, typer.Option(
+        "--force-t0-s", metavar="[FORMAT:]SECONDS", help="Clock offset: time in s of force sample 0 "
+        "(default 0).")] = None,
+    fps: Annotated[float | None, typer.Option(
+        "--fps", metavar="HZ", help="Video frame rate in Hz for files that do not state it (TIFF); checked "
+                                    "against those that do.")] = None,
+    video_t0_s: Annotated[float, typer.Option(
+        "--video-t0-s", metavar="SECONDS", help="Clock offset: time in s of video frame 0 (default 0).")
+    ] = 0.0,
+    calibration_frame: Annotated[int, typer.Option(
+        "--calibration-frame", metavar="INDEX", min=0, help="The finger-free frame used for calibration.")
+    ] = 0,
+    surface_height_mm: Annotated[list[str] | None, typer.Option(
+        "--surface-height-mm", metavar="[SURFACE=]MM", help="Feature height H in mm that calibrates the "
+        "image scale (default: the surface's own).")] = None,
+    description: Annotated[str, typer.Option("--description", metavar="TEXT",
+                                             help="Free text for the manifest.")] = "",
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Print what was found; write nothing.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing manifest.json.")
+                         ] = False,
+    skip_bad: Annotated[bool, typer.Option("--skip-bad", help="Write the trials without problems when "
+                                                                "some have problems.")] = False,
+) -> None:
+    """Build STUDY/manifest.json from a folder of recordings named after a pattern.
+
+    Frame counts, frame rates, image sizes, sample counts and sampling rates are read from
+    the files. The table of the trials found, and the files that were not used, are printed
+    before anything is written."""
+    from . import __version__
+    from .study.init import InitOptions, build_manifest, parse_force_options, parse_mapping  # reads files
+    from .study.manifest import MANIFEST_NAME, ManifestError, Study, write_manifest  # as above
+
+    try:
+        heights = parse_mapping(surface_height_mm, "--surface-height-mm", convert=_positive_mm,
+                                allow_default=True)
+        opts = InitOptions(
+            video=tuple(video), forces=tuple(forces), surfaces=parse_mapping(surface, "--surface"),
+            fps=fps, video_t0_s=video_t0_s, calibration_frame=calibration_frame,
+            force=parse_force_options(channels=channels, time=time, units=units, sensitivity=sensitivity,
+                                      gain=gain, fs_hz=fs_hz, t0_s=force_t0_s),
+            surface_height_mm=heights, description=description)
+        res = build_manifest(study, opts, created_by=f"fingerfriction {__version__} init")
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_init_table(res)
+    if res.unmatched:
+        console.print(f"{len(res.unmatched)} file(s) not used:", highlight=False)
+        for u in res.unmatched[:40]:
+            console.print(f"  {escape(u.path)}: {escape(u.reason)}", highlight=False)
+        if len(res.unmatched) > 40:
+            console.print(f"  ... and {len(res.unmatched) - 40} more", highlight=False)
+    _print_problems(res.problems)
+    if not res.trials:
+        fail(f"no trial found in {study} with --video {' '.join(video)} and --forces {' '.join(forces)}")
+    n_bad = len(res.trials) - res.n_ok
+    if n_bad and not skip_bad:
+        fail(f"{n_bad} of {len(res.trials)} trials have problems (listed above); fix them, or give "
+             f"--skip-bad to write the {res.n_ok} others")
+    if res.n_ok == 0:
+        fail("no trial without problems: nothing to write")
+    target = os.path.join(study, MANIFEST_NAME)
+    if dry_run:
+        console.print(f"dry run: {target} would hold {res.n_ok} trials; nothing was written", highlight=False)
+        return
+    if os.path.exists(target) and not overwrite:
+        fail(f"{target} exists; give --overwrite to replace it")
+    try:
+        st = Study.from_dict(res.manifest, root=None)
+        path = write_manifest(st, study)
+    except (ManifestError, OSError) as exc:
+        fail(str(exc))
+    console.print(f"[green]wrote[/] {path}: {res.n_ok} trials"
+                  + (f" ({n_bad} with problems left out)" if n_bad else ""), highlight=False)
+
+
+def _positive_mm(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise ValueError(f"--surface-height-mm must be a height in mm, got {text!r}") from None
+    return v
+
+
+def _print_init_table(res) -> None:
+    t = Table(title=f"{len(res.trials)} trials found ({res.n_ok} without problems)")
+    for c in ("trial", "surface", "video", "frames @ fps", "force file", "samples @ Hz"):
+        t.add_column(c, overflow="fold")
+    for r in res.trials:
+        frames = "" if r.n_frames is None else f"{r.n_frames} @ {r.fps:g}"
+        samples = "" if r.n_samples is None else f"{r.n_samples} @ {r.fs_hz:g}"
+        t.add_row(r.id, r.surface, os.path.basename(r.video), frames, os.path.basename(r.force), samples,
+                  style="red" if r.problem else None)
+    console.print(t)
+
 
 
 def main(argv: list[str] | None = None) -> int:

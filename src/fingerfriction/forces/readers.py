@@ -542,6 +542,10 @@ def _time_axis(t: np.ndarray, *, name, path: Path) -> tuple[float, float]:
             f"t0 + n/fs at {1 / slope:.6g} Hz; missing or repeated samples? "
             "(the analysis needs a uniform clock)"
         )
+    # the file's own first time when the line passes through it (to a millionth of a period:
+    # floating-point noise of the fit, ~1e-17 s, would otherwise move sample 0 off the grid)
+    if abs(t_first - t[0]) <= 1e-6 * slope:
+        t_first = float(t[0])
     return 1.0 / slope, t_first
 
 
