@@ -407,12 +407,8 @@ def analyze_cmd(
     except (ValueError, OSError) as exc:
         fail(str(exc))
     if dry_run:
-        t = Table(title=f"analyze --dry-run: {study} -> {out}")
-        for c in ("trial", "action", "why"):
-            t.add_column(c)
         for p in plan.trials:
-            t.add_row(p.trial_id, "compute" if p.action == "compute" else "skip", p.reason)
-        console.print(t)
+            console.print(f"{p.trial_id}: {p.action} ({p.reason})", highlight=False, soft_wrap=True)
         console.print(f"would compute {len(plan.todo)} and skip {len(plan.skipped)} of {len(plan.trials)} "
                       "trials; nothing was run or written", highlight=False)
         return
