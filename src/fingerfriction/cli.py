@@ -18,6 +18,8 @@ from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from . import __version__
+from ._outputs import output_dir, output_file
 from .surfaces import surface_from_spec
 
 app = typer.Typer(
@@ -27,6 +29,38 @@ app = typer.Typer(
 )
 console = Console()
 err_console = Console(stderr=True)
+
+
+def _readable_help_types() -> None:
+    """Show parameter types in ``--help`` as words (TEXT, INTEGER, FLOAT; nothing for a flag).
+
+    typer 0.2x prints them as Python annotations, ``<str>``, ``<bool>``, ``<int range>``,
+    ``<list[str]>``; this wraps its one formatting method (``_TyperParameter.display_type``)
+    and leaves every other typer version untouched. An option's own ``metavar`` still wins.
+    """
+    base = getattr(getattr(typer, "core", None), "_TyperParameter", None)
+    original = getattr(base, "display_type", None)
+    if original is None or getattr(original, "_readable", False):
+        return
+    names = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN", "Path": "PATH"}
+
+    def display_type(self, ctx):
+        if getattr(self, "is_flag", False):
+            return ""
+        text = original(self, ctx)
+        if not (isinstance(text, str) and text.startswith("<") and text.endswith(">")):
+            return text
+        inner = text[1:-1].replace(" range", "")
+        repeat = inner.startswith("list[") and inner.endswith("]")
+        inner = inner[5:-1] if repeat else inner
+        word = inner if "|" in inner else names.get(inner, inner.upper())
+        return f"{word} (repeatable)" if repeat else word
+
+    display_type._readable = True
+    base.display_type = display_type
+
+
+_readable_help_types()
 
 
 class UserError(Exception):
@@ -44,8 +78,17 @@ def fail(message: str) -> None:
 # ---------------------------------------------------------------------------------------
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        console.print(f"fingerfriction {__version__}", highlight=False)
+        raise typer.Exit()
+
+
 @app.callback()
-def _root() -> None:
+def _root(
+    version: bool = typer.Option(False, "--version", is_eager=True, callback=_print_version,
+                                 help="Print the version and exit."),
+) -> None:
     """fingerfriction: finger contact, tactile blind spots and friction forces on relief surfaces."""
     # A callback keeps typer in sub-command mode even while only one command exists.
 
@@ -81,6 +124,7 @@ def demo(
             except ValueError:
                 raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
                     from None
+        output_dir(out, owns={"study", "results"}, what="demo folder (study/, results/)")
         res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers, progress=True, design=design)
     except (ValueError, OSError) as exc:
         fail(str(exc))
@@ -115,7 +159,7 @@ def predict_contact(
         "geometric", "--kind", help="Contact definition: geometric (gap <= 70 um) or mechanical."
     ),
     out: str = typer.Option(
-        None, "--out", help="Directory for the occupancy figure (PNG); default: current."
+        "predict-contact", "--out", help="Folder for the occupancy figure (PNG); created if missing."
     ),
 ) -> None:
     """Predict tactile blind spots and simultaneous contacts of a finger sliding over a surface."""
@@ -125,10 +169,9 @@ def predict_contact(
     try:
         if kind not in ("geometric", "mechanical"):
             raise ValueError(f"--kind must be 'geometric' or 'mechanical', got {kind!r}")
-        out_dir = out or "."
-        if not os.path.isdir(out_dir):
-            raise ValueError(f"--out {out_dir!r} is not an existing directory")
         surf = surface_from_spec(surface)
+        out_dir = output_dir(out, owns=lambda n: n.startswith("occupancy-") and n.endswith(".png"),
+                             what="folder of occupancy figures")
         finger = get_subject(subject)
         positions = default_positions(surf, step=step)
         with console.status(f"solving the contact at {positions.size} finger positions..."):
@@ -313,7 +356,7 @@ def forces_cmd(
         )
         prof = process_trial_forces(tr, x, params=params, regions=regions, on_error="flag")
         if out is not None:
-            prof.write_csv(out)
+            prof.write_csv(output_file(out))
     except KeyError as exc:
         fail(str(exc.args[0]) if exc.args else str(exc))
         return
@@ -535,12 +578,18 @@ def _predict_inputs(params):
     return None if params is None else str(params)
 
 
+#: The files ``predict`` writes in its folder (``Prediction.write``).
+PREDICTION_FILES = {"forces.csv", "regions.csv", "occupancy.csv", "blind_spots.csv", "prediction.json",
+                    "forces.png", "occupancy.png"}
+
+
 @app.command("predict")
 def predict_cmd(
     surface: str = typer.Option(..., "--surface", help="Name (bump-4mm), spec (bump:W=3,H=0.5) or CSV."),
     subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger)."),
     params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
-    out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files."),
+    out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files "
+                            "(created if missing)."),
     load: float = typer.Option(0.3, "--load", help="Normal force in N."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
     contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
@@ -550,8 +599,9 @@ def predict_cmd(
     from .predict import predict  # heavy (the forward model); imported when the command runs
 
     try:
+        folder = output_dir(out, owns=PREDICTION_FILES, what="prediction folder")
         pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
-        paths = pred.write(out, figures=figures)
+        paths = pred.write(folder, figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     p = pred.params
@@ -590,11 +640,12 @@ def render_cmd(
     from .render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
     try:
+        cmd_file, table_file = output_file(out), table and output_file(table, option="--table")
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
                                        normal_force=normal_force, step=step, mu_range=(mu_min, mu_max))
-        files = r.write_command(out, speed, rate)
+        files = r.write_command(cmd_file, speed, rate)
         if table:
-            files["table"] = r.write_table(table)
+            files["table"] = r.write_table(table_file)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     d = r.display
@@ -620,7 +671,7 @@ def validate_cmd(
     from .predict import validate_results  # heavy (the forward model); imported when the command runs
 
     try:
-        res = validate_results(results, out=out, forward_step=step)
+        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
@@ -692,19 +743,14 @@ def init_cmd(
     Frame counts, frame rates, image sizes, sample counts and sampling rates are read from
     the files. The table of the trials found, and the files that were not used, are printed
     before anything is written."""
-    from . import __version__
-    from .study.init import InitOptions, build_manifest, parse_force_options, parse_mapping  # reads files
-    from .study.manifest import MANIFEST_NAME, ManifestError, Study, write_manifest  # as above
+    from .study.init import InitOptions, build_manifest, write_init  # reads the files; when the command runs
 
     try:
-        heights = parse_mapping(surface_height_mm, "--surface-height-mm", convert=_positive_mm,
-                                allow_default=True)
-        opts = InitOptions(
-            video=tuple(video), forces=tuple(forces), surfaces=parse_mapping(surface, "--surface"),
-            fps=fps, video_t0_s=video_t0_s, calibration_frame=calibration_frame,
-            force=parse_force_options(channels=channels, time=time, units=units, sensitivity=sensitivity,
-                                      gain=gain, fs_hz=fs_hz, t0_s=force_t0_s),
-            surface_height_mm=heights, description=description)
+        opts = InitOptions.from_command_line(
+            video=video, forces=forces, surface=surface, channels=channels, time=time, units=units,
+            sensitivity=sensitivity, gain=gain, fs_hz=fs_hz, force_t0_s=force_t0_s, fps=fps,
+            video_t0_s=video_t0_s, calibration_frame=calibration_frame, surface_height_mm=surface_height_mm,
+            description=description)
         res = build_manifest(study, opts, created_by=f"fingerfriction {__version__} init")
     except (ValueError, OSError) as exc:
         fail(str(exc))
@@ -716,35 +762,17 @@ def init_cmd(
         if len(res.unmatched) > 40:
             console.print(f"  ... and {len(res.unmatched) - 40} more", highlight=False)
     _print_problems(res.problems)
-    if not res.trials:
-        fail(f"no trial found in {study} with --video {' '.join(video)} and --forces {' '.join(forces)}")
-    n_bad = len(res.trials) - res.n_ok
-    if n_bad and not skip_bad:
-        fail(f"{n_bad} of {len(res.trials)} trials have problems (listed above); fix them, or give "
-             f"--skip-bad to write the {res.n_ok} others")
-    if res.n_ok == 0:
-        fail("no trial without problems: nothing to write")
-    target = os.path.join(study, MANIFEST_NAME)
-    if dry_run:
-        console.print(f"dry run: {target} would hold {res.n_ok} trials; nothing was written", highlight=False)
-        return
-    if os.path.exists(target) and not overwrite:
-        fail(f"{target} exists; give --overwrite to replace it")
     try:
-        st = Study.from_dict(res.manifest, root=None)
-        path = write_manifest(st, study)
-    except (ManifestError, OSError) as exc:
+        path = write_init(res, study, dry_run=dry_run, overwrite=overwrite, skip_bad=skip_bad)
+    except (ValueError, OSError) as exc:
         fail(str(exc))
-    console.print(f"[green]wrote[/] {path}: {res.n_ok} trials"
-                  + (f" ({n_bad} with problems left out)" if n_bad else ""), highlight=False)
-
-
-def _positive_mm(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise ValueError(f"--surface-height-mm must be a height in mm, got {text!r}") from None
-    return v
+    n_bad = len(res.trials) - res.n_ok
+    left = f" ({n_bad} with problems left out)" if n_bad else ""
+    if dry_run:
+        console.print(f"dry run: {path} would hold {res.n_ok} trials{left}; nothing was written",
+                      highlight=False)
+    else:
+        console.print(f"[green]wrote[/] {path}: {res.n_ok} trials{left}", highlight=False)
 
 
 def _print_init_table(res) -> None:
@@ -757,7 +785,6 @@ def _print_init_table(res) -> None:
         t.add_row(r.id, r.surface, os.path.basename(r.video), frames, os.path.basename(r.force), samples,
                   style="red" if r.problem else None)
     console.print(t)
-
 
 
 def main(argv: list[str] | None = None) -> int:

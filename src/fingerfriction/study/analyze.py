@@ -27,6 +27,7 @@ import dask
 from distributed import Client, LocalCluster, as_completed
 
 from .. import __version__
+from .._outputs import check_output_dir
 from .._progress import ProgressBar
 from .check import check_files, check_study
 from .manifest import Study, TrialRecord, resolve_path
@@ -262,6 +263,8 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
         raise StudyCheckError(res.manifest, res.problems)
     st = res.study
     selected = _select(st, trials)
+    # a results folder of its own, or a new or empty one: never mixed with other files
+    check_output_dir(out, marker="run.json", what="results folder")
     store = ResultsStore(out)
     plans = []
     for t in selected:

@@ -25,9 +25,11 @@ from pathlib import Path
 from ..forces.readers import FORCE_FORMATS, infer_force_format, read_force_file
 from ..surfaces import SURFACE_NAMES, surface_from_spec
 from ..video.readers import probe_video
+from .manifest import Study, write_manifest
 from .patterns import MatchResult, list_candidates, match_recordings
+from .records import MANIFEST_NAME
 
-__all__ = ["InitOptions", "InitTrial", "InitResult", "build_manifest", "FORCE_OPTION_KEYS",
+__all__ = ["InitOptions", "InitTrial", "InitResult", "build_manifest", "write_init", "FORCE_OPTION_KEYS",
            "parse_force_options", "parse_mapping"]
 
 #: Manifest ``force`` fields that :attr:`InitOptions.force` may set.
@@ -105,6 +107,30 @@ class InitOptions:
             if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
                 where = "" if key is None else f" of {key!r}"
                 raise ValueError(f"surface height{where} must be a positive height in mm, got {h!r}")
+
+    @classmethod
+    def from_command_line(cls, *, video, forces, surface=None, channels=None, time=None, units=None,
+                          sensitivity=None, gain=None, fs_hz=None, force_t0_s=None, fps=None,
+                          video_t0_s=0.0, calibration_frame=0, surface_height_mm=None,
+                          description="") -> InitOptions:
+        """The options of ``fingerfriction init`` as typed (repeatable options as lists of
+        text: ``--surface TOKEN=SURFACE``, ``--channels [FORMAT:]F1,F2``...; see
+        :func:`parse_force_options` and :func:`parse_mapping`).
+
+        Raises
+        ------
+        ValueError
+            A malformed value, naming its option.
+        """
+        return cls(
+            video=tuple(video or ()), forces=tuple(forces or ()),
+            surfaces=parse_mapping(surface, "--surface"),
+            fps=fps, video_t0_s=video_t0_s, calibration_frame=calibration_frame,
+            force=parse_force_options(channels=channels, time=time, units=units, sensitivity=sensitivity,
+                                      gain=gain, fs_hz=fs_hz, t0_s=force_t0_s),
+            surface_height_mm=parse_mapping(surface_height_mm, "--surface-height-mm",
+                                            convert=_number("--surface-height-mm"), allow_default=True),
+            description=description)
 
     def force_fields(self, fmt: str) -> dict:
         """The manifest ``force`` fields for files of format ``fmt``."""
@@ -281,6 +307,51 @@ def build_manifest(root: str | os.PathLike, options: InitOptions, *, matches: Ma
                 "description": options.description, "surfaces": surfaces_block, "trials": entries}
     return InitResult(manifest=manifest, trials=tuple(rows), unmatched=matches.unmatched,
                       problems=tuple(problems))
+
+
+def write_init(result: InitResult, root: str | os.PathLike, *, dry_run: bool = False, overwrite: bool = False,
+               skip_bad: bool = False) -> Path:
+    """Write the manifest :func:`build_manifest` built, after the checks ``init`` makes.
+
+    Parameters
+    ----------
+    result : InitResult
+    root : path-like
+        The study folder.
+    dry_run : bool
+        Make the checks, write nothing.
+    overwrite : bool
+        Replace an existing ``manifest.json``.
+    skip_bad : bool
+        Write the trials without problems when some have problems (default: refuse).
+
+    Returns
+    -------
+    Path
+        The manifest's path (written unless ``dry_run``).
+
+    Raises
+    ------
+    ValueError
+        No trial found; trials with problems (without ``skip_bad``); none without; an
+        existing manifest (without ``overwrite``); a manifest the parser refuses.
+    """
+    target = Path(root) / MANIFEST_NAME
+    n_bad = len(result.trials) - result.n_ok
+    if not result.trials:
+        raise ValueError(f"no trial found in {str(root)!r}: no video pattern and force pattern matched "
+                         "a pair of files (see the files not used)")
+    if n_bad and not skip_bad:
+        raise ValueError(f"{n_bad} of {len(result.trials)} trials have problems (listed above); fix them, or "
+                         f"give --skip-bad to write the {result.n_ok} others")
+    if result.n_ok == 0:
+        raise ValueError("no trial without problems: nothing to write")
+    study = Study.from_dict(result.manifest)  # the parser's own checks, before anything is written
+    if dry_run:
+        return target
+    if target.exists() and not overwrite:
+        raise ValueError(f"{target} exists; give --overwrite to replace it")
+    return write_manifest(study, root)
 
 
 def _one_line(exc: BaseException, rel: str) -> str:
