@@ -70,11 +70,12 @@ def output_dir(path: str | os.PathLike, **kw) -> Path:
     return p
 
 
-def output_file(path: str | os.PathLike, *, option: str = "--out") -> Path:
-    """An output file's path, its folder created if missing (a folder given as the file is
-    refused, naming it)."""
+def output_file(path: str | os.PathLike, *, option: str = "--out", create: bool = True) -> Path:
+    """An output file's path, its folder created if missing (unless ``create`` is False:
+    only checked); a folder given as the file is refused, naming it."""
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{option} {str(p)!r} is a folder; give a file name")
-    p.parent.mkdir(parents=True, exist_ok=True)
+    if create:
+        p.parent.mkdir(parents=True, exist_ok=True)
     return p

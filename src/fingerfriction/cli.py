@@ -19,7 +19,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from . import __version__
-from ._outputs import output_dir, output_file
+from ._outputs import check_output_dir, output_dir, output_file
 from .surfaces import surface_from_spec
 
 app = typer.Typer(
@@ -170,15 +170,16 @@ def predict_contact(
         if kind not in ("geometric", "mechanical"):
             raise ValueError(f"--kind must be 'geometric' or 'mechanical', got {kind!r}")
         surf = surface_from_spec(surface)
-        out_dir = output_dir(out, owns=lambda n: n.startswith("occupancy-") and n.endswith(".png"),
-                             what="folder of occupancy figures")
+        owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
+                "what": "folder of occupancy figures"}
+        check_output_dir(out, **owns)
         finger = get_subject(subject)
         positions = default_positions(surf, step=step)
         with console.status(f"solving the contact at {positions.size} finger positions..."):
             res = sweep(surf, finger, positions, load=load)
         bs = res.blind_spots(kind)
-        png = save_occupancy_figure(res, surf, os.path.join(out_dir, f"occupancy-{surf.name}-s{subject}.png"),
-                                    kind=kind)
+        name = f"occupancy-{surf.name}-s{subject}.png"
+        png = save_occupancy_figure(res, surf, output_dir(out, **owns) / name, kind=kind)
     except (ValueError, TypeError, OSError) as exc:
         fail(str(exc))
         return
@@ -462,12 +463,9 @@ def analyze_cmd(
         f"-> {res.results}", highlight=False)
 
 
-def _print_problems(problems, limit: int | None = None) -> None:
-    problems = list(problems)
-    for p in problems[:limit]:
+def _print_problems(problems) -> None:
+    for p in problems:
         err_console.print(escape(str(p)), highlight=False, soft_wrap=True)
-    if limit is not None and len(problems) > limit:
-        err_console.print(f"... and {len(problems) - limit} more", highlight=False)
 
 
 @app.command("check")
@@ -480,13 +478,12 @@ def check_cmd(
     from .study.check import check_study  # heavy (video and force readers); imported when run
 
     res = check_study(study)
-    n_bad = len({p.trial for p in res.problems if p.trial is not None})
     _print_problems(res.problems)
     n_ok = len(res.study.trials) if res.study is not None else 0
     if res.problems:
         whole = "" if res.study is not None else "; the manifest as a whole cannot be read"
         fail(f"{len(res.problems)} problem(s): {n_ok} of {res.n_entries} trials are fine, "
-             f"{n_bad} have problems{whole}")
+             f"{len(res.by_trial())} have problems{whole}")
     console.print(f"{res.manifest}: {n_ok} trials, no problem found", highlight=False)
 
 
@@ -599,9 +596,10 @@ def predict_cmd(
     from .predict import predict  # heavy (the forward model); imported when the command runs
 
     try:
-        folder = output_dir(out, owns=PREDICTION_FILES, what="prediction folder")
+        owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
+        check_output_dir(out, **owns)
         pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
-        paths = pred.write(folder, figures=figures)
+        paths = pred.write(output_dir(out, **owns), figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     p = pred.params
@@ -640,12 +638,12 @@ def render_cmd(
     from .render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
     try:
-        cmd_file, table_file = output_file(out), table and output_file(table, option="--table")
+        output_file(out, create=False), table and output_file(table, option="--table", create=False)
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
                                        normal_force=normal_force, step=step, mu_range=(mu_min, mu_max))
-        files = r.write_command(cmd_file, speed, rate)
+        files = r.write_command(output_file(out), speed, rate)
         if table:
-            files["table"] = r.write_table(table_file)
+            files["table"] = r.write_table(output_file(table, option="--table"))
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     d = r.display

@@ -35,9 +35,11 @@ def test_predict_contact_bad_input_is_one_line_error(tmp_path):
         (["--surface", "nope"], "unknown surface"),
         (["--surface", "bump-4mm", "--subject", "3"], "unknown subject 3"),
         (["--surface", "bump-4mm", "--load", "-1"], "load"),
-        (["--surface", "bump-4mm", "--out", str(tmp_path / "missing")], "not an existing directory"),
+        (["--surface", "bump-4mm", "--out", str(tmp_path / "a-file")], "is a file; give a folder"),
     ]:
+        (tmp_path / "a-file").write_text("x")
         res = _invoke(args)
         assert res.exit_code == 2, res.output
         assert msg in res.output
         assert "Traceback" not in res.output
+    assert not os.path.exists("predict-contact")  # the default --out is created only to write in it
