@@ -30,7 +30,8 @@ def test_predict_contact_prints_blind_spots_and_writes_png(tmp_path):
     assert [p for p in os.listdir(tmp_path) if p != png.name] == []  # no temp files left
 
 
-def test_predict_contact_bad_input_is_one_line_error(tmp_path):
+def test_predict_contact_bad_input_is_one_line_error(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     for args, msg in [
         (["--surface", "nope"], "unknown surface"),
         (["--surface", "bump-4mm", "--subject", "3"], "unknown subject 3"),
