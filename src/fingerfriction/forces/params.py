@@ -53,7 +53,7 @@ class ForceProcessingParams:
         flat segment (contact entirely before the feature). Default 8.0 (a 16 mm finger).
     flat_segment_mm : (float, float) or None
         Finger-centre positions ``(x_lo, x_hi)`` in mm of the flat segment; ``None``
-        (default) derives it from the window and the feature (see module notes).
+        (default) derives it from the window and the feature (``docs/forces.md``).
     min_flat_mm : float
         Shortest accepted flat segment in mm of finger travel. Default 1.0.
     max_nan_gap : int

@@ -57,7 +57,7 @@ def _default_params_cached(key, finger, load: float, step: float) -> FrictionPar
 
 
 def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> FrictionParams:
-    """Documented default Eq. (4) parameters of subject 1 or 2 (see the module notes).
+    """Documented default Eq. (4) parameters of subject 1 or 2 (``docs/predict.md``).
 
     ``mu`` from the paper; ``p0 = F_N / L_flat`` (flat-ground friction ``mu F_N``);
     ``p1`` such that the mean peak of ``F_def`` over the paper's four raised surfaces is
