@@ -138,7 +138,7 @@ def test_flat_ground_mu_models_the_start_transient():
     assert res.transient_mm == pytest.approx(0.6, rel=0.15)
     assert res.ci[0] <= 0.55 <= res.ci[1]
     assert res.mu == pytest.approx(0.55, rel=2e-4)
-    plain = flat_ground_mu(trials, LoadFitOptions(transient=False))
+    plain = flat_ground_mu(trials, transient=False)
     assert math.isnan(plain.transient_mm)
     assert not plain.ci[0] <= 0.55 <= plain.ci[1]  # the transient biases the plain ratio up
     assert plain.mu > 0.55

@@ -19,6 +19,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from . import __version__
+from ._cli_help import readable_help_types
 from ._outputs import check_output_dir, output_dir, output_file
 from .surfaces import surface_from_spec
 
@@ -31,36 +32,7 @@ console = Console()
 err_console = Console(stderr=True)
 
 
-def _readable_help_types() -> None:
-    """Show parameter types in ``--help`` as words (TEXT, INTEGER, FLOAT; nothing for a flag).
-
-    typer 0.2x prints them as Python annotations, ``<str>``, ``<bool>``, ``<int range>``,
-    ``<list[str]>``; this wraps its one formatting method (``_TyperParameter.display_type``)
-    and leaves every other typer version untouched. An option's own ``metavar`` still wins.
-    """
-    base = getattr(getattr(typer, "core", None), "_TyperParameter", None)
-    original = getattr(base, "display_type", None)
-    if original is None or getattr(original, "_readable", False):
-        return
-    names = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN", "Path": "PATH"}
-
-    def display_type(self, ctx):
-        if getattr(self, "is_flag", False):
-            return ""
-        text = original(self, ctx)
-        if not (isinstance(text, str) and text.startswith("<") and text.endswith(">")):
-            return text
-        inner = text[1:-1].replace(" range", "")
-        repeat = inner.startswith("list[") and inner.endswith("]")
-        inner = inner[5:-1] if repeat else inner
-        word = inner if "|" in inner else names.get(inner, inner.upper())
-        return f"{word} (repeatable)" if repeat else word
-
-    display_type._readable = True
-    base.display_type = display_type
-
-
-_readable_help_types()
+readable_help_types()
 
 
 class UserError(Exception):
@@ -496,11 +468,9 @@ def check_cmd(
 @app.command("fit")
 def fit_cmd(
     results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
-    model: str = typer.Option("load", help="Default model: load (load-consistent Eq. 4) or paper (Eq. 4 "
-                                           "as printed). Both are fitted; this one is used by predict, "
-                                           "validate, render and comes first in the report."),
-    method: str = typer.Option("lstsq", help="The paper model's p0, p1 fit: lstsq (closed form) or "
-                                             "nelder-mead (as the paper)."),
+    model: str = typer.Option("load", help="Default model, load (load-consistent Eq. 4) or paper (as "
+                                           "printed); both are fitted, this one is used downstream."),
+    method: str = typer.Option("lstsq", help="Paper model's p0, p1 fit: lstsq or nelder-mead (the paper's)."),
     mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid."),
     mu_max: float = typer.Option(0.90, help="Largest mu of the paper model's grid."),
     mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid."),
@@ -516,18 +486,8 @@ def fit_cmd(
                   median_kernel=median, progress=True, seed=seed)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    unread = [(t, r) for t, r in res.failures if not any(f.trial == t for f in res.flags)]
-    if unread:
-        err_console.print(f"[red]{len(unread)} trial(s) could not be prepared for the fit[/], e.g. "
-                          f"{unread[0][0]}: {unread[0][1]}", highlight=False, soft_wrap=True)
-    for line in res.lines:
+    for line in res.console_lines(ResultsStore(results)):
         console.print(line, highlight=False, soft_wrap=True)
-    store = ResultsStore(results)
-    where = store.loso_path if res.loso is not None else res.loso_message
-    console.print(f"out-of-sample validation (leave one surface out): {where}", highlight=False)
-    n_err = sum(f.level == "error" for f in res.flags)
-    console.print(f"{res.n_trials} trials fitted with both models ({model} the default), {n_err} error "
-                  f"flags, {len(res.flags) - n_err} warnings -> {store.fit_dir}", highlight=False)
 
 
 def _print_tables(rep) -> None:

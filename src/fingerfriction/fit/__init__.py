@@ -20,15 +20,8 @@ doubtful; nothing here reads or writes files.
 
 from ..model import MODELS
 from .common import FitFlag, Trial, flat_detrend, flat_segment_mask, median_filter, nmse, nmse_eq5
-from .load import (
-    FlatGroundMu,
-    LoadFitOptions,
-    LoadSubjectFit,
-    LoadTrialFit,
-    fit_load_subject,
-    fit_load_trials,
-    flat_ground_mu,
-)
+from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit, fit_load_subject, fit_load_trials
+from .mu import FlatGroundMu, flat_ground_mu
 from .paper import FitOptions, SubjectFit, TrialFit, fit_subject, fit_trial, fit_trials, mu_grid, paper_flags
 
 __all__ = [

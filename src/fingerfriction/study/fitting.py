@@ -113,6 +113,22 @@ class FitSummary:
     loso: Any = None
     loso_message: str = ""
 
+    def console_lines(self, store: ResultsStore) -> list[str]:
+        """What ``fingerfriction fit`` prints: trials that could not be read (one line), one
+        line per subject and model, where the validation is, and a closing count."""
+        out = []
+        unread = [(t, r) for t, r in self.failures if not any(f.trial == t for f in self.flags)]
+        if unread:
+            out.append(f"{len(unread)} trial(s) could not be prepared for the fit, e.g. {unread[0][0]}: "
+                       f"{unread[0][1]}")
+        out += list(self.lines)
+        where = store.loso_path if self.loso is not None else self.loso_message
+        out.append(f"out-of-sample validation (leave one surface out): {where}")
+        n_err = sum(f.level == "error" for f in self.flags)
+        out.append(f"{self.n_trials} trials fitted with both models ({self.model} the default), {n_err} "
+                   f"error flags, {len(self.flags) - n_err} warnings -> {store.fit_dir}")
+        return out
+
 
 def fit(
     results: str | os.PathLike,
