@@ -498,3 +498,20 @@ def test_loso_short_window_without_forward_flat_segment():
     eq4 = FrictionModel(get_surface("bump-2mm")).forces(reg, FrictionParams(row.mu, row.p0, row.p1)).total
     level = row.mu * row.p0 * flat_contact_length(1)
     np.testing.assert_allclose(predicted, eq4 - level, rtol=0, atol=1e-6)
+
+
+def test_predict_uses_the_load_consistent_model_by_default():
+    """Without parameters: the load-consistent model (its pressure carries the 0.3 N), the
+    paper's on request; both are Amontons' law on flat ground, they differ on the relief."""
+    load_pred = predict("bump:W=3,H=0.5", 1, step=0.05)
+    paper_pred = predict("bump:W=3,H=0.5", 1, step=0.05, model="paper")
+    assert load_pred.model == "load" and isinstance(load_pred.params, LoadParams)
+    assert paper_pred.model == "paper" and isinstance(paper_pred.params, FrictionParams)
+    assert load_pred.flat_level == pytest.approx(0.55 * 0.3, rel=1e-6)
+    assert paper_pred.flat_level == pytest.approx(0.55 * 0.3, rel=1e-3)  # p0 = F_N / L_flat
+    assert np.max(np.abs(load_pred.F_T - paper_pred.F_T)) > 1e-3  # N: the load is conserved in one
+    s = load_pred.summary()
+    assert s["model"] == "load" and set(s["params"]) == {"mu", "p1", "inset", "kappa"}
+    assert "load-consistent" in load_pred.params_text and "paper" in paper_pred.params_text
+    with pytest.raises(ValueError, match="model must be one of"):
+        predict("bump:W=3,H=0.5", 1, step=0.05, model="hertz")

@@ -549,7 +549,7 @@ def report_cmd(
 
 
 def _predict_inputs(params):
-    """--params: None or a JSON path (FrictionParams JSON or a fit output)."""
+    """--params: None or a JSON path (parameters, a fit's fit.json or its RESULTS folder)."""
     return None if params is None else str(params)
 
 
@@ -562,7 +562,8 @@ PREDICTION_FILES = {"forces.csv", "regions.csv", "occupancy.csv", "blind_spots.c
 def predict_cmd(
     surface: str = typer.Option(..., "--surface", help="Name (bump-4mm), spec (bump:W=3,H=0.5) or CSV."),
     subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger)."),
-    params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
+    params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
+    model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
     out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files "
                             "(created if missing)."),
     load: float = typer.Option(0.3, "--load", help="Normal force in N."),
@@ -576,15 +577,15 @@ def predict_cmd(
     try:
         owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
         check_output_dir(out, **owns)
-        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
+        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact,
+                       model=model)
         paths = pred.write(output_dir(out, **owns), figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
-    p = pred.params
     t = Table(title=f"prediction: {pred.surface.name}, subject {pred.subject} ({pred.contact} contact)")
     t.add_column("quantity")
     t.add_column("value", justify="right")
-    t.add_row("mu, p0, p1", f"{p.mu:.3g}, {p.p0:.4g} N/mm, {p.p1:.4g} N/mm")
+    t.add_row("parameters", pred.params_text)
     t.add_row("parameters from", pred.params_source)
     t.add_row("F_T on flat ground", f"{1e3 * pred.flat_level:.1f} mN")
     t.add_row("F_T max / min", f"{1e3 * pred.F_T.max():.1f} / {1e3 * pred.F_T.min():.1f} mN")
@@ -602,7 +603,8 @@ def render_cmd(
     surface: str = typer.Option(..., "--surface", help="Paper surface name, spec or CSV profile."),
     subject: int = typer.Option(..., "--subject", help="Subject 1 or 2."),
     out: str = typer.Option(..., "--out", help="Command signal file: .wav (float32) or .csv."),
-    params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
+    params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
+    model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
     speed: float = typer.Option(80.0, "--speed", help="Sliding speed in mm/s."),
     rate: float = typer.Option(2000.0, "--rate", help="Display update rate in Hz."),
     normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N."),
@@ -618,7 +620,8 @@ def render_cmd(
     try:
         output_file(out, create=False), table and output_file(table, option="--table", create=False)
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
-                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max))
+                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max),
+                                       model=model)
         files = r.write_command(output_file(out), speed, rate)
         if table:
             files["table"] = r.write_table(output_file(table, option="--table"))
@@ -628,7 +631,7 @@ def render_cmd(
     console.print(
         f"{r.prediction.surface.name}, subject {r.prediction.subject}: "
         f"mu_cmd {r.mu_cmd.min():.3f}..{r.mu_cmd.max():.3f}"
-        f" (lateral force = mu_cmd x {d.effective_normal_force:.3f} N = p0 x L_flat; "
+        f" (lateral force = mu_cmd x {d.effective_normal_force:.3f} N; "
         f"{r.n_clipped} table entries clipped to [{d.mu_min:g}, {d.mu_max:g}])",
         highlight=False,
     )
@@ -651,11 +654,11 @@ def validate_cmd(
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
-    for col in ("subject", "surface", "trials", "rho in sample", "rho held-out params, video",
+    for col in ("model", "subject", "surface", "trials", "rho in sample", "rho held-out params, video",
                 "rho out of sample"):
         t.add_column(col, justify="right" if col.startswith(("rho", "trials")) else "left")
     for r in res.table.itertuples():
-        t.add_row(str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
+        t.add_row(r.model, str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
                   f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
     console.print(t)
 

@@ -16,7 +16,7 @@ from ..study.store import ResultsStore, read_fit_table
 from ..surfaces import Surface, get_surface
 from .forward import DEFAULT_LOAD_N, _flat_length, _resolve_finger, forward_regions, sweep_window
 
-__all__ = ["PAPER_MU", "PAPER_FORCE_RISE_N", "default_params", "load_params"]
+__all__ = ["PAPER_MU", "PAPER_FORCE_RISE_N", "default_params", "default_load_params", "load_params"]
 
 #: Per-subject coefficients of friction found by the paper's grid search.
 PAPER_MU = {1: 0.55, 2: 0.60}
@@ -208,11 +208,30 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
         raise ValueError(f"{path}: malformed parameters ({exc})") from None
 
 
-def _resolve_params(params, subject, load: float) -> tuple[FrictionParams, str]:
+def _resolve_params(params, subject, load: float, model: str | None = None):
+    if model is not None and model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     if params is None:
-        return default_params(subject, load=load), "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)"
-    if isinstance(params, FrictionParams):
+        if (model or "load") == "paper":
+            return (default_params(subject, load=load),
+                    "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)")
+        return (default_load_params(subject, load=load),
+                "default (paper mu; one uniform pressure carrying F_N; p1: 50 mN peak F_def)")
+    if isinstance(params, (LoadParams, FrictionParams)):
         return params, "given"
     if isinstance(params, (str, os.PathLike)):
-        return load_params(params, subject), f"file {os.fspath(params)}"
-    raise TypeError(f"params must be None, FrictionParams or a JSON path, got {type(params).__name__}")
+        return load_params(params, subject, model=model), f"file {os.fspath(params)}"
+    raise TypeError("params must be None, LoadParams, FrictionParams or a JSON path, got "
+                    f"{type(params).__name__}")
+
+
+def default_load_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> LoadParams:
+    """Documented default parameters of the load-consistent model for subject 1 or 2.
+
+    The paper's ``mu``; the paper's pressure assumption, one uniform pressure over the
+    geometric contact (``inset = 0``, ``kappa = 0``), here carrying the normal force;
+    ``p1`` as :func:`default_params` (the deformation term is the same in both variants).
+    A fit of a lab's own study gives the subject's inset and ``kappa``: prefer it.
+    """
+    p = default_params(subject, load=load, step=step)
+    return LoadParams(mu=p.mu, p1=p.p1)
