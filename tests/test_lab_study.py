@@ -95,7 +95,8 @@ def test_init_analyze_fit_on_lab_files(analysed):
     assert code == 0, out
     assert "8 trials fitted" in out
     fitted = pd.read_csv(base / "lab-results" / "fit" / "trials.csv")
-    assert sorted(fitted["trial"]) == sorted(t["id"] for t in entries.values())
+    assert sorted(set(fitted["trial"])) == sorted(t["id"] for t in entries.values())
+    assert set(fitted["model"]) == {"load", "paper"}  # one row per trial and model
 
 
 def test_edits_recompute_only_what_changed(analysed, tmp_path):

@@ -314,8 +314,12 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
                 raise ValueError(f"subject {subj!r} has trials only on {name!r}: nothing to train on")
             sf = fits[subj]
             ok = [f for f in sf.trials if f.success]
-            if not ok:
-                raise RuntimeError(f"no successful training fit for subject {subj!r} without {name!r}")
+            if not ok:  # nothing to predict with: said in the row, the other surfaces go on
+                note = f"no successful training fit for subject {subj} without {name}: {sf.message}"
+                log.warning("leave-one-surface-out (%s model): %s", model, note)
+                rows.append({**_loso_row(model, subj, surf, ttest, ins, {k: [] for k in pooled}, None),
+                             "note": note})
+                continue
             params = _training_params(model, sf, ok)
             finger = _finger_for_label(subj, fingers)
             lo = min(float(t.x[0]) for t in ttest)
@@ -413,6 +417,7 @@ def _loso_row(model: str, subject, surf: Surface, trials, ins, got: dict, params
         "p1": params.p1 if params else nan,
         "inset_mm": getattr(params, "inset", nan) if params else nan,
         "kappa_per_mm": getattr(params, "kappa", nan) if params else nan,
+        "note": "",
     }
 
 
