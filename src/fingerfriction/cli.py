@@ -190,6 +190,15 @@ def simulate_cmd(
     contact_model: Annotated[
         str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
     ] = "mechanics-bem",
+    finger: Annotated[
+        list[str] | None,
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger, a finger JSON file (repeat)."),
+    ] = None,
+    finger_seed: Annotated[
+        int | None,
+        typer.Option("--finger-seed", help="Draw the other subjects' fingers around the calibrated ones "
+                     "(radius, modulus, flat length +-25 %) with this seed."),
+    ] = None,
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
     import time
@@ -215,6 +224,20 @@ def simulate_cmd(
         kw["speeds"] = tuple(sp)
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
+    if finger:
+        from .mechanics.finger_file import read_finger_file
+
+        kw["fingers"] = {}
+        for item in finger:
+            label, sep, path = item.partition("=")
+            if not sep or not label.strip() or not path.strip():
+                fail(f"--finger: expected SUBJECT=FILE (e.g. 1=finger1.json), got {item!r}")
+            try:
+                kw["fingers"][label.strip()] = read_finger_file(path.strip())
+            except ValueError as exc:
+                fail(f"--finger {item}: {exc}")
+    if finger_seed is not None:
+        kw["finger_seed"] = finger_seed
     try:
         opts = SimOptions(**kw)
     except ValueError as exc:
