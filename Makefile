@@ -28,14 +28,18 @@ lint: $(VENV)/.installed-test
 
 # Headless Chromium (Debian's package) for the HTML report test; installed when missing and
 # we are root with apt-get (CI), otherwise the report test fails with a message saying so.
+# One line says what is happening and why; apt's own output goes to $(CHROMIUM_LOG).
+CHROMIUM_LOG ?= .chromium-install.log
 chromium:
 	@command -v chromium >/dev/null 2>&1 || { \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
-	    apt-get update -qq && apt-get install -y -qq chromium; \
+	    echo "installing Debian's chromium (headless browser for the HTML report test; apt output in $(CHROMIUM_LOG))"; \
+	    { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; } >$(CHROMIUM_LOG) 2>&1 \
+	      || { echo "error: installing chromium failed; see $(CHROMIUM_LOG)"; exit 1; }; \
 	  else echo "note: chromium not found; install Debian's chromium package for the HTML report test"; fi; }
 
 test: $(VENV)/.installed-test lint chromium
 	$(BIN)/python -m pytest
 
 clean:
-	rm -rf $(VENV) build src/*.egg-info .pytest_cache .ruff_cache
+	rm -rf $(VENV) build src/*.egg-info .pytest_cache .ruff_cache $(CHROMIUM_LOG)

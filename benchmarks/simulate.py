@@ -37,7 +37,7 @@ def _reference() -> float:
 
 
 def _encode(frames, fmt: str, **camkw) -> tuple[float, float]:
-    from fingerfriction.sim._io import VideoWriter
+    from fingerfriction.video.writers import VideoWriter
 
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / ("v.mkv" if fmt == "ffv1-mkv" else "v.tif")

@@ -505,7 +505,7 @@ def fit_cmd(
 def _print_tables(rep) -> None:
     from rich.table import Table
 
-    from .report.tables import table1_display
+    from .report.tables import format_p, table1_display
 
     if rep.table1 is not None:
         wide = table1_display(rep.table1)
@@ -521,7 +521,7 @@ def _print_tables(rep) -> None:
             t.add_column(c)
         for r in rep.loso.itertuples(index=False):
             t.add_row(str(r.subject), str(r.surface), str(r.n_trials), f"{r.rho_in_sample:.2f}",
-                      f"{r.rho_out_of_sample:.2f}", f"{r.p_out_of_sample:.2g}")
+                      f"{r.rho_out_of_sample:.2f}", format_p(r.p_out_of_sample))
         console.print(t)
     t = Table(title="Tactile blind spots (all trials pooled)")
     for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):
@@ -552,6 +552,8 @@ def report_cmd(
     except (ValueError, OSError) as exc:
         fail(str(exc))
     _print_tables(rep)
+    for note in rep.notices:  # e.g. not fitted: said before the path, as at the top of the page
+        console.print(f"[bold yellow]note:[/] {note}", highlight=False, soft_wrap=True)
     console.print(f"report: {rep.html}  ({len(rep.files)} files)", highlight=False)
 
 

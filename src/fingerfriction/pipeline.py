@@ -41,11 +41,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ._atomic import atomic_write_json, atomic_write_text
+from ._progress import ProgressBar as _Progress
+from ._progress import stage_progress
+from .predict import validate_results
+from .regions import regions_on_grid
 from .results import (
     ResultsStore,
-    atomic_write_json,
     atomic_write_parquet,
-    atomic_write_text,
     frames_table,
     params_digest,
     regions_from_table,
@@ -460,39 +463,6 @@ def _load_study(study: str | os.PathLike):
     return study_dir, d
 
 
-class _Progress:
-    """A rich progress bar on stderr (or nothing)."""
-
-    def __init__(self, enabled: bool, total: int, description: str):
-        self._p = None
-        if enabled:
-            from rich.console import Console
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-                TimeRemainingColumn,
-            )
-
-            self._p = Progress(
-                TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                TextColumn("{task.fields[note]}"), TimeElapsedColumn(), TimeRemainingColumn(),
-                console=Console(stderr=True), transient=False,
-            )
-            self._p.start()
-            self._task = self._p.add_task(description, total=total, note="")
-
-    def advance(self, note: str = "") -> None:
-        if self._p is not None:
-            self._p.update(self._task, advance=1, note=note)
-
-    def close(self) -> None:
-        if self._p is not None:
-            self._p.stop()
-
-
 def analyze(
     study: str | os.PathLike,
     out: str | os.PathLike,
@@ -732,62 +702,6 @@ def _previous_runs(store: ResultsStore) -> list:
 # --------------------------------------------------------------------------------------
 
 
-def regions_on_grid(x_frames: np.ndarray, regions: np.ndarray, x_grid: np.ndarray, *,
-                    return_translated: bool = False):
-    """Contact regions at each grid position: those of the frame where the finger was there.
-
-    Parameters
-    ----------
-    x_frames : (n_frames,) ndarray
-        Finger position x(t) of each frame in mm (NaN frames are ignored).
-    regions : (n_frames, n_max, 2) ndarray
-        Contact regions of each frame in mm.
-    x_grid : (n,) ndarray
-        Positions in mm (the force grid).
-    return_translated : bool
-        Also return which positions got translated regions (see Notes).
-
-    Returns
-    -------
-    (n, n_max, 2) ndarray
-        For each grid position inside the tracked span, the regions of the frame whose
-        x(t) is nearest to it (frames sorted by x, as the finger slides left to right).
-    translated : (n,) bool ndarray
-        Only with ``return_translated``.
-
-    Raises
-    ------
-    ValueError
-        If fewer than two frames have a finger position.
-
-    Notes
-    -----
-    A grid position outside the span of tracked frames (the force stage may extend x(t)
-    beyond it, see ``extrapolate_mm`` of :class:`fingerfriction.forces.ForceProcessingParams`)
-    gets the regions of the nearest tracked end frame *translated with the finger*
-    (``+ x_grid - x_end``). On flat ground, far from the feature, the contact moves
-    rigidly with the finger and this is exact; nearer the feature it is an approximation,
-    which is why those positions are reported (``translated``).
-    """
-    x = np.asarray(x_frames, dtype=float)
-    reg = np.asarray(regions, dtype=float)
-    g = np.asarray(x_grid, dtype=float)
-    ok = np.isfinite(x)
-    if ok.sum() < 2:
-        raise ValueError("need at least two frames with a finger position to map regions onto positions")
-    idx = np.flatnonzero(ok)
-    order = idx[np.argsort(x[idx], kind="stable")]
-    xs = x[order]
-    j = np.clip(np.searchsorted(xs, g), 1, xs.size - 1)
-    nearer_left = (g - xs[j - 1]) <= (xs[j] - g)
-    pick = np.where(nearer_left, j - 1, j)
-    out = reg[order[pick]].copy()
-    translated = (g < xs[0]) | (g > xs[-1])
-    shift = np.where(g < xs[0], g - xs[0], np.where(g > xs[-1], g - xs[-1], 0.0))
-    out += shift[:, None, None]  # NaN slots stay NaN
-    return (out, translated) if return_translated else out
-
-
 @dataclass(frozen=True)
 class FitSummary:
     """Summary of :func:`fit`.
@@ -978,8 +892,6 @@ def _validate_after_fit(store: ResultsStore, trials: Sequence, validate: bool):
     n_surf = len({t.labels["surface"] for t in trials})
     if n_surf < 2:
         return None, f"needs at least two surfaces, the study has {n_surf}"
-    from .predict import validate_results
-
     t0 = time.perf_counter()
     try:
         res = validate_results(store.root)
@@ -1055,26 +967,6 @@ class DemoResult:
     elapsed_s: dict
 
 
-def _sim_progress(enabled: bool):
-    """A rich progress callback for ``simulate_study(progress=...)``, and its closer."""
-    if not enabled:
-        return None, lambda: None
-    bars: dict[str, _Progress] = {}
-
-    def cb(stage: str, done: int, total: int, label: str) -> None:
-        if stage not in bars:
-            for b in bars.values():
-                b.close()
-            bars[stage] = _Progress(True, total, f"simulate {stage}")
-        bars[stage].advance(label)
-
-    def close() -> None:
-        for b in bars.values():
-            b.close()
-
-    return cb, close
-
-
 def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None, seed: int = 0,
          n_workers: int | None = None, progress: bool = True, design: Mapping | None = None) -> DemoResult:
     """Simulate the built-in default study, analyse it, fit the model and write the report.
@@ -1112,7 +1004,7 @@ def demo(out: str | os.PathLike, *, full: bool = False, reps: int | None = None,
     study, results = out / "study", out / "results"
     times = {}
     t0 = time.perf_counter()
-    cb, close = _sim_progress(progress)
+    cb, close = stage_progress(progress, "simulate")
     try:
         simulate_study(study, SimOptions(reps=reps, seed=seed, **dict(design or {})), workers=n_workers,
                        progress=cb,

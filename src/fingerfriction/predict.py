@@ -58,16 +58,16 @@ import json
 import logging
 import math
 import os
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._atomic import atomic_write
 from .blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from .mechanics import GEOMETRIC_TOL
 from .model import FrictionModel, FrictionParams
-from .regions import as_regions, n_regions
+from .regions import as_regions, n_regions, regions_on_grid
 from .surfaces import SURFACE_NAMES, Surface, get_surface, surface_from_spec
 
 __all__ = [
@@ -583,7 +583,7 @@ class Prediction:
 
         def put(kind: str, name: str, writer: Callable[[str], None]) -> None:
             p = os.path.join(out, name)
-            _atomic_write(p, writer)
+            atomic_write(p, writer)
             paths[kind] = p
 
         put("forces", "forces.csv", lambda tmp: self.table().to_csv(tmp, index=False, float_format="%.9g"))
@@ -673,20 +673,6 @@ class Prediction:
 def _surface_dict(surface: Surface):
     to_dict = getattr(surface, "to_dict", None)
     return to_dict() if callable(to_dict) else {"name": surface.name}
-
-
-def _atomic_write(path: str, writer: Callable[[str], None]) -> None:
-    """Write through ``writer(tmp_path)`` to a temp file in the same folder, then rename."""
-    d = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=d)
-    os.close(fd)
-    try:
-        writer(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
 
 
 def predict_from_regions(surface: Surface, positions, regions, params: FrictionParams, *,
@@ -896,7 +882,7 @@ class OutOfSample:
     def write_csv(self, path: str | os.PathLike) -> str:
         """Write :attr:`table` as CSV, atomically; returns the path."""
         p = os.fspath(path)
-        _atomic_write(p, lambda tmp: self.table.to_csv(tmp, index=False, float_format="%.6g"))
+        atomic_write(p, lambda tmp: self.table.to_csv(tmp, index=False, float_format="%.6g"))
         return p
 
     def write_figure(self, path: str | os.PathLike) -> str:
@@ -931,7 +917,7 @@ class OutOfSample:
         fig.suptitle("held-out surfaces: measured (grey) vs predicted from geometry alone (blue)", fontsize=9)
         fig.tight_layout()
         p = os.fspath(path)
-        _atomic_write(p, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+        atomic_write(p, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
         plt.close(fig)
         return p
 
@@ -1110,7 +1096,6 @@ def trials_from_results(results: str | os.PathLike) -> list:
         If the folder has no analysed trial.
     """
     from .fit import Trial
-    from .pipeline import regions_on_grid
     from .results import ResultsStore, regions_from_table
 
     store = ResultsStore(results)

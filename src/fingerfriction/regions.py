@@ -12,6 +12,7 @@ as one padded array:
 :func:`as_regions` converts the other accepted forms (one frame as a list of pairs, a
 list of frames) to this array and validates it; every public function that takes
 regions calls it, so bad input fails at the door with the frame and slot named.
+:func:`regions_on_grid` maps per-frame regions onto finger positions (the force grid).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["as_regions", "regions_from_mask", "region_lengths", "n_regions"]
+__all__ = ["as_regions", "regions_from_mask", "region_lengths", "n_regions", "regions_on_grid"]
 
 
 def as_regions(regions, *, name: str = "regions", allow_touching: bool = True) -> np.ndarray:
@@ -181,3 +182,59 @@ def regions_from_mask(x: np.ndarray, mask: np.ndarray, *, n_max: int | None = No
     out[starts_t, slot, 0] = x[starts_i] - dx / 2
     out[starts_t, slot, 1] = x[ends_i - 1] + dx / 2
     return out
+
+
+def regions_on_grid(x_frames: np.ndarray, regions: np.ndarray, x_grid: np.ndarray, *,
+                    return_translated: bool = False):
+    """Contact regions at each grid position: those of the frame where the finger was there.
+
+    Parameters
+    ----------
+    x_frames : (n_frames,) ndarray
+        Finger position x(t) of each frame in mm (NaN frames are ignored).
+    regions : (n_frames, n_max, 2) ndarray
+        Contact regions of each frame in mm.
+    x_grid : (n,) ndarray
+        Positions in mm (the force grid).
+    return_translated : bool
+        Also return which positions got translated regions (see Notes).
+
+    Returns
+    -------
+    (n, n_max, 2) ndarray
+        For each grid position inside the tracked span, the regions of the frame whose
+        x(t) is nearest to it (frames sorted by x, as the finger slides left to right).
+    translated : (n,) bool ndarray
+        Only with ``return_translated``.
+
+    Raises
+    ------
+    ValueError
+        If fewer than two frames have a finger position.
+
+    Notes
+    -----
+    A grid position outside the span of tracked frames (the force stage may extend x(t)
+    beyond it, see ``extrapolate_mm`` of :class:`fingerfriction.forces.ForceProcessingParams`)
+    gets the regions of the nearest tracked end frame *translated with the finger*
+    (``+ x_grid - x_end``). On flat ground, far from the feature, the contact moves
+    rigidly with the finger and this is exact; nearer the feature it is an approximation,
+    which is why those positions are reported (``translated``).
+    """
+    x = np.asarray(x_frames, dtype=float)
+    reg = np.asarray(regions, dtype=float)
+    g = np.asarray(x_grid, dtype=float)
+    ok = np.isfinite(x)
+    if ok.sum() < 2:
+        raise ValueError("need at least two frames with a finger position to map regions onto positions")
+    idx = np.flatnonzero(ok)
+    order = idx[np.argsort(x[idx], kind="stable")]
+    xs = x[order]
+    j = np.clip(np.searchsorted(xs, g), 1, xs.size - 1)
+    nearer_left = (g - xs[j - 1]) <= (xs[j] - g)
+    pick = np.where(nearer_left, j - 1, j)
+    out = reg[order[pick]].copy()
+    translated = (g < xs[0]) | (g > xs[-1])
+    shift = np.where(g < xs[0], g - xs[0], np.where(g > xs[-1], g - xs[-1], 0.0))
+    out += shift[:, None, None]  # NaN slots stay NaN
+    return (out, translated) if return_translated else out

@@ -50,7 +50,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .predict import DEFAULT_LOAD_N, Prediction, _atomic_write, flat_contact_length, predict
+from ._atomic import atomic_write
+from .predict import DEFAULT_LOAD_N, Prediction, flat_contact_length, predict
 
 __all__ = ["DisplayModel", "HapticRenderer", "read_command"]
 
@@ -267,7 +268,7 @@ class HapticRenderer:
     def write_table(self, path: str | os.PathLike) -> str:
         """Write the table as CSV (x_mm, F_T_N, mu_cmd), atomically. Returns the path."""
         p = os.fspath(path)
-        _atomic_write(p, lambda tmp: self.table_frame().to_csv(tmp, index=False, float_format="%.9g"))
+        atomic_write(p, lambda tmp: self.table_frame().to_csv(tmp, index=False, float_format="%.9g"))
         return p
 
     def command_signal(self, speed: float, rate: float, *, x_start: float | None = None,
@@ -338,12 +339,12 @@ class HapticRenderer:
             from scipy.io import wavfile
 
             data = mu.astype(np.float32)
-            _atomic_write(p, lambda tmp: wavfile.write(tmp, int(rate), data))
+            atomic_write(p, lambda tmp: wavfile.write(tmp, int(rate), data))
         else:
             import pandas as pd
 
             df = pd.DataFrame({"t_s": t, "x_mm": x, "mu_cmd": mu})
-            _atomic_write(p, lambda tmp: df.to_csv(tmp, index=False, float_format="%.9g"))
+            atomic_write(p, lambda tmp: df.to_csv(tmp, index=False, float_format="%.9g"))
         pred = self.prediction
         meta = {
             "format": "fingerfriction-haptic-command",
@@ -373,7 +374,7 @@ class HapticRenderer:
             with open(tmp, "w", encoding="utf-8") as fh:
                 json.dump(meta, fh, indent=2)
 
-        _atomic_write(mp, wjson)
+        atomic_write(mp, wjson)
         return {"signal": p, "meta": mp}
 
 

@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
 from scipy import signal, stats
 
+from ._atomic import atomic_write_text
 from .blindspots import blind_spots
 
 __all__ = [
@@ -204,16 +204,7 @@ def write_table(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str 
         text = df.to_latex(index=False, float_format=lambda v: float_format % v)
     else:
         raise ValueError(f"{path}: unknown table format {ext!r}; allowed: .csv, .md, .tex")
-    d = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-", suffix=ext)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write_text(path, text)
 
 
 def _markdown(df: pd.DataFrame) -> str:

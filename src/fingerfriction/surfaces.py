@@ -25,7 +25,7 @@ from typing import Literal
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
-from ._validation import positive
+from ._check import positive
 
 __all__ = [
     "Surface",

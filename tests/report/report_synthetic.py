@@ -32,12 +32,16 @@ def _regions(x: np.ndarray, gap: tuple[float, float]) -> np.ndarray:
     return reg
 
 
-def write_synthetic_results(root, *, truth_dir=None, seed: int = 0) -> dict:
-    """Write a results folder; return the true per-trial parameters and blind spots."""
+def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: dict | None = None) -> dict:
+    """Write a results folder; return the true per-trial parameters and blind spots.
+
+    ``subjects`` (subject -> mu) defaults to :data:`SUBJECTS`.
+    """
     rng = np.random.default_rng(seed)
     store = ResultsStore(root)
     trials, truth = [], {"gaps": {}, "p": {}}
-    for subj, mu in SUBJECTS.items():
+    subjects = SUBJECTS if subjects is None else subjects
+    for subj, mu in subjects.items():
         for sname in SURFACES:
             surf = get_surface(sname)
             a, _ = surf.feature_extent
@@ -71,7 +75,7 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0) -> dict:
     if truth_dir is not None:
         truth_dir.mkdir(parents=True, exist_ok=True)
         (truth_dir / "study.json").write_text(json.dumps(
-            {"subjects": {s: {"mu": mu} for s, mu in SUBJECTS.items()}}))
+            {"subjects": {s: {"mu": mu} for s, mu in subjects.items()}}))
     store.write_run({
         "study": str(truth_dir.parent) if truth_dir is not None else "synthetic",
         "parameters": {"video": {}, "forces": {}}, "params_sha256": "synthetic",

@@ -34,7 +34,8 @@ def test_html_is_self_contained(report):
     rep, results, _ = report
     html = rep.html.read_text()
     imgs = re.findall(r'<img src="([^"]+)"', html)
-    assert len(imgs) == len(FIGURES)
+    assert len(imgs) == len(FIGURES) + 1  # and fit/loso.png
+    assert 'alt="Leave one surface out' in html
     for src in imgs:  # every image embedded, none refers to a file next to the report
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1])[:4] == b"\x89PNG"
@@ -147,3 +148,65 @@ def test_fit_without_validation_says_so(tmp_path):
     assert rep.loso is None and rep.table1 is not None
     assert "Not computed: not requested" in rep.html.read_text()
     assert "loso.csv" not in {p.name for p in rep.files}
+
+
+def test_p_values_never_print_as_zero(report):
+    """Table 1 and the leave-one-surface-out table: p below the smallest double is '< 1e-300',
+    small p in scientific notation; the CSV keeps the numbers."""
+    rep, results, _ = report
+    html = rep.html.read_text()
+    assert (rep.table1["p"] == 0).any()  # the synthetic fit correlates perfectly: p underflows
+    assert "&lt; 1e-300" in html
+    for table in re.findall(r"<table>.*?</table>", html, flags=re.S):
+        head = re.findall(r"<th>([^<]*)</th>", table)
+        for col in ("p", "p_out_of_sample"):
+            if col in head:
+                k = head.index(col)
+                for row in re.findall(r"<tr>(.*?)</tr>", table)[1:]:
+                    cell = re.findall(r"<td>(.*?)</td>", row)[k]
+                    assert cell not in ("0", "0.0", "0.00"), (col, row)
+    md = (results / "report" / "table1.md").read_text()
+    assert "< 1e-300" in md
+    assert pd.read_csv(results / "report" / "table1.csv")["p"].dtype.kind == "f"
+
+
+def test_one_subject_report_does_not_say_both_subjects(tmp_path):
+    from report_synthetic import write_synthetic_results
+
+    from fingerfriction.pipeline import fit
+
+    write_synthetic_results(tmp_path / "r", subjects={"1": 0.55})
+    fit(tmp_path / "r", progress=False, validate=False)
+    rep = make_report(tmp_path / "r")
+    html = rep.html.read_text().lower()
+    assert "both subjects" not in html
+    assert set(rep.table1["subject"]) == {"1"}
+    assert "one subject" in html
+
+
+def test_report_before_fit_says_so_at_the_top_and_on_the_console(tmp_path):
+    from report_synthetic import write_synthetic_results
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+
+    write_synthetic_results(tmp_path / "r")
+    res = CliRunner().invoke(app, ["report", str(tmp_path / "r")])
+    assert res.exit_code == 0, res.output
+    notes = [ln for ln in res.output.splitlines() if ln.startswith("note:")]
+    assert len(notes) == 1 and "not fitted" in notes[0] and "fingerfriction fit" in notes[0]
+    html = (tmp_path / "r" / "report" / "index.html").read_text()
+    body = html[html.index("<body>"):]
+    first_section = body.index("<h2>")
+    assert 'class="notice"' in body[:first_section] and "not fitted" in body[:first_section]
+
+
+def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
+    from report_synthetic import write_synthetic_results
+
+    from fingerfriction.pipeline import fit
+
+    write_synthetic_results(tmp_path / "r")
+    fit(tmp_path / "r", progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # truth 0.55, 0.60
+    html = make_report(tmp_path / "r").html.read_text()
+    assert html.count("at the end of the search grid [0.3, 0.5]") == 2

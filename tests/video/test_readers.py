@@ -101,3 +101,32 @@ def test_unusable_inputs_raise_clear_errors(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="no .tif"):
         open_video(tmp_path / "empty")
+
+
+@pytest.mark.parametrize("ext,fmt,fps", [("mkv", "mkv", 500.0), ("cine", "cine", 1250.0),
+                                         ("tif", "tiff", None)])
+def test_probe_video_reads_the_header(tmp_path, frames, ext, fmt, fps):
+    from fingerfriction.video.readers import probe_video
+
+    p = write_video(tmp_path / f"v.{ext}", frames, fps=fps or 1000.0)
+    info = probe_video(p)
+    assert (info.format, info.n_frames, info.width, info.height, info.dtype) == (fmt, 11, 52, 36, "uint8")
+    # a TIFF written without ImageJ metadata does not say its rate
+    assert info.fps == (pytest.approx(fps) if fps else None)
+
+
+def test_probe_video_tiff_folder_and_is_video_path(tmp_path, frames):
+    from fingerfriction.video.readers import is_video_path, probe_video
+
+    d = tmp_path / "S1_bump_40mms_1"
+    d.mkdir()
+    for i, fr in enumerate(frames[:4]):
+        tifffile.imwrite(d / f"f{i:03d}.tif", fr)
+    info = probe_video(d)
+    assert (info.format, info.n_frames, info.fps) == ("tiff", 4, None)
+    (tmp_path / "notes.txt").write_text("x")
+    assert is_video_path(d) and is_video_path(tmp_path / "a.CINE")
+    assert not is_video_path(tmp_path / "notes.txt")
+    assert not is_video_path(tmp_path / "forces.tdms")
+    with pytest.raises(ValueError, match="no such video file"):
+        probe_video(tmp_path / "missing.cine")

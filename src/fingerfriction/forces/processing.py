@@ -139,16 +139,18 @@ from __future__ import annotations
 
 import logging
 import math
-import warnings
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage, signal
 
-from .._validation import interval as _interval
-from .._validation import positive as _positive
-from .readers import ForceRecord, _check_fs
+from .._atomic import atomic_write
+from .._check import check_freq as _check_freq
+from .._check import check_fs as _check_fs
+from .._check import interval as _interval
+from .._check import positive as _positive
+from .readers import ForceRecord
 
 __all__ = [
     "ForceDataError",
@@ -191,33 +193,6 @@ SQRT2 = math.sqrt(2.0)
 
 class ForceDataError(ValueError):
     """Force data that cannot be turned into a trustworthy ``F_T(x)``."""
-
-
-# --------------------------------------------------------------------------------------
-# validation helpers
-# --------------------------------------------------------------------------------------
-
-
-def _check_freq(name: str, value, fs: float) -> float:
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a frequency in Hz, got {value!r}") from None
-    nyq = fs / 2.0
-    if not (math.isfinite(f) and f > 0):
-        raise ValueError(f"{name} must be a finite positive frequency in Hz, got {value!r}")
-    if f >= nyq:
-        raise ValueError(
-            f"{name} ({f:g} Hz) must be below the Nyquist frequency ({nyq:g} Hz) of fs={fs:g} Hz"
-        )
-    if f > 0.9 * nyq:
-        warnings.warn(
-            f"{name} ({f:g} Hz) is within 10 % of the Nyquist frequency ({nyq:g} Hz); "
-            "the filter will be poorly conditioned",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-    return f
 
 
 # --------------------------------------------------------------------------------------
@@ -1857,20 +1832,8 @@ class ForceProfile:
 
     def write_csv(self, path) -> None:
         """Write :meth:`to_frame` to ``path`` atomically (temporary file, then rename)."""
-        import os
-        import tempfile
-        from pathlib import Path
-
-        p = Path(path)
-        fd, tmp = tempfile.mkstemp(prefix=p.name + ".", suffix=".tmp", dir=p.parent or ".")
-        try:
-            with os.fdopen(fd, "w", newline="") as fh:
-                self.to_frame().to_csv(fh, index=False, float_format="%.9g")
-            os.replace(tmp, p)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        frame = self.to_frame()
+        atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False, float_format="%.9g"))
 
 
 def _check_channels(record: ForceRecord, params: ForceProcessingParams, flags: list) -> tuple:

@@ -6,9 +6,29 @@ study manifest (``force.format``, see ``docs/study-format.md``): ``npz``, ``csv`
 Instruments, through npTDMS) and ``hdf5``. The simulator writes ``npz``.
 
 Channel names come from the manifest's ``force.channels`` mapping, ``{"F1": name1,
-"F2": name2}``: a column name (CSV), an array name (NPZ), a variable name (MAT, with
-``.`` or ``/`` to reach a struct field), a dataset path (HDF5) or a channel name
-(TDMS: ``"group/channel"``, or just ``"channel"`` when it is unique in the file).
+"F2": name2}``: a column name or a 0-based column index (CSV), an array name (NPZ), a
+variable name (MAT, with ``.`` or ``/`` to reach a struct field), a dataset path (HDF5)
+or a channel name (TDMS: ``"group/channel"``, or just ``"channel"`` when it is unique in
+the file). A name that is not in the file is an error listing the names that are.
+
+What lab files need beyond a clean two-column file in newtons:
+
+* **CSV layout.** The delimiter (``,``, ``;``, tab, ``|`` or runs of blanks) and the
+  decimal mark (``.`` or ``,``) are detected, and so is a header row: a file whose first
+  line is all numbers has none, and its channels are named by column index.
+* **A time column** (``time=``, manifest ``force.time``): its sampling rate is checked
+  against ``fs_hz`` (or gives it), its uniformity is checked (a missing or repeated
+  sample is an error), and its first value places sample 0: sample ``n`` is at
+  ``t0_s + time[n]`` on the trial's clock.
+* **Volts.** ``units='V'`` (or ``'mV'``) with a per-channel sensitivity in N/V
+  (``sensitivity_n_per_v``, as charge amplifiers are set) or a gain in V/N
+  (``gain_v_per_n``); the record is in newtons either way.
+* **Rates from the file.** ``fs_hz`` may be omitted when the file states its rate (TDMS
+  ``wf_increment``, an HDF5 ``fs_hz`` attribute, a time column); when both are given
+  they must agree.
+
+:func:`probe_force_file` and :func:`list_channels` tell what a file holds (its channels,
+sample count and rate) without a manifest: ``fingerfriction init`` uses them.
 
 Files are never unpickled: NPZ is opened with ``allow_pickle=False`` and MATLAB object
 / cell arrays are refused.
@@ -16,19 +36,31 @@ Files are never unpickled: NPZ is opened with ``allow_pickle=False`` and MATLAB 
 
 from __future__ import annotations
 
+import csv
 import logging
 import math
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .._check import check_fs
+
 __all__ = [
     "FORCE_FORMATS",
+    "FORCE_UNITS",
     "ForceFileError",
+    "ForceFileInfo",
     "ForceRecord",
+    "CsvLayout",
+    "channel_scale",
+    "csv_layout",
+    "infer_force_format",
+    "list_channels",
+    "probe_force_file",
     "read_force_file",
     "read_trial_forces",
     "study_path",
@@ -39,10 +71,16 @@ logger = logging.getLogger(__name__)
 #: Formats accepted in the manifest's ``force.format`` field.
 FORCE_FORMATS = ("npz", "csv", "mat", "tdms", "hdf5")
 
+#: Units accepted in the manifest's ``force.units`` field: newtons, or the volts of a
+#: charge amplifier (then with a sensitivity in N/V or a gain in V/N).
+FORCE_UNITS = ("N", "V", "mV")
+
 _SUFFIXES = {
     ".npz": "npz",
     ".csv": "csv",
     ".txt": "csv",
+    ".tsv": "csv",
+    ".dat": "csv",
     ".mat": "mat",
     ".tdms": "tdms",
     ".h5": "hdf5",
@@ -51,6 +89,10 @@ _SUFFIXES = {
 }
 
 DEFAULT_CHANNELS = {"F1": "F1", "F2": "F2"}
+
+#: A time column may differ from ``fs_hz`` by this relative amount (a CSV written with a
+#: few decimals rounds its times); a rate the file states in its metadata must agree to 1e-6.
+TIME_COLUMN_RTOL = 1e-3
 
 
 class ForceFileError(ValueError):
@@ -70,13 +112,19 @@ class ForceRecord:
         Sampling frequency in Hz.
     t0_s : float
         Time in s, on the trial's common clock, of sample 0 (the manifest's
-        ``force.t0_s``): sample ``n`` is at ``t0_s + n / fs_hz``.
+        ``force.t0_s``, plus the first value of the file's time column if it has one):
+        sample ``n`` is at ``t0_s + n / fs_hz``.
     path : str
         The file read (for messages and provenance).
     format : str
         One of :data:`FORCE_FORMATS`.
     channels : dict
         The mapping used, ``{"F1": name, "F2": name}``.
+    scale : dict
+        ``{"F1": s1, "F2": s2}``: newtons per unit of the file (1.0 for a file in N; the
+        sensitivity in N/V for a file in volts).
+    units : str
+        The file's units (one of :data:`FORCE_UNITS`); the arrays are in N whatever it is.
     """
 
     f1: np.ndarray
@@ -86,9 +134,11 @@ class ForceRecord:
     path: str = ""
     format: str = ""
     channels: dict = field(default_factory=lambda: dict(DEFAULT_CHANNELS))
+    scale: dict = field(default_factory=lambda: {"F1": 1.0, "F2": 1.0})
+    units: str = "N"
 
     def __post_init__(self) -> None:
-        fs = _check_fs(self.fs_hz)
+        fs = check_fs(self.fs_hz, "fs_hz")
         t0 = float(self.t0_s)
         if not math.isfinite(t0):
             raise ValueError(f"t0_s must be a finite time in s, got {self.t0_s!r}")
@@ -118,39 +168,81 @@ class ForceRecord:
         return self.t0_s + np.arange(self.n_samples) / self.fs_hz
 
 
-def _check_fs(fs_hz, name: str = "fs_hz") -> float:
-    """A sampling frequency in Hz as a finite positive float, or a ValueError naming ``name``."""
-    try:
-        fs = float(fs_hz)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a sampling frequency in Hz, got {fs_hz!r}") from None
-    if not (math.isfinite(fs) and fs > 0):
-        raise ValueError(f"{name} must be a finite positive sampling frequency in Hz, got {fs_hz!r}")
-    return fs
+@dataclass(frozen=True)
+class ForceFileInfo:
+    """What a force file says about itself (:func:`probe_force_file`).
+
+    Attributes
+    ----------
+    path : str
+    format : str
+        One of :data:`FORCE_FORMATS`.
+    names : tuple of str
+        The channels (columns, arrays, variables, datasets) the file holds, as they can
+        be given in ``force.channels``.
+    n_samples : int or None
+        Samples per channel of the channels asked for (None if none were).
+    fs_hz : float or None
+        Sampling rate in Hz that the file states (TDMS ``wf_increment``, an HDF5
+        attribute, a time column), or None.
+    time0_s : float
+        Time in s of sample 0 in the file's own clock (the first value of a time column;
+        0 without one).
+    header : bool or None
+        CSV: whether the first line names the columns (None for other formats).
+    delimiter : str or None
+        CSV: the column delimiter detected (``r'\\s+'`` for runs of blanks).
+    """
+
+    path: str
+    format: str
+    names: tuple
+    n_samples: int | None = None
+    fs_hz: float | None = None
+    time0_s: float = 0.0
+    header: bool | None = None
+    delimiter: str | None = None
 
 
-def _infer_format(path: Path) -> str:
+def infer_force_format(path: str | os.PathLike) -> str:
+    """The force format (one of :data:`FORCE_FORMATS`) of a file from its suffix.
+
+    Raises
+    ------
+    ForceFileError
+        For a suffix no reader knows, listing the known ones.
+    """
+    path = Path(path)
     fmt = _SUFFIXES.get(path.suffix.lower())
     if fmt is None:
         raise ForceFileError(
-            f"cannot tell the format of force file {str(path)!r} from its suffix {path.suffix!r}; "
-            f"pass format= one of {FORCE_FORMATS}"
+            f"cannot tell the format of force file {str(path)!r} from its suffix {path.suffix!r} "
+            f"(known: {', '.join(sorted(_SUFFIXES))}); pass format= one of {FORCE_FORMATS}"
         )
     return fmt
 
 
-def _as_channel(values, *, name: str, path: Path) -> np.ndarray:
+_infer_format = infer_force_format
+
+
+def _as_channel(values, *, name, path: Path) -> np.ndarray:
     arr = np.asarray(values)
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
-        raise ForceFileError(f"channel {name!r} in {str(path)!r} has dtype {arr.dtype}, expected numbers (N)")
+        raise ForceFileError(f"channel {name!r} in {str(path)!r} has dtype {arr.dtype}, expected numbers")
     if np.iscomplexobj(arr):
-        raise ForceFileError(f"channel {name!r} in {str(path)!r} is complex, expected real forces (N)")
+        raise ForceFileError(f"channel {name!r} in {str(path)!r} is complex, expected real numbers")
     squeezed = np.squeeze(arr)
     if squeezed.ndim != 1:
         raise ForceFileError(
             f"channel {name!r} in {str(path)!r} has shape {arr.shape}, expected one vector of samples"
         )
     return squeezed.astype(np.float64)
+
+
+def _check_name(key: str, v) -> str | int:
+    if isinstance(v, bool) or not isinstance(v, (str, int)) or v == "" or (isinstance(v, int) and v < 0):
+        raise ValueError(f"channels[{key!r}] must be a non-empty name or a column index >= 0, got {v!r}")
+    return v
 
 
 def _check_channels_arg(channels) -> dict:
@@ -164,26 +256,302 @@ def _check_channels_arg(channels) -> dict:
             f"channels must map both 'F1' and 'F2' to names in the file, got {dict(channels)!r}"
             f" (missing {sorted(missing)})"
         )
-    out = {k: channels[k] for k in ("F1", "F2")}
-    for k, v in out.items():
-        if not isinstance(v, str) or not v:
-            raise ValueError(f"channels[{k!r}] must be a non-empty name, got {v!r}")
+    return {k: _check_name(k, channels[k]) for k in ("F1", "F2")}
+
+
+def _not_index(path: Path, fmt: str, wanted: dict) -> None:
+    for key, name in wanted.items():
+        if isinstance(name, int):
+            raise ForceFileError(
+                f"channel {key} is given as column index {name}, but {str(path)!r} is a {fmt} file "
+                "whose channels have names; give the name"
+            )
+
+
+def _scale_arg(value, name: str) -> dict:
+    """A number or ``{'F1': a, 'F2': b}`` -> ``{'F1': a, 'F2': b}`` of finite non-zero floats."""
+    if isinstance(value, Mapping):
+        if set(value) != {"F1", "F2"}:
+            raise ValueError(f"{name} must be a number or map exactly 'F1' and 'F2', got {dict(value)!r}")
+        items = {k: value[k] for k in ("F1", "F2")}
+    else:
+        items = {"F1": value, "F2": value}
+    out = {}
+    for k, v in items.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise ValueError(f"{name} for {k} must be a number, got {v!r}")
+        v = float(v)
+        if not math.isfinite(v) or v == 0:
+            raise ValueError(
+                f"{name} for {k} must be finite and non-zero (negative flips the channel), got {v!r}"
+            )
+        out[k] = v
     return out
 
 
+def channel_scale(units: str = "N", sensitivity_n_per_v=None, gain_v_per_n=None) -> dict:
+    """Newtons per unit of the file, per channel.
+
+    Parameters
+    ----------
+    units : {'N', 'V', 'mV'}
+        Units of the channels in the file.
+    sensitivity_n_per_v : float or {'F1': float, 'F2': float}, optional
+        For volts: N per V, one number for both channels or one per channel (a charge
+        amplifier set to 10 N/V: ``10``). A negative value flips the channel's sign.
+    gain_v_per_n : float or {'F1': float, 'F2': float}, optional
+        For volts, instead of the sensitivity: V per N (its reciprocal).
+
+    Returns
+    -------
+    dict
+        ``{'F1': s1, 'F2': s2}`` in N per file unit.
+
+    Raises
+    ------
+    ValueError
+        Unknown units; volts without exactly one of the two; a scale given for newtons.
+    """
+    if units not in FORCE_UNITS:
+        raise ValueError(f"units must be one of {', '.join(FORCE_UNITS)}, got {units!r}")
+    given = [n for n, v in (("sensitivity_n_per_v", sensitivity_n_per_v), ("gain_v_per_n", gain_v_per_n))
+             if v is not None]
+    if units == "N":
+        if given:
+            raise ValueError(f"{given[0]} is for channels in volts, but units is 'N'; "
+                             "give units='V' (or 'mV') or drop it")
+        return {"F1": 1.0, "F2": 1.0}
+    if len(given) != 1:
+        raise ValueError(
+            f"units {units!r} needs exactly one of sensitivity_n_per_v (N/V) or gain_v_per_n (V/N), got "
+            + ("both" if given else "neither")
+        )
+    per_volt = 1e-3 if units == "mV" else 1.0
+    if sensitivity_n_per_v is not None:
+        s = _scale_arg(sensitivity_n_per_v, "sensitivity_n_per_v")
+        return {k: v * per_volt for k, v in s.items()}
+    g = _scale_arg(gain_v_per_n, "gain_v_per_n")
+    return {k: per_volt / v for k, v in g.items()}
+
+
 # --------------------------------------------------------------------------------------
-# format readers: each returns ({"F1": array, "F2": array}, info) where info may carry
-# "fs_hz" when the file itself states a sampling rate (checked against the manifest).
+# CSV layout: delimiter, decimal mark, header
 # --------------------------------------------------------------------------------------
 
 
-def _read_npz(path: Path, channels: dict) -> tuple[dict, dict]:
+@dataclass(frozen=True)
+class CsvLayout:
+    """How a delimited text file is laid out (:func:`csv_layout`).
+
+    Attributes
+    ----------
+    delimiter : str
+        Column delimiter; ``r'\\s+'`` for runs of blanks.
+    decimal : str
+        ``'.'`` or ``','``.
+    header : tuple of str or None
+        Column names from the first row, or None for a headerless file.
+    skiprows : int
+        Lines before the first data row (comment lines starting with ``#`` and the header).
+    n_columns : int
+        Columns of the first data row.
+    first_row : tuple of str
+        The first data row's fields (shown in error messages).
+    """
+
+    delimiter: str
+    decimal: str
+    header: tuple | None
+    skiprows: int
+    n_columns: int
+    first_row: tuple
+
+
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+(?:[eE][+-]?\d+)?$")
+
+
+def _split(line: str, delimiter: str) -> list[str]:
+    if delimiter == r"\s+":
+        return line.split()
+    return [f.strip().strip('"').strip() for f in next(csv.reader([line], delimiter=delimiter))]
+
+
+def _is_number(text: str, decimal: str) -> bool:
+    t = text.strip().strip('"')
+    if decimal == ",":
+        t = t.replace(",", ".")
+    try:
+        float(t)
+    except ValueError:
+        return t.lower() in ("", "nan")
+    return True
+
+
+def _consistent(lines: list[str], delimiter: str) -> bool:
+    """Every line splits into the same number (>= 2) of fields, and the rows after the
+    first (a header may have names) are all numbers."""
+    rows = [_split(line, delimiter) if delimiter != r"\s+" else line.split() for line in lines]
+    if len({len(r) for r in rows}) != 1 or len(rows[0]) < 2:
+        return False
+    data = rows[1:] or rows
+    return any(all(_is_number(f, dec) for r in data for f in r) for dec in (".", ",") if dec != delimiter)
+
+
+def csv_layout(path: str | os.PathLike, *, delimiter: str | None = None) -> CsvLayout:
+    """Detect the delimiter, decimal mark and header row of a delimited text file.
+
+    Parameters
+    ----------
+    path : path-like
+    delimiter : str, optional
+        The delimiter, when known (skips the detection).
+
+    Returns
+    -------
+    CsvLayout
+
+    Raises
+    ------
+    ForceFileError
+        An empty file, or no consistent delimiter.
+
+    Notes
+    -----
+    A delimiter is taken when it splits every one of the first 50 lines (after ``#``
+    comments and blank lines) into the same number (>= 2) of fields, all numbers after the
+    first line, trying tab, ``;``, ``|``, ``,`` and runs of blanks in that order, then
+    :class:`csv.Sniffer` (quoted text fields). This rule comes before the Sniffer because
+    ``csv.Sniffer`` picks ``,`` for ``0,0001;0,12`` (a ``;`` file with decimal commas, as
+    European locales write them): checked on Python 3.11. The decimal
+    mark is ``,`` when the delimiter is not and a field reads like ``-0,31``. The first
+    line is a header unless every field in it is a number.
+    """
+    p = Path(path)
+    try:
+        with open(p, encoding="utf-8-sig", errors="replace", newline="") as fh:
+            head = fh.read(1 << 16)
+            more = bool(fh.read(1))
+    except OSError as exc:
+        raise ForceFileError(f"cannot read {str(p)!r} as CSV: {exc.strerror or exc}") from None
+    raw = head.splitlines()
+    if more and raw:
+        raw = raw[:-1]  # the last line of the chunk may be cut
+    skip = 0
+    lines: list[str] = []
+    for line in raw:
+        if not lines and (not line.strip() or line.lstrip().startswith("#")):
+            skip += 1
+            continue
+        if line.strip():
+            lines.append(line)
+        if len(lines) >= 50:
+            break
+    if not lines:
+        raise ForceFileError(f"{str(p)!r} holds no data rows")
+    delim = delimiter
+    if delim is None:
+        for cand in ("\t", ";", "|", ",", r"\s+"):
+            if _consistent(lines, cand):
+                delim = cand
+                break
+    if delim is None:
+        try:
+            delim = csv.Sniffer().sniff("\n".join(lines), delimiters="\t;|,").delimiter
+        except csv.Error:
+            pass
+    if delim is None:
+        raise ForceFileError(
+            f"cannot tell the column delimiter of {str(p)!r} (tried tab, ';', '|', ',' and blanks; "
+            f"first line {lines[0][:80]!r}); give it (manifest force.delimiter)"
+        )
+    first = _split(lines[0], delim)
+    data_line = lines[1] if len(lines) > 1 else lines[0]
+    decimal = "."
+    if delim != "," and any(_DECIMAL_COMMA.match(f) for ln in lines[:10] for f in _split(ln, delim)):
+        decimal = ","
+    header = None
+    if not all(_is_number(f, decimal) for f in first):
+        header = tuple(first)
+        skip += 1
+    else:
+        data_line = lines[0]
+    row = tuple(_split(data_line, delim))
+    return CsvLayout(delimiter=delim, decimal=decimal, header=header, skiprows=skip, n_columns=len(row),
+                     first_row=row)
+
+
+def _csv_column(layout: CsvLayout, key: str, name, path: Path) -> int:
+    """0-based column index of a channel given by name or index."""
+    n = layout.n_columns
+    if layout.header is not None and isinstance(name, str) and name in layout.header:
+        return layout.header.index(name)
+    if isinstance(name, int) or (isinstance(name, str) and name.isdigit()):
+        i = int(name)
+        if i >= n:
+            raise ForceFileError(
+                f"column index {i} (channel {key}) is out of range: {str(path)!r} has {n} columns "
+                f"(indices 0..{n - 1})"
+            )
+        return i
+    if layout.header is None:
+        raise ForceFileError(
+            f"no column {name!r} (channel {key}) in {str(path)!r}: the file has no header row, so its "
+            f"{n} columns are named by 0-based index (0..{n - 1}); first row: {list(layout.first_row)}"
+        )
+    raise ForceFileError(
+        f"no column {name!r} (channel {key}) in {str(path)!r}; columns: {list(layout.header)}"
+    )
+
+
+def _read_csv(path: Path, wanted: dict, delimiter: str | None = None) -> tuple[dict, dict]:
+    import pandas as pd
+
+    layout = csv_layout(path, delimiter=delimiter)
+    cols = {key: _csv_column(layout, key, name, path) for key, name in wanted.items()}
+    info = {"header": layout.header is not None, "delimiter": layout.delimiter,
+            "names": list(layout.header) if layout.header is not None else
+            [str(i) for i in range(layout.n_columns)]}
+    if not cols:
+        return {}, info
+    use = sorted(set(cols.values()))
+    try:
+        df = pd.read_csv(path, sep=layout.delimiter, decimal=layout.decimal, header=None,
+                         skiprows=layout.skiprows, usecols=use, skip_blank_lines=True,
+                         skipinitialspace=True, encoding="utf-8-sig",
+                         engine="python" if layout.delimiter == r"\s+" else "c")
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        raise ForceFileError(f"cannot read {str(path)!r} as CSV: {' '.join(str(exc).split())}") from None
+    out = {}
+    for key, col in cols.items():
+        label = layout.header[col] if layout.header is not None else col
+        raw = df[col]
+        values = pd.to_numeric(raw, errors="coerce")
+        bad = values.isna() & raw.notna() & (raw.astype(str).str.strip().str.lower() != "nan")
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
+            raise ForceFileError(
+                f"column {label!r} of {str(path)!r} has a non-numeric value {raw.iloc[row]!r} "
+                f"at data row {row}; expected numbers (empty cells are read as NaN)"
+            )
+        out[key] = _as_channel(values.to_numpy(dtype=np.float64), name=label, path=path)
+    return out, info
+
+
+# --------------------------------------------------------------------------------------
+# format readers: each returns ({key: array}, info) for the wanted {key: name}; info may
+# carry "fs_hz" when the file itself states a sampling rate (checked against the
+# manifest) and "names", the channels available.
+# --------------------------------------------------------------------------------------
+
+
+def _read_npz(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
+    _not_index(path, "npz", wanted)
     # Never allow_pickle=True: an .npz can carry pickled objects that run code on load.
     try:
         with np.load(path, allow_pickle=False) as z:
             names = list(z.files)
             out = {}
-            for key, name in channels.items():
+            for key, name in wanted.items():
                 if name not in names:
                     raise ForceFileError(
                         f"no array {name!r} (channel {key}) in {str(path)!r}; arrays present: {names}"
@@ -203,47 +571,33 @@ def _read_npz(path: Path, channels: dict) -> tuple[dict, dict]:
         if isinstance(exc, ForceFileError):
             raise
         raise ForceFileError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from None
-    return out, {}
-
-
-def _read_csv(path: Path, channels: dict) -> tuple[dict, dict]:
-    import pandas as pd
-
-    try:
-        header = pd.read_csv(path, nrows=0)
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise ForceFileError(f"cannot read {str(path)!r} as CSV: {exc}") from None
-    columns = [str(c) for c in header.columns]
-    for key, name in channels.items():
-        if name not in columns:
-            raise ForceFileError(f"no column {name!r} (channel {key}) in {str(path)!r}; columns: {columns}")
-    try:
-        df = pd.read_csv(path, usecols=list(set(channels.values())))
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise ForceFileError(f"cannot read {str(path)!r} as CSV: {exc}") from None
-    out = {}
-    for key, name in channels.items():
-        col = pd.to_numeric(df[name], errors="coerce")
-        bad = col.isna() & df[name].notna()
-        if bad.any():
-            row = int(np.flatnonzero(bad.to_numpy())[0])
-            raise ForceFileError(
-                f"column {name!r} of {str(path)!r} has a non-numeric value {df[name].iloc[row]!r} "
-                f"at data row {row}; expected forces in N (empty cells are read as NaN)"
-            )
-        out[key] = _as_channel(col.to_numpy(dtype=np.float64), name=name, path=path)
-    return out, {}
+    return out, {"names": names}
 
 
 def _split_name(name: str) -> list[str]:
     return [p for p in name.replace(".", "/").split("/") if p]
 
 
-def _read_mat(path: Path, channels: dict) -> tuple[dict, dict]:
+def _mat_leaves(node, prefix: str = "") -> list[str]:
+    """Dotted paths of the numeric arrays in a loadmat(simplify_cells=True) dict."""
+    out: list[str] = []
+    for k, v in node.items():
+        if k.startswith("__"):
+            continue
+        path = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.extend(_mat_leaves(v, path + "."))
+        elif isinstance(v, np.ndarray | int | float) and np.asarray(v).dtype.kind in "fiub":
+            out.append(path)
+    return sorted(out)
+
+
+def _read_mat(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
     import h5py
 
+    _not_index(path, "mat", wanted)
     if h5py.is_hdf5(path):  # MATLAB v7.3 files are HDF5 with a 512-byte user block
-        return _read_mat73(path, channels)
+        return _read_mat73(path, wanted)
     import scipy.io
 
     try:
@@ -254,43 +608,45 @@ def _read_mat(path: Path, channels: dict) -> tuple[dict, dict]:
         raise ForceFileError(f"cannot read {str(path)!r} as a MATLAB file: {exc}") from None
     except (OSError, ValueError, TypeError) as exc:
         raise ForceFileError(f"cannot read {str(path)!r} as a MATLAB v5 file: {exc}") from None
-    variables = sorted(k for k in data if not k.startswith("__"))
+    names = _mat_leaves(data)
     out = {}
-    for key, name in channels.items():
+    for key, name in wanted.items():
         node = data
         for part in _split_name(name):
             if not isinstance(node, dict) or part not in node:
                 raise ForceFileError(
-                    f"no variable {name!r} (channel {key}) in {str(path)!r}; variables: {variables}"
+                    f"no variable {name!r} (channel {key}) in {str(path)!r}; numeric variables "
+                    f"(struct fields as 'a.b'): {names[:30]}"
                 )
             node = node[part]
         out[key] = _as_channel(node, name=name, path=path)
-    return out, {}
+    return out, {"names": names}
 
 
-def _read_mat73(path: Path, channels: dict) -> tuple[dict, dict]:
+def _read_mat73(path: Path, wanted: dict) -> tuple[dict, dict]:
     import h5py
 
     out = {}
     with h5py.File(path, "r") as f:
-        for key, name in channels.items():
+        names = [n.replace("/", ".") for n in _dataset_names(f) if not n.startswith("#")]
+        for key, name in wanted.items():
             obj = f.get("/".join(_split_name(name)))
             if not isinstance(obj, h5py.Dataset):
                 raise ForceFileError(
                     f"no variable {name!r} (channel {key}) in MATLAB v7.3 file {str(path)!r}; "
-                    f"top-level variables: {sorted(f.keys())}"
+                    f"variables (struct fields as 'a.b'): {names[:30]}"
                 )
             cls = obj.attrs.get("MATLAB_class", b"double")
             cls = cls.decode() if isinstance(cls, bytes) else str(cls)
             if cls in ("cell", "struct", "char", "function_handle") or obj.dtype.kind not in "fiub":
                 raise ForceFileError(
                     f"variable {name!r} in {str(path)!r} is a MATLAB {cls} (dtype {obj.dtype}); "
-                    "expected a numeric vector in N"
+                    "expected a numeric vector"
                 )
             # MATLAB stores column-major, so an n x 1 column vector appears as (1, n) here;
             # squeezing makes row and column vectors alike.
             out[key] = _as_channel(obj[()], name=name, path=path)
-    return out, {}
+    return out, {"names": names}
 
 
 def _dataset_names(f) -> list[str]:
@@ -301,41 +657,44 @@ def _dataset_names(f) -> list[str]:
     return found
 
 
-def _read_hdf5(path: Path, channels: dict) -> tuple[dict, dict]:
+def _read_hdf5(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
     import h5py
 
+    _not_index(path, "hdf5", wanted)
     info: dict = {}
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise ForceFileError(f"cannot read {str(path)!r} as HDF5: {exc}") from None
     with f:
+        info["names"] = _dataset_names(f)
         out = {}
-        for key, name in channels.items():
+        for key, name in wanted.items():
             obj = f.get(name)
             if not isinstance(obj, h5py.Dataset):
-                found = _dataset_names(f)
                 raise ForceFileError(
-                    f"no dataset {name!r} (channel {key}) in {str(path)!r}; datasets: {found[:20]}"
+                    f"no dataset {name!r} (channel {key}) in {str(path)!r}; datasets: {info['names'][:30]}"
                 )
             out[key] = _as_channel(obj[()], name=name, path=path)
             for attr in ("fs_hz", "sampling_rate_hz"):
-                if attr in obj.attrs:
+                if attr in obj.attrs and key != "time":
                     info.setdefault("fs_hz", float(np.asarray(obj.attrs[attr])))
     return out, info
 
 
-def _read_tdms(path: Path, channels: dict) -> tuple[dict, dict]:
+def _read_tdms(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
     from nptdms import TdmsFile
 
+    _not_index(path, "tdms", wanted)
     try:
-        tdms = TdmsFile.read(path)
+        # metadata only when no channel is wanted (probing the names)
+        tdms = TdmsFile.read(path) if wanted else TdmsFile.read_metadata(path)
     except (OSError, ValueError, KeyError) as exc:
         raise ForceFileError(f"cannot read {str(path)!r} as a TDMS file: {exc}") from None
     all_channels = {f"{g.name}/{c.name}": c for g in tdms.groups() for c in g.channels()}
-    info: dict = {}
+    info: dict = {"names": sorted(all_channels)}
     out = {}
-    for key, name in channels.items():
+    for key, name in wanted.items():
         if name in all_channels:
             ch = all_channels[name]
         else:
@@ -349,7 +708,7 @@ def _read_tdms(path: Path, channels: dict) -> tuple[dict, dict]:
             ch = hits[0]
         out[key] = _as_channel(ch[:], name=name, path=path)
         inc = ch.properties.get("wf_increment")
-        if inc is not None and float(inc) > 0:
+        if key != "time" and inc is not None and float(inc) > 0:
             info.setdefault("fs_hz", 1.0 / float(inc))
     return out, info
 
@@ -363,56 +722,127 @@ _READERS = {
 }
 
 
-def read_force_file(
+def _time_axis(t: np.ndarray, *, name, path: Path) -> tuple[float, float]:
+    """(sampling rate in Hz, time of sample 0 in s) of a time column, or ForceFileError.
+
+    The line ``t0 + n / fs`` is fitted by least squares over all samples; a sample further
+    than a quarter period from it (a gap, a repeated or missing sample) is an error.
+    """
+    n = t.size
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ForceFileError(f"time column {name!r} of {str(path)!r} has a missing value at row {bad[0]}")
+    d = np.diff(t)
+    back = np.flatnonzero(d <= 0)
+    if back.size:
+        i = int(back[0])
+        raise ForceFileError(
+            f"time column {name!r} of {str(path)!r} does not increase at row {i + 1} "
+            f"({t[i]!r} then {t[i + 1]!r} s)"
+        )
+    k = np.arange(n, dtype=np.float64)
+    km = k.mean()
+    slope = float(np.dot(k - km, t - t.mean()) / np.dot(k - km, k - km))
+    t_first = float(t.mean() - slope * km)
+    resid = t - (t_first + slope * k)
+    worst = int(np.argmax(np.abs(resid)))
+    if abs(resid[worst]) > 0.25 * slope:
+        raise ForceFileError(
+            f"time column {name!r} of {str(path)!r} is not uniformly sampled: row {worst} "
+            f"(t = {t[worst]:.6g} s) is {resid[worst] / slope:+.2f} sample periods off the line "
+            f"t0 + n/fs at {1 / slope:.6g} Hz; missing or repeated samples? "
+            "(the analysis needs a uniform clock)"
+        )
+    return 1.0 / slope, t_first
+
+
+def _read(path: Path, fmt: str, wanted: dict, delimiter: str | None) -> tuple[dict, dict]:
+    if fmt not in _READERS:
+        raise ValueError(f"format must be one of {FORCE_FORMATS}, got {fmt!r}")
+    if not path.exists():
+        raise FileNotFoundError(f"force file {str(path)!r} does not exist")
+    if not path.is_file():
+        raise ForceFileError(f"force file {str(path)!r} is not a file")
+    if delimiter is not None and fmt != "csv":
+        raise ValueError(f"delimiter is for CSV files, but {str(path)!r} is read as {fmt}")
+    return _READERS[fmt](path, wanted, delimiter)
+
+
+def list_channels(path: str | os.PathLike, *, format: str | None = None,
+                  delimiter: str | None = None) -> list[str]:
+    """The channel names a force file holds, as they can be given in ``force.channels``.
+
+    CSV: the header's column names, or ``'0'``, ``'1'``... for a headerless file; NPZ:
+    array names; MAT: numeric variables (struct fields as ``a.b``); HDF5: dataset paths;
+    TDMS: ``group/channel``.
+    """
+    p = Path(path)
+    fmt = infer_force_format(p) if format is None else str(format).lower()
+    _, info = _read(p, fmt, {}, delimiter)
+    return list(info.get("names", []))
+
+
+def probe_force_file(
     path: str | os.PathLike,
     *,
-    fs_hz: float,
-    channels: Mapping[str, str] | None = None,
+    channels: Mapping | None = None,
     format: str | None = None,
-    t0_s: float = 0.0,
-    n_samples: int | None = None,
-) -> ForceRecord:
-    """Read the two transducer channels of one trial.
+    time=None,
+    delimiter: str | None = None,
+) -> ForceFileInfo:
+    """What a force file holds: its channels, and the sample count and rate of two of them.
 
     Parameters
     ----------
     path : path-like
-        The force file.
-    fs_hz : float
-        Sampling frequency in Hz (the manifest's ``force.fs_hz``). When the file states its
-        own rate (TDMS ``wf_increment``, an HDF5 ``fs_hz`` attribute) the two must agree
-        within 1e-6 relative.
     channels : mapping, optional
-        ``{"F1": name, "F2": name}``: the names of the two channels in the file (manifest
-        ``force.channels``). Default ``{"F1": "F1", "F2": "F2"}``.
+        ``{'F1': name, 'F2': name}`` to count samples of; default ``F1``/``F2`` when the
+        file has them, else no count.
     format : str, optional
-        One of :data:`FORCE_FORMATS`; inferred from the suffix when omitted.
-    t0_s : float, optional
-        Time in s of sample 0 on the trial's common clock (manifest ``force.t0_s``).
-    n_samples : int, optional
-        Expected number of samples (manifest ``force.n_samples``); a different file
-        length is an error, since it means ``fs_hz`` or the file does not match the trial.
+        One of :data:`FORCE_FORMATS`; from the suffix by default.
+    time : str or int, optional
+        A time column (name or CSV index) giving the rate and the start time.
+    delimiter : str, optional
+        CSV delimiter (detected by default).
 
     Returns
     -------
-    ForceRecord
+    ForceFileInfo
 
     Raises
     ------
     ForceFileError
-        (a ``ValueError``) for a missing channel, a non-numeric or non-vector channel, a
-        length different from ``n_samples``, channels of different lengths, or a sampling
-        rate in the file that contradicts ``fs_hz``. ``OSError`` if the file is missing.
+        An unreadable file, a missing channel (listing those present), channels of
+        different lengths, a bad time column.
     """
     p = Path(path)
-    fs = _check_fs(fs_hz)
-    chans = _check_channels_arg(channels)
-    fmt = _infer_format(p) if format is None else str(format).lower()
-    if fmt not in _READERS:
-        raise ValueError(f"format must be one of {FORCE_FORMATS}, got {format!r}")
-    if not p.is_file():
-        raise FileNotFoundError(f"force file {str(p)!r} does not exist")
-    data, info = _READERS[fmt](p, chans)
+    fmt = infer_force_format(p) if format is None else str(format).lower()
+    if channels is None:
+        names = list_channels(p, format=fmt, delimiter=delimiter)
+        short = {n.rsplit("/", 1)[-1] for n in names}
+        chans = dict(DEFAULT_CHANNELS) if {"F1", "F2"} <= (set(names) | short) else {}
+    else:
+        chans = _check_channels_arg(channels)
+    wanted = dict(chans)
+    if time is not None:
+        wanted["time"] = _check_name("time", time)
+    data, info = _read(p, fmt, wanted, delimiter)
+    n = None
+    if chans:
+        n = _check_lengths(data, chans, p)
+    fs = info.get("fs_hz")
+    t_first = 0.0
+    if "time" in data:
+        if data["time"].size != (n if n is not None else data["time"].size):
+            raise ForceFileError(f"time column {wanted['time']!r} of {str(p)!r} has {data['time'].size} "
+                                 f"samples, the channels {n}")
+        fs, t_first = _time_axis(data["time"], name=wanted["time"], path=p)
+    return ForceFileInfo(path=str(p), format=fmt, names=tuple(info.get("names", ())), n_samples=n,
+                         fs_hz=fs, time0_s=t_first, header=info.get("header"),
+                         delimiter=info.get("delimiter"))
+
+
+def _check_lengths(data: dict, chans: dict, p: Path) -> int:
     f1, f2 = data["F1"], data["F2"]
     if f1.shape != f2.shape:
         raise ForceFileError(
@@ -421,20 +851,120 @@ def read_force_file(
         )
     if f1.size < 2:
         raise ForceFileError(f"force file {str(p)!r} holds {f1.size} sample(s); a trial needs many more")
-    if n_samples is not None and int(n_samples) != f1.size:
+    return int(f1.size)
+
+
+def read_force_file(
+    path: str | os.PathLike,
+    *,
+    fs_hz: float | None = None,
+    channels: Mapping | None = None,
+    format: str | None = None,
+    t0_s: float = 0.0,
+    n_samples: int | None = None,
+    units: str = "N",
+    sensitivity_n_per_v=None,
+    gain_v_per_n=None,
+    time=None,
+    delimiter: str | None = None,
+) -> ForceRecord:
+    """Read the two transducer channels of one trial, in newtons.
+
+    Parameters
+    ----------
+    path : path-like
+        The force file.
+    fs_hz : float, optional
+        Sampling frequency in Hz (the manifest's ``force.fs_hz``). When the file states
+        its own rate (TDMS ``wf_increment``, an HDF5 ``fs_hz`` attribute: within 1e-6
+        relative; a time column: within :data:`TIME_COLUMN_RTOL`) the two must agree;
+        when omitted, the file's rate is used.
+    channels : mapping, optional
+        ``{"F1": name, "F2": name}``: the names of the two channels in the file (manifest
+        ``force.channels``); for CSV also 0-based column indices. Default
+        ``{"F1": "F1", "F2": "F2"}``.
+    format : str, optional
+        One of :data:`FORCE_FORMATS`; inferred from the suffix when omitted.
+    t0_s : float, optional
+        Time in s on the trial's common clock of the file's time zero (manifest
+        ``force.t0_s``): sample ``n`` is at ``t0_s + n / fs_hz``, or at ``t0_s + time[n]``
+        with a time column.
+    n_samples : int, optional
+        Expected number of samples (manifest ``force.n_samples``); a different file
+        length is an error, since it means ``fs_hz`` or the file does not match the trial.
+    units : {'N', 'V', 'mV'}
+        Units of the channels in the file (manifest ``force.units``).
+    sensitivity_n_per_v, gain_v_per_n : float or {'F1': float, 'F2': float}, optional
+        For channels in volts, exactly one: the sensitivity in N/V, or the gain in V/N
+        (see :func:`channel_scale`).
+    time : str or int, optional
+        A time column in s (manifest ``force.time``): a column name or index (CSV), an
+        array, variable, dataset or channel name (other formats).
+    delimiter : str, optional
+        CSV column delimiter (manifest ``force.delimiter``); detected by default.
+
+    Returns
+    -------
+    ForceRecord
+        Channels in N.
+
+    Raises
+    ------
+    ForceFileError
+        (a ``ValueError``) for a missing channel (the message lists those present), a
+        non-numeric or non-vector channel, a length different from ``n_samples``, channels
+        of different lengths, a sampling rate in the file that contradicts ``fs_hz`` (or
+        none at all when ``fs_hz`` is omitted), a time column that is not uniform.
+        ``ValueError`` for bad arguments (units, scales); ``FileNotFoundError`` if the
+        file is missing.
+    """
+    p = Path(path)
+    fs = None if fs_hz is None else check_fs(fs_hz, "fs_hz")
+    chans = _check_channels_arg(channels)
+    scale = channel_scale(units, sensitivity_n_per_v, gain_v_per_n)
+    try:
+        t0 = float(t0_s)
+    except (TypeError, ValueError):
+        raise ValueError(f"t0_s must be a time in s, got {t0_s!r}") from None
+    fmt = infer_force_format(p) if format is None else str(format).lower()
+    wanted = dict(chans)
+    if time is not None:
+        wanted["time"] = _check_name("time", time)
+    data, info = _read(p, fmt, wanted, delimiter)
+    n = _check_lengths(data, chans, p)
+    file_fs, rtol, what = info.get("fs_hz"), 1e-6, "states a sampling rate of"
+    if "time" in data:
+        if data["time"].size != n:
+            raise ForceFileError(f"time column {time!r} of {str(p)!r} has {data['time'].size} samples, "
+                                 f"the channels {n}")
+        file_fs, t_first = _time_axis(data["time"], name=time, path=p)
+        rtol, what = TIME_COLUMN_RTOL, f"time column {time!r} gives a sampling rate of"
+        t0 += t_first
+    if fs is None:
+        if file_fs is None:
+            raise ForceFileError(
+                f"force file {str(p)!r} states no sampling rate; give fs_hz (manifest force.fs_hz) "
+                "or a time column (force.time)"
+            )
+        fs = float(file_fs)
+    elif file_fs is not None and abs(file_fs - fs) > rtol * fs:
+        hint = ""
+        if "time" in data and abs(file_fs * 1e3 / fs - 1) < 0.01:
+            hint = " (is the time column in ms? it must be in s)"
         raise ForceFileError(
-            f"force file {str(p)!r} holds {f1.size} samples per channel but the manifest says "
+            f"force file {str(p)!r} {what} {file_fs:.6g} Hz but fs_hz={fs:g} Hz was given "
+            f"(manifest force.fs_hz); they must agree{hint}"
+        )
+    if n_samples is not None and int(n_samples) != n:
+        raise ForceFileError(
+            f"force file {str(p)!r} holds {n} samples per channel but the manifest says "
             f"n_samples={int(n_samples)} ({int(n_samples) / fs:.4g} s at fs_hz={fs:g} Hz, the file "
-            f"lasts {f1.size / fs:.4g} s); check force.fs_hz, force.n_samples and the file"
+            f"lasts {n / fs:.4g} s); check force.fs_hz, force.n_samples and the file"
         )
-    file_fs = info.get("fs_hz")
-    if file_fs is not None and abs(file_fs - fs) > 1e-6 * fs:
-        raise ForceFileError(
-            f"force file {str(p)!r} states a sampling rate of {file_fs:g} Hz but fs_hz={fs:g} Hz "
-            "was given (manifest force.fs_hz); they must agree"
-        )
-    logger.debug("read %d samples x 2 channels from %s (%s)", f1.size, p, fmt)
-    return ForceRecord(f1=f1, f2=f2, fs_hz=fs, t0_s=t0_s, path=str(p), format=fmt, channels=chans)
+    f1, f2 = data["F1"] * scale["F1"], data["F2"] * scale["F2"]
+    logger.debug("read %d samples x 2 channels from %s (%s, %s)", n, p, fmt, units)
+    return ForceRecord(f1=f1, f2=f2, fs_hz=fs, t0_s=t0, path=str(p), format=fmt, channels=chans,
+                       scale=scale, units=units)
 
 
 def study_path(study_dir: str | os.PathLike, relpath, field: str) -> Path:
@@ -458,6 +988,11 @@ def study_path(study_dir: str | os.PathLike, relpath, field: str) -> Path:
     return target
 
 
+#: Fields of a manifest ``force`` entry passed to :func:`read_force_file`.
+_FORCE_FIELDS = ("fs_hz", "channels", "format", "t0_s", "n_samples", "units", "sensitivity_n_per_v",
+                 "gain_v_per_n", "time", "delimiter")
+
+
 def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceRecord:
     """Read the force file of one trial of a study (``docs/study-format.md``).
 
@@ -466,8 +1001,10 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceReco
     study_dir : path-like
         The study folder (holding ``manifest.json``).
     trial : mapping
-        One entry of the manifest's ``trials`` list; its ``force`` field gives ``path``,
-        ``format``, ``fs_hz``, ``n_samples``, ``channels``, ``units`` and ``t0_s``.
+        One entry of the manifest's ``trials`` list; its ``force`` field gives ``path``
+        and any of ``format``, ``fs_hz``, ``n_samples``, ``channels``, ``units``,
+        ``sensitivity_n_per_v``, ``gain_v_per_n``, ``time``, ``delimiter``, ``t0_s``
+        (the keywords of :func:`read_force_file`).
 
     Returns
     -------
@@ -476,25 +1013,20 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceReco
     Raises
     ------
     ValueError
-        For a missing field, units other than ``"N"``, or a path that escapes the study
-        folder; and any error of :func:`read_force_file`.
+        For a missing path, a bad field, or a path that escapes the study folder; and
+        any error of :func:`read_force_file`, prefixed with the trial id.
     """
     tid = trial.get("id", "?") if isinstance(trial, Mapping) else "?"
     force = trial.get("force") if isinstance(trial, Mapping) else None
     if not isinstance(force, Mapping):
         raise ValueError(f"trial {tid!r}: manifest entry has no 'force' object")
-    for key in ("path", "fs_hz"):
-        if key not in force:
-            raise ValueError(f"trial {tid!r}: manifest field force.{key} is missing")
-    units = force.get("units", "N")
-    if units != "N":
-        raise ValueError(f"trial {tid!r}: force.units is {units!r}; only 'N' (newtons) is supported")
+    if "path" not in force:
+        raise ValueError(f"trial {tid!r}: manifest field force.path is missing")
+    try:
+        channel_scale(force.get("units", "N"), force.get("sensitivity_n_per_v"), force.get("gain_v_per_n"))
+    except ValueError as exc:
+        raise ValueError(f"trial {tid!r}: force.{exc}") from None
     target = study_path(study_dir, force["path"], f"trial {tid!r}: force.path")
-    return read_force_file(
-        target,
-        fs_hz=force["fs_hz"],
-        channels=force.get("channels"),
-        format=force.get("format"),
-        t0_s=force.get("t0_s", 0.0),
-        n_samples=force.get("n_samples"),
-    )
+    kw = {k: force[k] for k in _FORCE_FIELDS if force.get(k) is not None}
+    kw.setdefault("t0_s", 0.0)
+    return read_force_file(target, **kw)

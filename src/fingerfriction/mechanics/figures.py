@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
 
+from .._atomic import atomic_write
 from ..surfaces import Surface
 from .sweep import SweepResult
 
@@ -35,10 +35,10 @@ def save_occupancy_figure(result: SweepResult, surface: Surface, path, *, kind: 
     str
         The path written.
     """
-    import matplotlib
+    import matplotlib  # heavy, and only needed for this figure
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # heavy, and only needed for this figure
 
     path = os.fspath(path)
     occ = result.occupancy(kind)
@@ -60,14 +60,8 @@ def save_occupancy_figure(result: SweepResult, surface: Surface, path, *, kind: 
     ax1.set_ylabel("h (mm)")
     ax1.set_ylim(-0.1, max(surface.max_height, 0.1) * 1.3)
     fig.tight_layout()
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=directory)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=150, format="png")
-        os.replace(tmp, path)
+        atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=150, format="png"))
     finally:
         plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)
     return path

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .._validation import positive
+from .._check import positive
 
 __all__ = ["hertz_half_width", "hertz_pressure", "hertz_peak_pressure"]
 

@@ -23,11 +23,20 @@ import jinja2
 import pandas as pd
 from markupsafe import Markup
 
-from ..results import atomic_write_text
+from .._atomic import atomic_write_text
+from .._progress import ProgressBar
 from ..stats import write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
-from .tables import blindspot_table, fit_parameter_table, loso_table, table1, table1_display, truth_tables
+from .tables import (
+    blindspot_table,
+    fit_parameter_table,
+    loso_table,
+    table1,
+    table1_display,
+    truth_tables,
+    with_formatted_p,
+)
 
 __all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
 
@@ -54,6 +63,11 @@ class ReportResult:
     truth : dict of str to pandas.DataFrame
         Recovered against true parameters (simulated studies).
     n_trials, n_failed : int
+    fitted : bool
+        Whether the results were fitted (Fig. 6, Fig. S3 and Table 1 need the fit).
+    notices : tuple of str
+        What the top of the page says before anything else (e.g. the model is not
+        fitted); the CLI prints them too.
     """
 
     html: Path
@@ -64,6 +78,33 @@ class ReportResult:
     n_trials: int
     n_failed: int
     loso: pd.DataFrame | None = None
+    fitted: bool = False
+    notices: tuple[str, ...] = ()
+
+
+#: Captions of the figures in the HTML report (the figure titles carry the essentials).
+CAPTIONS = {
+    "fig3_occupancy": (
+        "Normalised proportion of time each surface location was in contact (Fig. 3 of the paper), "
+        "counted over the frames in which the finger slides through the analysis window: the rest at "
+        "touch-down is left out (counted, it added a step at the resting contact's leading edge, near "
+        "x = -9.6 mm in the simulated studies). The occupancy tapers towards the ends of the swept span, "
+        "which the contact covers for a shorter time inside the window. Blind spots: never in contact in "
+        "any frame of any trial (the blind-spot table)."),
+    "fig4_forces": (
+        "Measured tangential force per surface and subject, one curve per speed (mean; band +- 1 SD where "
+        "more than one trial; n written by each curve), offset by 25 mN per speed as in the paper. The "
+        "footing is named in the title: the absolute one avoids the paper's flat-segment line extrapolated "
+        "over the 26 mm window, which makes curves drift at the far end."),
+    "fig6_model": (
+        "Measured and modelled force on the footing the fit compares them on (title). Ticks: where a "
+        "contact region appears or vanishes in a trial; the model, an integral over the detected regions, "
+        "steps there (at contact onset the video finds a region of finite length on the slope at once), "
+        "while the measured force changes continuously."),
+    "figS1_lengths": "Contact lengths L_i of the regions C_i against finger position, every frame of every "
+                     "trial.",
+    "figS3_components": "Interfacial (Eq. 2) and deformation (Eq. 3) parts of the fitted model.",
+}
 
 
 def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
@@ -98,14 +139,12 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
     ValueError
         Not a results folder, or no trial finished OK.
     """
-    from ..pipeline import _Progress
-
     data = load_report_data(results)
     out = Path(data.root) / "report"
     out.mkdir(parents=True, exist_ok=True)
     has_fit = data.fit is not None and any(t.model is not None for t in data.trials)
     files: list[Path] = []
-    bar = _Progress(progress, len(FIGURES) + 2, "report")
+    bar = ProgressBar(progress, len(FIGURES) + 2, "report")
     figures = []
     try:
         for stem, title, fn, needs_fit in FIGURES:
@@ -121,14 +160,17 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
 
         t1 = table1(data) if has_fit else None
         if t1 is not None:
-            for ext in ("csv", "md", "tex"):
-                write_table(t1, out / f"table1.{ext}")
+            for ext in ("csv", "md", "tex"):  # the CSV keeps the numbers, the others read as text
+                write_table(t1 if ext == "csv" else with_formatted_p(t1), out / f"table1.{ext}")
                 files.append(out / f"table1.{ext}")
         loso = loso_table(data) if has_fit else None
         if loso is not None:
             for ext in ("csv", "md"):
-                write_table(loso, out / f"loso.{ext}")
+                write_table(loso if ext == "csv" else with_formatted_p(loso), out / f"loso.{ext}")
                 files.append(out / f"loso.{ext}")
+        loso_png = data.root / "fit" / "loso.png"
+        loso_img = (base64.b64encode(loso_png.read_bytes()).decode("ascii")
+                    if loso is not None and loso_png.is_file() else None)
         bs = blindspot_table(data)
         for ext in ("csv", "md"):
             write_table(bs, out / f"blindspots.{ext}")
@@ -150,7 +192,24 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         template = env.from_string(
             resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
         run = data.run
+        notices = []
+        if not has_fit:
+            notices.append(f"The model is not fitted: Fig. 6, Fig. S3 and Table 1 are left out; run "
+                           f"`fingerfriction fit {data.root}` and then this report again.")
+        fit = data.fit or {}
+        grid = fit.get("mu_grid") or {}
+        mu_notes = {}
+        for s, m in (fit.get("mu") or {}).items():
+            if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
+                mu_notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
+                               "not a minimum inside the grid, the true value may lie beyond it")
+        n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
         page = template.render(
+            notices=notices, mu_notes=mu_notes, n_neg_p0=n_neg_p0,
+            subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
+            table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
+                         if t1 is not None else None),
+            loso_img=loso_img, captions=CAPTIONS,
             study_name=Path(run.get("study", "study")).name, study=run.get("study", ""),
             results=str(data.root),
             generated=datetime.now(UTC).isoformat(timespec="seconds"),
@@ -160,7 +219,7 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             speeds=", ".join(f"{v:g}" for v in data.speeds),
             mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
             table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
-            loso=Markup(_html_table(loso)) if loso is not None else None,
+            loso=Markup(_html_table(with_formatted_p(loso))) if loso is not None else None,
             loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
@@ -173,4 +232,5 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
     finally:
         bar.close()
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
-                        n_trials=len(data.trials), n_failed=len(data.failed), loso=loso)
+                        n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
+                        notices=tuple(notices))

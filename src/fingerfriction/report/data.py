@@ -37,6 +37,8 @@ class TrialData:
     model : pandas.DataFrame or None
         Fit output per position (``x_mm, F_T_N, F_hat_N, F_model_N, F_int_N, F_def_N``)
         when :func:`fingerfriction.pipeline.fit` has run.
+    status : dict
+        The trial's ``status.json`` (inputs, stage diagnostics under ``info``).
     """
 
     id: str
@@ -48,6 +50,36 @@ class TrialData:
     regions: np.ndarray
     forces: pd.DataFrame
     model: pd.DataFrame | None = None
+    status: dict = field(default_factory=dict)
+
+    def sliding(self, *, min_speed_fraction: float = 0.2, half_span: int = 10) -> np.ndarray:
+        """Frames in which the finger slides through the analysis window, ``(n_frames,)`` bool.
+
+        The frames whose position x(t) lies inside the span of the force grid (the
+        paper's 26 mm window, "Force data processing") and whose speed, a central
+        difference over ``2 * half_span`` frames, is at least ``min_speed_fraction`` of
+        the median speed of those frames. This leaves out the rest at touch-down (and
+        any pause), in which a recording can spend a tenth of its frames with the
+        finger still: counted as contact time, it lights up the resting contact's span
+        in the occupancy map (Fig. 3) with a step at its edge.
+        """
+        fr = self.frames
+        x = fr["x_mm"].to_numpy(float)
+        t = fr["t_s"].to_numpy(float)
+        xg = self.forces["x_mm"].to_numpy(float) if len(self.forces) else np.array([np.nan])
+        lo, hi = (np.nanmin(xg), np.nanmax(xg)) if np.isfinite(xg).any() else (-np.inf, np.inf)
+        with np.errstate(invalid="ignore"):
+            inside = np.isfinite(x) & (x >= lo) & (x <= hi)
+        k = int(half_span)
+        v = np.full(x.size, np.nan)
+        if x.size > 2 * k:
+            v[k:-k] = (x[2 * k:] - x[:-2 * k]) / (t[2 * k:] - t[:-2 * k])
+        ok = inside & np.isfinite(v)
+        if not ok.any():
+            return inside
+        v_ref = float(np.median(np.abs(v[ok])))
+        with np.errstate(invalid="ignore"):
+            return inside & (np.abs(v) >= min_speed_fraction * v_ref)
 
 
 @dataclass(eq=False)
@@ -142,7 +174,8 @@ def load_report_data(results) -> ReportData:
         trials.append(TrialData(
             id=tid, subject=str(m.get("subject")), surface=str(m.get("surface")),
             speed_mm_s=float(m.get("speed_mm_s") or math.nan), repetition=m.get("repetition"),
-            frames=frames, regions=regions_from_table(frames), forces=store.read_forces(tid), model=model))
+            frames=frames, regions=regions_from_table(frames), forces=store.read_forces(tid), model=model,
+            status=st))
     if not trials:
         raise ValueError(f"{str(store.root)!r}: no trial finished OK; nothing to report")
     fit = fit_trials = None

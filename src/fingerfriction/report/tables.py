@@ -13,7 +13,43 @@ import pandas as pd
 from ..stats import BOTH, blind_spot_table, correlation_table, shape_label
 from .data import ReportData
 
-__all__ = ["table1", "blindspot_table", "fit_parameter_table", "truth_tables"]
+__all__ = ["table1", "blindspot_table", "fit_parameter_table", "truth_tables", "format_p", "P_COLUMNS",
+           "with_formatted_p"]
+
+#: Columns that hold p-values (formatted by :func:`format_p` for people to read).
+P_COLUMNS = ("p", "p_in_sample", "p_out_of_sample")
+
+
+def format_p(p) -> str:
+    """A p-value as people should read it: never ``0``.
+
+    ``< 1e-300`` below 1e-300 (a computed 0 is an underflow: the true value is below the
+    smallest double), scientific notation below 0.001 (``3.2e-12``), else three
+    decimals (``0.012``); empty for NaN.
+
+    >>> format_p(0.0), format_p(3.21e-12), format_p(0.01234)
+    ('< 1e-300', '3.2e-12', '0.012')
+    """
+    try:
+        p = float(p)
+    except (TypeError, ValueError):
+        return str(p)
+    if p != p:
+        return ""
+    if p < 1e-300:
+        return "< 1e-300"
+    if p < 1e-3:
+        return f"{p:.1e}"
+    return f"{p:.3f}"
+
+
+def with_formatted_p(df: pd.DataFrame) -> pd.DataFrame:
+    """A copy of ``df`` with its p-value columns (:data:`P_COLUMNS`) as :func:`format_p` text."""
+    out = df.copy()
+    for c in P_COLUMNS:
+        if c in out.columns:
+            out[c] = [format_p(v) for v in out[c]]
+    return out
 
 logger = logging.getLogger(__name__)
 
@@ -51,7 +87,10 @@ def table1(data: ReportData) -> pd.DataFrame | None:
         series.append(_Series(m[ok], e[ok], t.subject, {"shape": shape, "scale": scale}))
     if not series:
         return None
-    return correlation_table(series)
+    out = correlation_table(series)
+    if len({s.subject for s in series}) < 2:  # one subject: "both subjects" would repeat it
+        out = out[out["subject"] != BOTH].reset_index(drop=True)
+    return out
 
 
 def blindspot_table(data: ReportData) -> pd.DataFrame:
@@ -204,4 +243,7 @@ def loso_table(data: ReportData) -> pd.DataFrame | None:
     missing = [c for c in LOSO_COLUMNS if c not in data.loso.columns]
     if missing:
         raise ValueError(f"{data.root / 'fit' / 'loso.csv'}: missing columns {missing}")
-    return data.loso.loc[:, list(LOSO_COLUMNS)].reset_index(drop=True)
+    out = data.loso.loc[:, list(LOSO_COLUMNS)].reset_index(drop=True)
+    if out["subject"].nunique() == 2 and BOTH in set(out["subject"]):  # one subject + its copy
+        out = out[out["subject"] != BOTH].reset_index(drop=True)
+    return out

@@ -26,17 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from .._atomic import atomic_write_text
 from ..regions import regions_from_mask
-from ..study import (
-    ForceInfo,
-    Study,
-    TrialRecord,
-    VideoInfo,
-    atomic_write_text,
-    write_manifest,
-)
+from ..study import ForceInfo, Study, TrialRecord, VideoInfo, write_manifest
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
-from ._io import VideoWriter, write_npz
+from ..video.writers import VideoWriter
+from ._io import write_npz
 from .camera import Camera, CameraParams
 from .contact import ContactTable, MechanicsProvider, SimFinger, build_table, get_provider
 from .fingers import check_finger_options, study_fingers

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from .._atomic import atomic_write
 from ..regions import n_regions, region_lengths
 from ..surfaces import Surface
 from .binarize import Crop
@@ -369,19 +370,21 @@ class VideoResult:
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the result to a ``.npz`` file (atomic: temp file + rename)."""
-        path = os.fspath(path)
-        tmp = path + ".tmp.npz"
         cal = self.calibration
         extra = {} if self.x_hybrid is None else {"x_hybrid": self.x_hybrid, "x_source": self.x_source}
         if self.clipped is not None:
             extra["clipped"] = self.clipped
-        np.savez(tmp, x=self.x, x_cf=self.x_cf, x_chord=self.x_chord, regions=self.regions, flags=self.flags,
-                 line_row=self.line_row,
-                 area_px=self.area_px, reference_frame=self.reference_frame,
-                 mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
-                 surface_x_mm=cal.x_mm, surface_h_mm=cal.h_hat_mm,
-                 contact_tol_px=self.contact_tol_px, **extra)
-        os.replace(tmp, path)
+        arrays = dict(x=self.x, x_cf=self.x_cf, x_chord=self.x_chord, regions=self.regions, flags=self.flags,
+                      line_row=self.line_row, area_px=self.area_px, reference_frame=self.reference_frame,
+                      mm_per_px=cal.mm_per_px, x0_px=cal.x0_px, level=cal.level,
+                      surface_x_mm=cal.x_mm, surface_h_mm=cal.h_hat_mm,
+                      contact_tol_px=self.contact_tol_px, **extra)
+
+        def write(tmp) -> None:
+            with open(tmp, "wb") as fh:  # a file object: savez adds no '.npz' to the name
+                np.savez(fh, **arrays)
+
+        atomic_write(path, write)
 
 
 class FrameAnalyzer:

@@ -36,6 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._atomic import atomic_write
+
 __all__ = ["CineHeader", "read_cine_header", "write_cine"]
 
 log = logging.getLogger(__name__)
@@ -224,17 +226,19 @@ def write_cine(path: str | os.PathLike, frames, *, fps: float = 1000.0, real_bpp
     struct.pack_into("<HH", setup, _SETUP_IMWIDTH_OFFSET, w, h)
     struct.pack_into("<I", setup, _SETUP_FRAMERATE_OFFSET, int(round(fps)))
     struct.pack_into("<I", setup, _SETUP_REALBPP_OFFSET, rb)
-    tmp = path + ".tmp"
-    with open(tmp, "wb") as fh:
-        fh.write(_FILEHEADER.pack(b"CI", _FILEHEADER.size, 0, 1, 0, n, 0, n, off_bih, off_setup,
-                                  off_offsets, 0, 0))
-        fh.write(_BITMAPINFO.pack(_BITMAPINFO.size, w, h, 1, bitcount, 0, img_size, 0, 0, 0, 0))
-        fh.write(bytes(setup))
-        fh.write(offsets.astype("<i8").tobytes())
-        dt = np.dtype("<u2") if bitcount == 16 else np.dtype(np.uint8)
-        for k in range(n):
-            fh.write(struct.pack("<I", ann_size))
-            fh.write(annotation)
-            fh.write(struct.pack("<I", img_size))
-            fh.write(np.ascontiguousarray(arr[k, ::-1], dtype=dt).tobytes())
-    os.replace(tmp, path)
+
+    def write(tmp) -> None:
+        with open(tmp, "wb") as fh:
+            fh.write(_FILEHEADER.pack(b"CI", _FILEHEADER.size, 0, 1, 0, n, 0, n, off_bih, off_setup,
+                                      off_offsets, 0, 0))
+            fh.write(_BITMAPINFO.pack(_BITMAPINFO.size, w, h, 1, bitcount, 0, img_size, 0, 0, 0, 0))
+            fh.write(bytes(setup))
+            fh.write(offsets.astype("<i8").tobytes())
+            dt = np.dtype("<u2") if bitcount == 16 else np.dtype(np.uint8)
+            for k in range(n):
+                fh.write(struct.pack("<I", ann_size))
+                fh.write(annotation)
+                fh.write(struct.pack("<I", img_size))
+                fh.write(np.ascontiguousarray(arr[k, ::-1], dtype=dt).tobytes())
+
+    atomic_write(path, write)

@@ -16,6 +16,7 @@ from fractions import Fraction
 import cv2
 import numpy as np
 
+from .._atomic import AtomicFile
 from ..surfaces import Surface
 from .analysis import FLAG_REASONS, AnalysisOptions, FrameAnalyzer, FrameFlag
 from .calibrate import calibrate
@@ -148,15 +149,16 @@ def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
         raise ValueError(f"scale must be in [0.1, 4], got {scale!r}")
     opt = options or AnalysisOptions()
     reader = open_video(video)
-    tmp = out + ".tmp" + ext
+    target = None
     n_written = n_flagged = 0
     try:
+        target = AtomicFile(out)
         cal = calibrate(reader.read_frame(opt.calibration_frame), surface_height_mm, crop=opt.crop,
                         level=opt.level, surface=surface)
         an = FrameAnalyzer(cal, opt, reader.shape)
         w = int(round(cal.crop.width * scale)) // 2 * 2
         h = int(round(cal.crop.height * scale)) // 2 * 2
-        with av.open(tmp, "w") as container:
+        with av.open(str(target.tmp), "w") as container:
             if ext == ".mp4":
                 st = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
                 st.pix_fmt = "yuv420p"
@@ -182,10 +184,10 @@ def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
                 container.mux(pkt)
         if n_written == 0:
             raise ValueError(f"{reader.path}: no frame in the range start={start}, stop={stop}")
-        os.replace(tmp, out)
+        target.commit()
     finally:
         reader.close()
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        if target is not None:
+            target.discard()
     log.info("overlay: %d frames written to %s", n_written, out)
     return OverlayInfo(path=out, n_frames=n_written, n_flagged=n_flagged)

@@ -27,13 +27,14 @@ import logging
 import os
 import re
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
 from .cine import read_cine_header
 
 __all__ = ["VideoReader", "open_video", "TiffStackReader", "MultiPageTiffReader", "AVReader",
-           "CineReader", "VIDEO_EXTENSIONS"]
+           "CineReader", "VIDEO_EXTENSIONS", "VideoProbe", "probe_video", "is_video_path"]
 
 log = logging.getLogger(__name__)
 
@@ -458,3 +459,69 @@ def open_video(path: str | os.PathLike, **kwargs) -> VideoReader:
         return CineReader(p)
     raise ValueError(f"{p}: unknown video extension {ext!r}; allowed: a TIFF folder or "
                      + ", ".join(VIDEO_EXTENSIONS))
+
+
+@dataclass(frozen=True)
+class VideoProbe:
+    """What a video says about itself (:func:`probe_video`), without decoding its frames.
+
+    Attributes
+    ----------
+    path : str
+    format : str
+        The reader's format name: ``'tiff'``, ``'cine'``, or the container's extension
+        (``'mkv'``, ``'avi'``, ``'mp4'``, ``'mov'``).
+    n_frames : int
+        Frames the file announces.
+    fps : float or None
+        Frame rate in Hz, or None when the file does not record it (a TIFF without
+        ImageJ metadata, a folder of TIFF files).
+    width, height : int
+        Frame size in pixels.
+    dtype : str
+        ``'uint8'`` or ``'uint16'``.
+    """
+
+    path: str
+    format: str
+    n_frames: int
+    fps: float | None
+    width: int
+    height: int
+    dtype: str
+
+
+def probe_video(path: str | os.PathLike) -> VideoProbe:
+    """Frame count, frame rate and image size of a video, read from its header.
+
+    Parameters
+    ----------
+    path : path-like
+        Anything :func:`open_video` takes.
+
+    Returns
+    -------
+    VideoProbe
+
+    Raises
+    ------
+    ValueError
+        A missing or unreadable file (as :func:`open_video`).
+    """
+    with open_video(path) as r:
+        h, w = r.shape
+        fps = float(r.fps) if r.fps else None
+        return VideoProbe(path=os.fspath(path), format=r.format, n_frames=int(r.n_frames), fps=fps,
+                          width=int(w), height=int(h), dtype=str(np.dtype(r.dtype)))
+
+
+def is_video_path(path: str | os.PathLike) -> bool:
+    """Whether :func:`open_video` would pick a reader for this path: a file with one of
+    :data:`VIDEO_EXTENSIONS` or a folder holding ``.tif``/``.tiff`` files."""
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        try:
+            return any(n.lower().endswith((".tif", ".tiff")) for n in os.listdir(p))
+        except OSError:
+            return False
+    return os.path.splitext(p)[1].lower() in VIDEO_EXTENSIONS
