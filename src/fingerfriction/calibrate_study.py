@@ -10,7 +10,8 @@ size), and hands them to the calibration.
 Frames used: a finite ``x_mm``, no flag, no region cut by the field of view
 (``clipped``), at least one region, and a normal force at that position. The contact
 tolerance of a trial is its analysis' ``contact_tol_px`` (default 3 px) times its
-calibrated ``mm_per_px``.
+calibrated ``mm_per_px`` (0.070 mm when the status has none); its ``min_gap_px`` and
+``min_region_px`` (the video's cleanup) are applied to the model's regions as well.
 """
 
 from __future__ import annotations
@@ -38,14 +39,15 @@ __all__ = ["trials_from_results", "calibrate_results"]
 log = logging.getLogger(__name__)
 
 
-def _tol_px(run: dict) -> float:
-    params = run.get("parameters") or run.get("params") or {}
-    v = (params.get("video") or {}).get("contact_tol_px") if isinstance(params, dict) else None
+def _video_px(run: dict, name: str, default: float) -> float:
+    """A pixel setting of the run's video analysis (``run.json`` ``parameters.video``)."""
+    params = run.get("parameters") or {}
+    v = (params.get("video") or {}).get(name) if isinstance(params, dict) else None
     try:
         v = float(v)
     except (TypeError, ValueError):
-        return 3.0
-    return v if math.isfinite(v) and v > 0 else 3.0
+        return default
+    return v if math.isfinite(v) and v >= 0 else default
 
 
 def _mm_per_px(status: dict) -> float | None:
@@ -100,7 +102,9 @@ def trials_from_results(results: str | os.PathLike, subject, *, load: float | No
         raise ValueError(f"load must be a positive normal force in N, got {load!r}")
     keep = None if surfaces is None else {str(s) for s in surfaces}
     specs = run.get("surfaces", {})
-    tol_px = _tol_px(run)
+    tol_px = _video_px(run, "contact_tol_px", 3.0) or 3.0
+    gap_px = _video_px(run, "min_gap_px", 0.0)
+    region_px = _video_px(run, "min_region_px", 0.0)
     trials, skipped = [], []
     for m in mine:
         tid = str(m["id"])
@@ -138,8 +142,10 @@ def trials_from_results(results: str | os.PathLike, subject, *, load: float | No
                     continue
                 F = np.interp(x, fx[ok], fn[ok], left=np.nan, right=np.nan)
             mmpp = _mm_per_px(st)
+            px = mmpp if mmpp is not None else GEOMETRIC_TOL / 3.0
             tol = tol_px * mmpp if mmpp is not None else GEOMETRIC_TOL
-            t = CalibrationTrial(surface=surf, x=x, regions=reg, load=F, label=tid, tol=tol)
+            t = CalibrationTrial(surface=surf, x=x, regions=reg, load=F, label=tid, tol=tol,
+                                 min_gap=gap_px * px, min_region=region_px * px)
         except (KeyError, ValueError, OSError) as exc:
             skipped.append((tid, f"unreadable: {' '.join(str(exc).split())}"))
             continue

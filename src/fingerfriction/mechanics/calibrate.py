@@ -109,6 +109,10 @@ class CalibrationTrial:
     tol : float
         The trial's contact tolerance in mm (3 px of its calibrated pixel size; default
         :data:`~fingerfriction.mechanics.bem.GEOMETRIC_TOL`).
+    min_gap, min_region : float
+        The measurement's cleanup in mm (the video analysis bridges gaps shorter than
+        ``min_gap`` and drops regions shorter than ``min_region``); applied to the model's
+        regions too when they are compared with the measured ones (blind spots). Default 0.
     """
 
     surface: Surface
@@ -117,6 +121,8 @@ class CalibrationTrial:
     load: np.ndarray
     label: str = ""
     tol: float = GEOMETRIC_TOL
+    min_gap: float = 0.0
+    min_region: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.surface, Surface):
@@ -138,6 +144,11 @@ class CalibrationTrial:
         object.__setattr__(self, "regions", reg)
         object.__setattr__(self, "load", ld)
         object.__setattr__(self, "tol", float(self.tol))
+        for name in ("min_gap", "min_region"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"trial {self.label!r}: {name} must be a length >= 0 in mm, got {v!r}")
+            object.__setattr__(self, name, float(v))
 
     def usable(self) -> np.ndarray:
         """Frames with a finite position, a positive load and a region, ``(n_frames,)`` bool."""
@@ -182,6 +193,15 @@ class CalibrationOptions:
         Evaluations per pass.
     solver_tol : float
         Tolerance of each BEM solve.
+    warm_start : {'positions', 'parameters'}
+        How each BEM solve starts: ``'positions'`` (default) from the previous position's
+        pressure, linearly extrapolated, as :func:`~.sweep.sweep` does; ``'parameters'``
+        from the last base sweep's pressure at the same position (previous parameters,
+        same grid cells). Measured on a 36-trial subject (benchmarks/calibrate.py): 19.8
+        vs 22.7 CG iterations per solve, so the positions' start is the default.
+    end_bias_px : float
+        Size in px of the per-end widening of the measured regions whose effect on the
+        parameters is reported as a systematic sensitivity (default 0.5 px).
     bootstrap : int
         Bootstrap replicates for the uncertainties.
     seed : int
@@ -204,12 +224,14 @@ class CalibrationOptions:
     n_loads: int = 3
     coarse_soft: float = 0.2
     fine_soft: float = 0.05
-    s_min: float = 0.02
+    s_min: float = 0.1
     s_0: float = 0.1
     bound: float = 2.0
     diff_step: float = 0.005
     max_nfev: int = 25
     solver_tol: float = 1e-6
+    warm_start: str = "positions"
+    end_bias_px: float = 0.5
     bootstrap: int = 400
     seed: int = 0
     min_trials: int = 3
@@ -226,6 +248,11 @@ class CalibrationOptions:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"CalibrationOptions.{name} must be a positive number, got {v!r}")
+        if self.warm_start not in ("parameters", "positions"):
+            raise ValueError(f"CalibrationOptions.warm_start must be 'parameters' or 'positions', "
+                             f"got {self.warm_start!r}")
+        if not (math.isfinite(self.end_bias_px) and self.end_bias_px >= 0):
+            raise ValueError(f"CalibrationOptions.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
         if not self.bound > 1:
             raise ValueError(f"CalibrationOptions.bound must be > 1, got {self.bound!r}")
         for name, lo in (("coarse_stride", 1), ("n_loads", 1), ("max_nfev", 1), ("bootstrap", 0),
@@ -294,6 +321,11 @@ class FingerCalibration:
         Bootstrap standard deviation of each fitted parameter (its unit).
     ci95 : dict
         Bootstrap 2.5 and 97.5 percentiles of each fitted parameter.
+    systematic : dict
+        Change of each fitted parameter (its unit) if every measured region were
+        ``options.end_bias_px`` px wider at each end (linearised at the optimum): the
+        bootstrap sees only trial-to-trial scatter, not a bias shared by all frames of
+        the video analysis, which dominates on simulated studies.
     load_per_width : float
         ``P' = median F_N / D`` in N/mm.
     load_median : float
@@ -322,6 +354,7 @@ class FingerCalibration:
     fitted: tuple
     std: dict
     ci95: dict
+    systematic: dict
     load_per_width: float
     load_median: float
     surfaces: list
@@ -345,6 +378,7 @@ class FingerCalibration:
             "parameters": {k: float(getattr(self.finger, k)) for k in self.fitted},
             "std": {k: float(v) for k, v in self.std.items()},
             "ci95": {k: [float(a), float(b)] for k, (a, b) in self.ci95.items()},
+            "systematic_per_end_bias": {k: float(v) for k, v in self.systematic.items()},
             "initial": self.initial.to_dict(),
             "width_mm_fixed": float(self.finger.width),
             "load_median_N": self.load_median, "load_per_width_N_per_mm": self.load_per_width,
@@ -392,6 +426,8 @@ class _SurfaceData:
         self.tol = np.concatenate([f[2] for f in frames])
         self.trial = np.concatenate([f[3] for f in frames])
         self.regions = [r for f in frames for r in f[4]]
+        self.min_gap = np.concatenate([f[5] for f in frames])
+        self.min_region = np.concatenate([f[6] for f in frames])
         self.u = u
         self.dx = float(u[1] - u[0])
         self.lo, self.hi = table_lo, table_hi
@@ -501,7 +537,8 @@ class _Problem:
             self.trial_labels.append(t.label)
             self.trial_surface.append(t.surface.name)
             groups.setdefault(t.surface.name, []).append(
-                (t.x[idx], t.load[idx], np.full(idx.size, t.tol), np.full(idx.size, tnum), regs)
+                (t.x[idx], t.load[idx], np.full(idx.size, t.tol), np.full(idx.size, tnum), regs,
+                 np.full(idx.size, t.min_gap), np.full(idx.size, t.min_region))
             )
             surfaces[t.surface.name] = t.surface
             loads.append(t.load[idx])
@@ -523,7 +560,8 @@ class _Problem:
         # warm starts: (level, surface, load index) -> pressures (m, n)
         self._warm: dict = {}
         self._structs: dict = {}
-        self._cache: dict = {}
+        self.last_end_gain: dict = {}
+        self.last_failures = 0
 
     # ---------------------------------------------------------------- parameters
     def finger(self, z: np.ndarray) -> FingerParams:
@@ -565,7 +603,8 @@ class _Problem:
             Y = np.empty((self.loads.size, pos.size, self.n))
             for j, F in enumerate(self.loads):
                 key = (level, sd.name, j)
-                Y[j], P, f = self._sweep(solver, sd.surface, pos, float(F), self._warm.get(key))
+                start = self._warm.get(key) if self.opts.warm_start == "parameters" else None
+                Y[j], P, f = self._sweep(solver, sd.surface, pos, float(F), start)
                 fails += f
                 if not perturbed:
                     self._warm[key] = P
@@ -641,7 +680,11 @@ class _Problem:
             d1 = d[st.fe, st.je + 1]
             de = d0 + st.te * (d1 - d0)
             slope = (d1 - d0) / sd.dx
-            r_end = (de - tol_f[st.fe]) / np.sqrt(slope * slope + o.s_min**2)
+            den = np.sqrt(slope * slope + o.s_min**2)
+            r_end = (de - tol_f[st.fe]) / den
+            # d r_end / d(outward shift of the measured end), for the systematic sensitivity:
+            # moving an end outwards (away from its region) raises d by |d'| per mm.
+            self.last_end_gain[sd.name] = np.abs(slope) / den
             # hinge residuals
             flat = d.ravel()[st.cell_index]
             tol_cells = np.repeat(tol_f, sd.u.size)[st.cell_index]
@@ -751,6 +794,7 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     J = jac(z)
     t_b = time.process_time()
     std, ci = _bootstrap(pb, z, r0, J, opts)
+    systematic = _end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
     t_boot = time.process_time() - t_b
 
     # per-surface figures and blind spots at the optimum
@@ -788,6 +832,7 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     return FingerCalibration(
         finger=finger, initial=initial, fitted=opts.fit, std=std, ci95=ci,
         load_per_width=pb.load_median / finger.width, load_median=pb.load_median, surfaces=surfaces,
+        systematic=systematic,
         success=success, message=message, flags=flags, n_trials=pb.n_trials, n_frames=pb.n_frames,
         nfev=nfev, n_solves=pb.n_solves, cg_iterations=pb.cg_iterations, timings=timings,
         cost=float(fine.cost), options=opts,
@@ -812,7 +857,8 @@ def _make_fun_jac(pb: _Problem, level: str, step: float):
         key = key_of(z)
         if state.get("key") != key:
             tabs = pb.tables(z, level, step)
-            state.update(key=key, tabs=tabs, r=pb.residuals(level, tabs), fail=pb.last_failures)
+            r = pb.residuals(level, tabs)
+            state.update(key=key, tabs=tabs, r=r, fail=pb.last_failures, gain=dict(pb.last_end_gain))
         pb.last_failures = state["fail"]
         return state["r"]
 
@@ -881,8 +927,33 @@ def _bootstrap(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndarray, opts: 
     return std, ci
 
 
-def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray) -> list[np.ndarray]:
-    """Regions ``d <= tol`` per frame, ends interpolated linearly (as the BEM's geometric ones)."""
+def _end_bias_sensitivity(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndarray, gain: dict,
+                          opts: CalibrationOptions) -> dict:
+    """Parameter change (linearised, IRLS weights at the optimum) if every measured region
+    were ``end_bias_px`` px wider at each end; the pixel size is taken as ``tol / 3``."""
+    w = _soft_weights(r, opts.fine_soft)
+    dr = []
+    for sd in pb.surfaces:
+        st = pb.structure("fine", sd)
+        px = sd.tol[st.idx][st.fe] / 3.0
+        dr.append(gain[sd.name] * opts.end_bias_px * px)
+        dr.append(np.zeros(st.kinds.size))
+    dr = np.concatenate(dr)
+    Jw = J * w[:, None]
+    try:
+        dz = -np.linalg.solve(Jw.T @ J, Jw.T @ dr)
+    except np.linalg.LinAlgError:
+        return {f: math.nan for f in opts.fit}
+    vals = pb.p0 * np.exp(z)
+    return {f: float(v * (math.exp(d) - 1.0)) for f, v, d in zip(opts.fit, vals, dz, strict=True)}
+
+
+def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.ndarray,
+                   min_region: np.ndarray) -> list[np.ndarray]:
+    """Regions ``d <= tol`` per frame, ends interpolated linearly (as the BEM's geometric
+    ones), then the measurement's cleanup (as :func:`fingerfriction.video.contact.
+    contact_regions`): gaps shorter than ``min_gap`` bridged, regions shorter than
+    ``min_region`` dropped."""
     out = []
     for i in range(d.shape[0]):
         di, xi = d[i], X[i]
@@ -909,8 +980,12 @@ def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray) -> list[np.nda
                 bb = xi[e] + (xi[e + 1] - xi[e]) * (tol[i] - g0) / (g1 - g0)
             else:
                 bb = xi[-1]
-            rows.append((a, bb))
-        out.append(np.asarray(rows))
+            if rows and a - rows[-1][1] < min_gap[i]:
+                rows[-1] = (rows[-1][0], bb)
+            else:
+                rows.append((a, bb))
+        rows = [r for r in rows if r[1] - r[0] >= min_region[i]]
+        out.append(np.asarray(rows).reshape(-1, 2))
     return out
 
 
@@ -935,7 +1010,7 @@ def _surface_fits(pb: _Problem, tabs: dict, r0: np.ndarray) -> list[SurfaceFit]:
         off += ne + nh
         pos, Y = tabs[sd.name]
         d = pb.distances(sd, st.idx, pos, Y)
-        model = _model_regions(d, sd.X[st.idx], sd.tol[st.idx])
+        model = _model_regions(d, sd.X[st.idx], sd.tol[st.idx], sd.min_gap[st.idx], sd.min_region[st.idx])
         meas = [sd.regions[i] for i in st.idx]
         out.append(SurfaceFit(
             surface=sd.name, n_trials=int(np.unique(sd.trial).size), n_frames=int(st.idx.size),

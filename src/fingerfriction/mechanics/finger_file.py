@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 
+from .._atomic import atomic_write_json
 from .finger import FingerParams
 
 __all__ = ["FINGER_FORMAT", "read_finger_file", "write_finger_file", "finger_from_mapping"]
@@ -114,16 +114,6 @@ def write_finger_file(path: str | os.PathLike, finger: FingerParams, *,
     doc = {"format": FINGER_FORMAT, "version": _VERSION, "finger": finger.to_dict()}
     if calibration is not None:
         doc["calibration"] = calibration
-    text = json.dumps(doc, indent=2, allow_nan=False) + "\n"
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, p)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    atomic_write_json(p, doc)  # NaN (an undetermined uncertainty) is written as null
     return p
