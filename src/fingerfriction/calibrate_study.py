@@ -16,6 +16,7 @@ calibrated ``mm_per_px`` (0.070 mm when the status has none); its ``min_gap_px``
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import os
@@ -202,6 +203,7 @@ def calibrate_results(results: str | os.PathLike, subject, *, initial: FingerPar
             why = f"; skipped: {skipped[0][0]}: {skipped[0][1]}"
             why += f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""
         raise CalibrationError(f"subject {subject}: {exc}{why}") from None
+    res.finger = dataclasses.replace(res.finger, name=f"subject {subject} (calibrated)")
     if load is not None:
         res.flags.append(f"normal force assumed constant at {load:g} N (no measured F_N): the modulus is "
                          "relative to that load")

@@ -193,12 +193,13 @@ class CalibrationOptions:
         Evaluations per pass.
     solver_tol : float
         Tolerance of each BEM solve.
-    warm_start : {'positions', 'parameters'}
+    warm_start : {'positions', 'parameters', 'none'}
         How each BEM solve starts: ``'positions'`` (default) from the previous position's
         pressure, linearly extrapolated, as :func:`~.sweep.sweep` does; ``'parameters'``
         from the last base sweep's pressure at the same position (previous parameters,
         same grid cells). Measured on a 36-trial subject (benchmarks/calibrate.py): 19.8
         vs 22.7 CG iterations per solve, so the positions' start is the default.
+        ``'none'``: every solve starts cold (a reference for the benchmark).
     end_bias_px : float
         Size in px of the per-end widening of the measured regions whose effect on the
         parameters is reported as a systematic sensitivity (default 0.5 px).
@@ -248,8 +249,8 @@ class CalibrationOptions:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"CalibrationOptions.{name} must be a positive number, got {v!r}")
-        if self.warm_start not in ("parameters", "positions"):
-            raise ValueError(f"CalibrationOptions.warm_start must be 'parameters' or 'positions', "
+        if self.warm_start not in ("positions", "parameters", "none"):
+            raise ValueError(f"CalibrationOptions.warm_start must be 'positions', 'parameters' or 'none', "
                              f"got {self.warm_start!r}")
         if not (math.isfinite(self.end_bias_px) and self.end_bias_px >= 0):
             raise ValueError(f"CalibrationOptions.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
@@ -343,7 +344,8 @@ class FingerCalibration:
     n_solves : int
         BEM solves in total; ``cg_iterations`` their conjugate-gradient iterations.
     timings : dict
-        CPU seconds per stage (``'prepare', 'bem', 'residuals', 'bootstrap', 'predict'``) and
+        CPU seconds per stage (``'prepare', 'bem', 'residuals', 'bootstrap', 'predict'``),
+        per pass (``'coarse_pass', 'fine_pass'``: optimiser, BEM and residuals) and
         ``'total'``.
     cost : float
         Final robust cost of the fine pass.
@@ -623,6 +625,8 @@ class _Problem:
         for i, xf in enumerate(pos):
             if start is not None:
                 guess = start[i]
+            elif self.opts.warm_start == "none":
+                guess = None
             elif prev is not None:
                 guess = prev if prev2 is None else np.maximum(2.0 * prev - prev2, 0.0)
             else:
@@ -774,13 +778,16 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     ub = -lb
     z = np.zeros(len(opts.fit))
     nfev = {}
+    pass_cpu = {}
     results = {}
     for level, step, soft in (("coarse", opts.coarse_step, opts.coarse_soft),
                               ("fine", opts.fine_step, opts.fine_soft)):
         fun, jac, state = _make_fun_jac(pb, level, step)
+        t_pass = time.process_time()
         r = least_squares(fun, z, jac=jac, bounds=(lb, ub), loss="soft_l1", f_scale=soft,
                           x_scale=1.0, max_nfev=opts.max_nfev, xtol=1e-4, ftol=1e-6, gtol=1e-8)
         nfev[level] = int(r.nfev)
+        pass_cpu[level] = time.process_time() - t_pass
         results[level] = r
         z = r.x
         log.info("calibration %s pass: %s, z=%s, cost %.4g", level, r.message, np.round(z, 4), r.cost)
@@ -827,7 +834,8 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     message = "; ".join(msg_parts) if msg_parts else f"converged ({fine.message})"
     timings = {
         "prepare": t_prep, "bem": pb.t_bem, "residuals": pb.t_res, "bootstrap": t_boot,
-        "predict": t_pred, "total": time.process_time() - T0,
+        "predict": t_pred, "coarse_pass": pass_cpu["coarse"], "fine_pass": pass_cpu["fine"],
+        "total": time.process_time() - T0,
     }
     return FingerCalibration(
         finger=finger, initial=initial, fitted=opts.fit, std=std, ci95=ci,
