@@ -1,6 +1,6 @@
 """Figures, tables and a self-contained HTML report of an analysed (and fitted) study.
 
-:func:`make_report` reads a results folder (:mod:`fingerfriction.results`) and writes,
+:func:`make_report` reads a results folder (:mod:`fingerfriction.study.store`) and writes,
 into ``RESULTS/report/``: each figure as PNG and SVG (:mod:`.figures`), Table 1, the
 blind-spot table, the out-of-sample validation (``loso``, computed by
 ``fit``) and, for a simulated study, the recovered parameters next to the ground
@@ -25,7 +25,9 @@ from markupsafe import Markup
 
 from .._atomic import atomic_write_text
 from .._progress import ProgressBar
+from ..forces.signals import describe_history
 from ..stats import write_table
+from ..study.store import ResultsStore
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
 from .tables import (
@@ -57,7 +59,7 @@ class ReportResult:
         Table 1 in long format (None before the fit).
     loso : pandas.DataFrame or None
         Out-of-sample validation, rho per held-out surface (computed by ``fit``,
-        :func:`fingerfriction.pipeline.fit`; None if the fit did not validate).
+        :func:`fingerfriction.study.fitting.fit`; None if the fit did not validate).
     blindspots : pandas.DataFrame
         One row per blind spot per surface.
     truth : dict of str to pandas.DataFrame
@@ -119,6 +121,70 @@ def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
+def _parameter_rows(parameters: dict) -> list[tuple[str, str]]:
+    """The run record's analysis parameters as ``(stage.option, value)`` rows."""
+    rows = []
+    for stage, opts in parameters.items():
+        if isinstance(opts, dict):
+            rows += [(f"{stage}.{k}", _value_text(v)) for k, v in opts.items()]
+        else:
+            rows.append((str(stage), _value_text(opts)))
+    return rows
+
+
+def _value_text(v) -> str:
+    if v is None:
+        return "none"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_value_text(x) for x in v) if v else "none"
+    if isinstance(v, float):
+        return f"{v:g}"
+    return str(v)
+
+
+def _force_history(data: ReportData) -> list[tuple[str, list[str]]]:
+    """Per trial, the steps of its force processing as lines a person reads."""
+    return [(t.id, describe_history(t.force_history) if t.force_history is not None
+             else ["not recorded (the trial was analysed by an earlier version)"]) for t in data.trials]
+
+
+def _write_tables(data: ReportData, out: Path, has_fit: bool, files: list[Path]):
+    """Write Table 1, the out-of-sample table, the blind spots and the truth tables (CSV,
+    Markdown, Table 1 also LaTeX) into ``out``, appending to ``files``; returns
+    ``(table1, loso, blindspots, truth, fitted parameters)``."""
+    t1 = table1(data) if has_fit else None
+    if t1 is not None:
+        for ext in ("csv", "md", "tex"):  # the CSV keeps the numbers, the others read as text
+            write_table(t1 if ext == "csv" else with_formatted_p(t1), out / f"table1.{ext}")
+            files.append(out / f"table1.{ext}")
+    loso = loso_table(data) if has_fit else None
+    if loso is not None:
+        for ext in ("csv", "md"):
+            write_table(loso if ext == "csv" else with_formatted_p(loso), out / f"loso.{ext}")
+            files.append(out / f"loso.{ext}")
+    bs = blindspot_table(data)
+    for ext in ("csv", "md"):
+        write_table(bs, out / f"blindspots.{ext}")
+        files.append(out / f"blindspots.{ext}")
+    truth = truth_tables(data)
+    for key, df in truth.items():
+        for ext in ("csv", "md"):
+            write_table(df, out / f"truth_{key}.{ext}")
+            files.append(out / f"truth_{key}.{ext}")
+    return t1, loso, bs, truth, fit_parameter_table(data)
+
+
+def _mu_notes(fit: dict) -> dict:
+    """Per subject, a note when the fitted mu sits at an end of the search grid."""
+    grid = fit.get("mu_grid") or {}
+    notes = {}
+    for s, m in (fit.get("mu") or {}).items():
+        if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
+            notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
+                        "not a minimum inside the grid, the true value may lie beyond it")
+    return notes
+
+
 def make_report(results: str | os.PathLike, *, progress: bool = False) -> ReportResult:
     """Write the figures, tables and the HTML report of a results folder.
 
@@ -158,29 +224,10 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
                             "png_b64": base64.b64encode(blobs["png"]).decode("ascii")})
             bar.advance(stem)
 
-        t1 = table1(data) if has_fit else None
-        if t1 is not None:
-            for ext in ("csv", "md", "tex"):  # the CSV keeps the numbers, the others read as text
-                write_table(t1 if ext == "csv" else with_formatted_p(t1), out / f"table1.{ext}")
-                files.append(out / f"table1.{ext}")
-        loso = loso_table(data) if has_fit else None
-        if loso is not None:
-            for ext in ("csv", "md"):
-                write_table(loso if ext == "csv" else with_formatted_p(loso), out / f"loso.{ext}")
-                files.append(out / f"loso.{ext}")
-        loso_png = data.root / "fit" / "loso.png"
+        t1, loso, bs, truth, params = _write_tables(data, out, has_fit, files)
+        loso_png = ResultsStore(data.root).loso_figure_path
         loso_img = (base64.b64encode(loso_png.read_bytes()).decode("ascii")
                     if loso is not None and loso_png.is_file() else None)
-        bs = blindspot_table(data)
-        for ext in ("csv", "md"):
-            write_table(bs, out / f"blindspots.{ext}")
-            files.append(out / f"blindspots.{ext}")
-        truth = truth_tables(data)
-        for key, df in truth.items():
-            for ext in ("csv", "md"):
-                write_table(df, out / f"truth_{key}.{ext}")
-                files.append(out / f"truth_{key}.{ext}")
-        params = fit_parameter_table(data)
         bar.advance("tables")
 
         titles = {"mu": "Friction coefficient per subject",
@@ -196,13 +243,7 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         if not has_fit:
             notices.append(f"The model is not fitted: Fig. 6, Fig. S3 and Table 1 are left out; run "
                            f"`fingerfriction fit {data.root}` and then this report again.")
-        fit = data.fit or {}
-        grid = fit.get("mu_grid") or {}
-        mu_notes = {}
-        for s, m in (fit.get("mu") or {}).items():
-            if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
-                mu_notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
-                               "not a minimum inside the grid, the true value may lie beyond it")
+        mu_notes = _mu_notes(data.fit or {})
         n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
         page = template.render(
             notices=notices, mu_notes=mu_notes, n_neg_p0=n_neg_p0,
@@ -224,7 +265,8 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
             params=Markup(_html_table(params)) if params is not None else None,
-            figures=figures, parameters=run.get("parameters", {}), versions=run.get("versions", {}),
+            figures=figures, parameters=_parameter_rows(run.get("parameters", {})),
+            versions=run.get("versions", {}), force_history=_force_history(data),
         )
         atomic_write_text(out / "index.html", page)
         files.append(out / "index.html")

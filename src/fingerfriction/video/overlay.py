@@ -135,7 +135,7 @@ def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
     ValueError
         For an unknown output extension, bad frame range, or an unusable video.
     """
-    import av
+    import av  # heavy (FFmpeg bindings), only to encode the overlay
 
     out = os.fspath(out)
     ext = os.path.splitext(out)[1].lower()
