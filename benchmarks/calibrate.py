@@ -35,11 +35,12 @@ from pathlib import Path
 
 import numpy as np
 
-from fingerfriction.calibrate_study import calibrate_results, trials_from_results
 from fingerfriction.mechanics import SUBJECTS
-from fingerfriction.mechanics.calibrate import CalibrationOptions, _Problem
+from fingerfriction.mechanics._calibration_problem import _Problem
+from fingerfriction.mechanics.calibrate import CalibrationOptions
 from fingerfriction.mechanics.finger_file import finger_from_mapping
 from fingerfriction.sim.fingers import DRAWN_FIELDS, relative_difference
+from fingerfriction.study.finger_calibration import calibrate_results, trials_from_results
 
 TARGET_PARAM = 0.05
 TARGET_BS_MM = 0.05

@@ -223,7 +223,7 @@ def simulate_cmd(
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
     if finger:
-        from .mechanics.finger_file import read_finger_file
+        from .mechanics.finger_file import read_finger_file  # only when --finger is given
 
         kw["fingers"] = {}
         for item in finger:

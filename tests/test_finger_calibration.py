@@ -1,4 +1,4 @@
-"""Calibrating a finger from a results folder (fingerfriction.calibrate_study, issue 15)."""
+"""Calibrating a finger from a results folder (fingerfriction.study.finger_calibration, issue 15)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fingerfriction.calibrate_study import calibrate_results, trials_from_results
 from fingerfriction.mechanics import SUBJECTS, sweep
 from fingerfriction.mechanics.calibrate import CalibrationError, CalibrationOptions
-from fingerfriction.results import ResultsStore, frames_table
+from fingerfriction.study import ResultsStore, frames_table
+from fingerfriction.study.finger_calibration import calibrate_results, trials_from_results
 from fingerfriction.surfaces import get_surface
 
 TRUE = dataclasses.replace(SUBJECTS[2], radius=24.0, modulus=0.16, flat_length=6.5)

@@ -23,17 +23,17 @@ import os
 
 import numpy as np
 
-from .mechanics import FingerParams, get_subject
-from .mechanics.bem import GEOMETRIC_TOL
-from .mechanics.calibrate import (
+from ..mechanics import FingerParams, get_subject
+from ..mechanics.bem import GEOMETRIC_TOL
+from ..mechanics.calibrate import (
     CalibrationError,
     CalibrationOptions,
     CalibrationTrial,
     FingerCalibration,
     calibrate_finger,
 )
-from .results import ResultsStore, regions_from_table
-from .surfaces import surface_from_spec
+from ..surfaces import surface_from_spec
+from .store import ResultsStore, regions_from_table
 
 __all__ = ["trials_from_results", "calibrate_results"]
 
