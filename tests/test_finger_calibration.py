@@ -99,3 +99,66 @@ def test_calibrates_from_a_results_folder(tmp_path):
         assert getattr(res.finger, f) == pytest.approx(getattr(TRUE, f), rel=0.03), f
     res2 = calibrate_results(tmp_path / "r", "7", initial=SUBJECTS[2], options=opts, load=0.3)
     assert any("assumed constant at 0.3 N" in f for f in res2.flags)
+
+
+# ------------------------------------------------------------------------------ command line
+def _cli(args):
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+
+    return CliRunner().invoke(app, args)
+
+
+@pytest.mark.slow
+def test_calibrate_finger_command_writes_a_finger_the_other_commands_accept(tmp_path, monkeypatch):
+    import functools
+
+    import fingerfriction.mechanics.calibrate as cal
+    from fingerfriction.mechanics.finger_file import read_finger_file
+
+    _write(tmp_path / "r", DESIGN)
+    fast = functools.partial(cal.CalibrationOptions, dx=0.08, coarse_step=0.3, fine_step=0.1, n_loads=2,
+                             coarse_stride=2, bootstrap=20, min_frames=50)
+    monkeypatch.setattr(cal, "CalibrationOptions", fast)
+    out = tmp_path / "f7.json"
+    r = _cli(["calibrate-finger", str(tmp_path / "r"), "--subject", "7",
+              "--initial", str(tmp_path / "i.json"), "--out", str(out)])
+    assert r.exit_code == 2 and "cannot read finger file" in r.output  # no such start file
+    r = _cli(["calibrate-finger", str(tmp_path / "r"), "--subject", "7", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "wrote" in r.output and "bump-4mm" in r.output
+    f = read_finger_file(out)
+    assert f.radius == pytest.approx(TRUE.radius, rel=0.03)
+    r = _cli(["predict-contact", "--surface", "step-up-2mm", "--finger", str(out), "--step", "0.1",
+              "--out", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert "finger subject 7 (calibrated)" in " ".join(r.output.split())
+
+
+def test_calibrate_finger_command_errors_are_one_line(tmp_path):
+    _write(tmp_path / "r", DESIGN[:2])
+    for args, msg in [
+        (["calibrate-finger", str(tmp_path / "nothing"), "--subject", "7"], "not a results folder"),
+        (["calibrate-finger", str(tmp_path / "r"), "--subject", "9"], "no trial of subject '9'"),
+        (["calibrate-finger", str(tmp_path / "r"), "--subject", "7"], "only 2 trial(s)"),
+        (["calibrate-finger", str(tmp_path / "r"), "--subject", "7", "--load", "-1"], "load must be"),
+    ]:
+        r = _cli(args)
+        assert r.exit_code == 2, (args, r.output)
+        assert msg in " ".join(r.output.split()), (args, r.output)
+        assert "Traceback" not in r.output
+    assert not list(tmp_path.glob("finger-*.json"))
+
+
+def test_finger_option_errors_are_one_line(tmp_path):
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"radius": 20, "modulus": 0.1}')
+    for args in (["predict", "--surface", "bump-2mm", "--subject", "1"],
+                 ["predict-contact", "--surface", "bump-2mm"],
+                 ["render", "--surface", "bump-2mm", "--subject", "1", "--out", str(tmp_path / "c.wav")]):
+        r = _cli(args + ["--finger", str(bad)])
+        assert r.exit_code == 2, (args, r.output)
+        assert "bad.json" in r.output and "width" in r.output and "Traceback" not in r.output
+    r = _cli(["validate", str(tmp_path), "--finger", "1"])
+    assert r.exit_code == 2 and "expected SUBJECT=FILE" in r.output

@@ -39,6 +39,29 @@ def fail(message: str) -> None:
     raise typer.Exit(2)
 
 
+def _finger_file(path: str):
+    """A finger JSON file (``--finger``), or a one-line error naming the file."""
+    from .mechanics.finger_file import read_finger_file  # small, but only when --finger is given
+
+    try:
+        return read_finger_file(path)
+    except ValueError as exc:
+        fail(str(exc))
+
+
+def _subject_fingers(items: list[str] | None, option: str = "--finger") -> dict | None:
+    """``SUBJECT=FILE`` items -> {subject label: FingerParams}."""
+    if not items:
+        return None
+    out = {}
+    for item in items:
+        label, sep, path = item.partition("=")
+        if not sep or not label.strip() or not path.strip():
+            fail(f"{option}: expected SUBJECT=FILE (e.g. 1=finger1.json), got {item!r}")
+        out[label.strip()] = _finger_file(path.strip())
+    return out
+
+
 # ---------------------------------------------------------------------------------------
 # demo (simulate + analyze + fit + report; fingerfriction.demo)
 # ---------------------------------------------------------------------------------------
@@ -117,6 +140,9 @@ def predict_contact(
     out: str = typer.Option(
         None, "--out", help="Directory for the occupancy figure (PNG); default: current."
     ),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Predict tactile blind spots and simultaneous contacts of a finger sliding over a surface."""
     from .mechanics import default_positions, get_subject, sweep  # heavy (numba); when the command runs
@@ -129,7 +155,7 @@ def predict_contact(
         if not os.path.isdir(out_dir):
             raise ValueError(f"--out {out_dir!r} is not an existing directory")
         surf = surface_from_spec(surface)
-        finger = get_subject(subject)
+        finger = get_subject(subject) if finger_path is None else _finger_file(finger_path)
         positions = default_positions(surf, step=step)
         with console.status(f"solving the contact at {positions.size} finger positions..."):
             res = sweep(surf, finger, positions, load=load)
@@ -139,7 +165,8 @@ def predict_contact(
     except (ValueError, TypeError, OSError) as exc:
         fail(str(exc))
         return
-    table = Table(title=f"Tactile blind spots: {surf.name}, subject {subject}, {load:g} N ({kind} contact)")
+    who = f"subject {subject}" if finger_path is None else f"finger {finger.name or finger_path}"
+    table = Table(title=f"Tactile blind spots: {surf.name}, {who}, {load:g} N ({kind} contact)")
     table.add_column("#", justify="right")
     table.add_column("start (mm)", justify="right")
     table.add_column("end (mm)", justify="right")
@@ -223,17 +250,7 @@ def simulate_cmd(
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
     if finger:
-        from .mechanics.finger_file import read_finger_file  # only when --finger is given
-
-        kw["fingers"] = {}
-        for item in finger:
-            label, sep, path = item.partition("=")
-            if not sep or not label.strip() or not path.strip():
-                fail(f"--finger: expected SUBJECT=FILE (e.g. 1=finger1.json), got {item!r}")
-            try:
-                kw["fingers"][label.strip()] = read_finger_file(path.strip())
-            except ValueError as exc:
-                fail(f"--finger {item}: {exc}")
+        kw["fingers"] = _subject_fingers(finger)
     if finger_seed is not None:
         kw["finger_seed"] = finger_seed
     try:
@@ -520,12 +537,17 @@ def predict_cmd(
     step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
     contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Predict F_T(x), F_int, F_def, contact occupancy and blind spots on any relief."""
     from .predict import predict  # heavy (the forward model); imported when the command runs
 
+    finger = None if finger_path is None else _finger_file(finger_path)
     try:
-        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
+        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact,
+                       finger=finger)
         paths = pred.write(out, figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
@@ -560,13 +582,18 @@ def render_cmd(
     mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce."),
     table: str = typer.Option(None, "--table", help="Also write the table CSV (x_mm, F_T_N, mu_cmd)."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Friction command for a flat friction-modulating display, as a signal in time."""
     from .render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
+    finger = None if finger_path is None else _finger_file(finger_path)
     try:
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
-                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max))
+                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max),
+                                       finger=finger)
         files = r.write_command(out, speed, rate)
         if table:
             files["table"] = r.write_table(table)
@@ -589,13 +616,18 @@ def validate_cmd(
     results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
     out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps."),
+    finger: Annotated[
+        list[str] | None,
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger); repeat."),
+    ] = None,
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from .predict import validate_results  # heavy (the forward model); imported when the command runs
 
+    fingers = _subject_fingers(finger)
     try:
-        res = validate_results(results, out=out, forward_step=step)
+        res = validate_results(results, out=out, forward_step=step, fingers=fingers)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
@@ -606,6 +638,68 @@ def validate_cmd(
         t.add_row(str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
                   f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
     console.print(t)
+
+
+@app.command("calibrate-finger")
+def calibrate_finger_cmd(
+    results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze'."),
+    subject: str = typer.Option(..., "--subject", help="Subject label as in the study's manifest."),
+    out: str = typer.Option(None, "--out", help="Finger JSON to write (default finger-s<SUBJECT>.json)."),
+    initial: str = typer.Option(None, "--initial", help="Starting finger JSON (default: the subject's "
+                                "default finger, or subject 1's)."),
+    load: float = typer.Option(None, "--load", help="Assume this constant normal force in N (studies "
+                               "without an absolute F_N; the modulus is then relative to it)."),
+    surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap uncertainties."),
+) -> None:
+    """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
+    and write it as a finger JSON that predict, predict-contact, validate and render accept."""
+    from .mechanics.calibrate import CalibrationOptions  # heavy (numba); when the command runs
+    from .study.finger_calibration import calibrate_results  # heavy (the forward model); likewise
+
+    start = None if initial is None else _finger_file(initial)
+    target = out or f"finger-s{subject}.json"
+    try:
+        opts = CalibrationOptions(seed=seed)
+        t0 = time.process_time()
+        with console.status(f"calibrating the finger of subject {subject}..."):
+            res = calibrate_results(results, subject, initial=start, options=opts, load=load,
+                                    surfaces=_csv(surfaces))
+        cpu = time.process_time() - t0
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    t = Table(title=f"finger of subject {subject} ({res.n_trials} trials, {res.n_frames} frames)")
+    for col in ("parameter", "start", "calibrated", "bootstrap std", "95 % interval", "+0.5 px ends"):
+        t.add_column(col, justify="left" if col == "parameter" else "right")
+    units = {"radius": "mm", "modulus": "MPa", "flat_length": "mm"}
+    for f in res.fitted:
+        lo, hi = res.ci95[f]
+        t.add_row(f"{f} ({units.get(f, '')})", f"{getattr(res.initial, f):.4g}",
+                  f"{getattr(res.finger, f):.4g}", f"{res.std[f]:.2g}", f"{lo:.4g}..{hi:.4g}",
+                  f"{res.systematic[f]:+.2g}")
+    console.print(t)
+    console.print(f"load per width P' = {res.load_per_width:.4f} N/mm (median F_N {res.load_median:.3f} N, "
+                  f"D = {res.finger.width:g} mm fixed)", highlight=False)
+    ts = Table(title="per surface")
+    for col in ("surface", "frames", "end rms (mm)", "blind spots measured -> predicted (mm)"):
+        ts.add_column(col, justify="left" if col in ("surface",) else "right")
+    for sf in res.surfaces:
+        txt = ", ".join(f"{m:.3f} -> {p:.3f}" for m, p in sf.blind_spot_pairs()) or "none"
+        ts.add_row(sf.surface, str(sf.n_frames), f"{sf.rms_end_mm:.4f}", txt)
+    console.print(ts)
+    for flag in res.flags:
+        console.print(f"[bold yellow]flag:[/] {escape(flag)}", highlight=False, soft_wrap=True)
+    console.print(f"CPU {cpu:.1f} s ({res.n_solves} contact solves)", highlight=False)
+    if not res.success:
+        fail(f"the calibration of subject {subject} did not succeed: {res.message}; no finger written")
+    from .mechanics.finger_file import write_finger_file  # small; only once there is a finger
+
+    try:
+        path = write_finger_file(target, res.finger, calibration={"results": os.path.abspath(results),
+                                                                  "subject": subject, **res.to_dict()})
+    except OSError as exc:
+        fail(f"cannot write {target}: {exc}")
+    console.print(f"[green]wrote[/] {path}", highlight=False)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -188,12 +188,12 @@ class HapticRenderer:
     @classmethod
     def for_surface(cls, surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
                     normal_force: float | None = None, step: float = 0.01, resolution: float = 0.01,
-                    mu_range: tuple[float, float] = (0.0, 5.0)) -> HapticRenderer:
+                    mu_range: tuple[float, float] = (0.0, 5.0), finger=None) -> HapticRenderer:
         """Predict a relief for a subject and precompute its renderer.
 
         Parameters
         ----------
-        surface_spec, subject, params, load, step
+        surface_spec, subject, params, load, step, finger
             As :func:`fingerfriction.predict.predict`.
         normal_force : float, optional
             Normal force on the display in N (default: ``load``).
@@ -202,7 +202,7 @@ class HapticRenderer:
         mu_range : (float, float), optional
             The display's attainable friction coefficients.
         """
-        pred = predict(surface_spec, subject, params, load=load, step=step)
+        pred = predict(surface_spec, subject, params, load=load, step=step, finger=finger)
         fn = load if normal_force is None else float(normal_force)
         L = flat_contact_length(pred.finger, load=fn)
         disp = DisplayModel(normal_force=fn, p0=pred.params.p0, flat_length=L,

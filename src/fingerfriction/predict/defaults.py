@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 
+from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams
 from ..study.store import read_fit_table
 from ..surfaces import Surface, get_surface
@@ -56,7 +57,8 @@ def _default_params_cached(key, finger, load: float, step: float) -> FrictionPar
     return FrictionParams(mu, p0, PAPER_FORCE_RISE_N / m)
 
 
-def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> FrictionParams:
+def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05,
+                   finger: FingerParams | None = None) -> FrictionParams:
     """Documented default Eq. (4) parameters of subject 1 or 2 (see the module notes).
 
     ``mu`` from the paper; ``p0 = F_N / L_flat`` (flat-ground friction ``mu F_N``);
@@ -71,8 +73,12 @@ def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05)
         Normal force in N (default 0.3).
     step : float
         Finger step in mm of the calibration sweeps (default 0.05).
+    finger : FingerParams, optional
+        The subject's own finger (e.g. from ``calibrate-finger``) instead of its default:
+        the paper's ``mu`` of the subject, ``p0`` and ``p1`` from this finger's sweeps.
     """
-    key, finger = _resolve_finger(subject)
+    key, default = _resolve_finger(subject)
+    finger = default if finger is None else finger
     if key not in PAPER_MU:
         raise ValueError(
             f"no default friction parameters for subject {subject!r}: give params "
@@ -181,9 +187,11 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
         raise ValueError(f"{path}: malformed parameters ({exc})") from None
 
 
-def _resolve_params(params, subject, load: float) -> tuple[FrictionParams, str]:
+def _resolve_params(params, subject, load: float,
+                    finger: FingerParams | None = None) -> tuple[FrictionParams, str]:
     if params is None:
-        return default_params(subject, load=load), "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)"
+        return (default_params(subject, load=load, finger=finger),
+                "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)")
     if isinstance(params, FrictionParams):
         return params, "given"
     if isinstance(params, (str, os.PathLike)):

@@ -326,18 +326,23 @@ def trials_from_results(results: str | os.PathLike) -> list:
 
 
 def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | None = None,
-                     forward_step: float = 0.01) -> OutOfSample:
+                     forward_step: float = 0.01, fingers: dict | None = None) -> OutOfSample:
     """Leave-one-surface-out validation of an analysed study; writes ``loso.csv``.
 
     Uses the ``mu`` grid and fit options recorded by ``fingerfriction fit`` in
     ``RESULTS/fit/fit.json`` when present (so ``rho_in_sample`` is the study's Table 1),
     else the defaults. The table goes to ``out`` (default ``RESULTS/fit/loso.csv``) and a
     figure of the held-out trials beside it (``loso.png``).
-    This is the function the report calls.
+    This is the function the report calls. ``fingers`` (subject label -> FingerParams,
+    e.g. from ``calibrate-finger``) replaces the default finger of those subjects.
     """
     root = os.fspath(results)
     grid, options = ResultsStore(root).fit_settings()
-    res = leave_one_surface_out(trials_from_results(root), grid=grid, options=options,
+    trials = trials_from_results(root)
+    if fingers is not None:  # the other subjects keep their default finger
+        fingers = {**{t.subject: _finger_for_label(t.subject, None) for t in trials
+                      if t.subject not in fingers}, **fingers}
+    res = leave_one_surface_out(trials, fingers=fingers, grid=grid, options=options,
                                 forward_step=forward_step)
     target = os.fspath(out) if out is not None else os.fspath(ResultsStore(root).loso_path)
     os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
