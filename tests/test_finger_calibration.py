@@ -131,7 +131,7 @@ def test_calibrate_finger_command_writes_a_finger_the_other_commands_accept(tmp_
     f = read_finger_file(out)
     assert f.radius == pytest.approx(TRUE.radius, rel=0.03)
     r = _cli(["predict-contact", "--surface", "step-up-2mm", "--finger", str(out), "--step", "0.1",
-              "--out", str(tmp_path)])
+              "--out", str(tmp_path / "figs")])
     assert r.exit_code == 0, r.output
     assert "finger subject 7 (calibrated)" in " ".join(r.output.split())
 

@@ -73,27 +73,14 @@ def fail(message: str) -> None:
     raise typer.Exit(2)
 
 
-def _finger_file(path: str):
-    """A finger JSON file (``--finger``), or a one-line error naming the file."""
-    from .mechanics.finger_file import read_finger_file  # small, but only when --finger is given
+def _finger_file(path: str | None = None, items: list[str] | None = None):
+    """``--finger FILE`` (a finger) or ``--finger SUBJECT=FILE`` items (a dict), one-line errors."""
+    from .mechanics import finger_file  # small, but only when --finger is given
 
     try:
-        return read_finger_file(path)
+        return finger_file.read_subject_fingers(items) if path is None else finger_file.read_finger_file(path)
     except ValueError as exc:
         fail(str(exc))
-
-
-def _subject_fingers(items: list[str] | None, option: str = "--finger") -> dict | None:
-    """``SUBJECT=FILE`` items -> {subject label: FingerParams}."""
-    if not items:
-        return None
-    out = {}
-    for item in items:
-        label, sep, path = item.partition("=")
-        if not sep or not label.strip() or not path.strip():
-            fail(f"{option}: expected SUBJECT=FILE (e.g. 1=finger1.json), got {item!r}")
-        out[label.strip()] = _finger_file(path.strip())
-    return out
 
 
 # ---------------------------------------------------------------------------------------
@@ -294,7 +281,7 @@ def simulate_cmd(
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
     if finger:
-        kw["fingers"] = _subject_fingers(finger)
+        kw["fingers"] = _finger_file(items=finger)
     if finger_seed is not None:
         kw["finger_seed"] = finger_seed
     try:
@@ -724,7 +711,7 @@ def validate_cmd(
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from .predict import validate_results  # heavy (the forward model); imported when the command runs
 
-    fingers = _subject_fingers(finger)
+    fingers = _finger_file(items=finger)
     try:
         res = validate_results(results, out=None if out is None else output_file(out), forward_step=step,
                                fingers=fingers)
@@ -872,27 +859,7 @@ def calibrate_finger_cmd(
         cpu = time.process_time() - t0
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    t = Table(title=f"finger of subject {subject} ({res.n_trials} trials, {res.n_frames} frames)")
-    for col in ("parameter", "start", "calibrated", "bootstrap std", "95 % interval", "+0.5 px ends"):
-        t.add_column(col, justify="left" if col == "parameter" else "right")
-    units = {"radius": "mm", "modulus": "MPa", "flat_length": "mm"}
-    for f in res.fitted:
-        lo, hi = res.ci95[f]
-        t.add_row(f"{f} ({units.get(f, '')})", f"{getattr(res.initial, f):.4g}",
-                  f"{getattr(res.finger, f):.4g}", f"{res.std[f]:.2g}", f"{lo:.4g}..{hi:.4g}",
-                  f"{res.systematic[f]:+.2g}")
-    console.print(t)
-    console.print(f"load per width P' = {res.load_per_width:.4f} N/mm (median F_N {res.load_median:.3f} N, "
-                  f"D = {res.finger.width:g} mm fixed)", highlight=False)
-    ts = Table(title="per surface")
-    for col in ("surface", "frames", "end rms (mm)", "blind spots measured -> predicted (mm)"):
-        ts.add_column(col, justify="left" if col in ("surface",) else "right")
-    for sf in res.surfaces:
-        txt = ", ".join(f"{m:.3f} -> {p:.3f}" for m, p in sf.blind_spot_pairs()) or "none"
-        ts.add_row(sf.surface, str(sf.n_frames), f"{sf.rms_end_mm:.4f}", txt)
-    console.print(ts)
-    for flag in res.flags:
-        console.print(f"[bold yellow]flag:[/] {escape(flag)}", highlight=False, soft_wrap=True)
+    console.print(escape(res.summary()), highlight=False)
     console.print(f"CPU {cpu:.1f} s ({res.n_solves} contact solves)", highlight=False)
     if not res.success:
         fail(f"the calibration of subject {subject} did not succeed: {res.message}; no finger written")

@@ -379,6 +379,27 @@ class FingerCalibration:
     cost: float = math.nan
     options: CalibrationOptions | None = field(default=None, repr=False)
 
+    def summary(self) -> str:
+        """The result as plain-text tables: parameters, then per-surface figures and flags."""
+        units = {"radius": "mm", "modulus": "MPa", "flat_length": "mm"}
+        lines = [f"finger calibration: {self.message}; {self.n_trials} trials, {self.n_frames} frames",
+                 f"{'parameter':18s} {'start':>9s} {'calibrated':>11s} {'bootstrap std':>13s} "
+                 f"{'95 % interval':>19s} {'+0.5 px ends':>12s}"]
+        for f in self.fitted:
+            lo, hi = self.ci95[f]
+            lines.append(f"{f + ' (' + units.get(f, '') + ')':18s} {getattr(self.initial, f):9.4g} "
+                         f"{getattr(self.finger, f):11.4g} {self.std[f]:13.2g} {lo:9.4g}..{hi:<9.4g} "
+                         f"{self.systematic[f]:+12.2g}")
+        lines.append(f"load per width P' = {self.load_per_width:.4f} N/mm (median F_N "
+                     f"{self.load_median:.3f} N, D = {self.finger.width:g} mm fixed)")
+        lines.append(f"{'surface':14s} {'frames':>6s} {'end rms mm':>10s}  "
+                     "blind spots measured -> predicted (mm)")
+        for s in self.surfaces:
+            txt = ", ".join(f"{m:.3f} -> {p:.3f}" for m, p in s.blind_spot_pairs()) or "none"
+            lines.append(f"{s.surface:14s} {s.n_frames:6d} {s.rms_end_mm:10.4f}  {txt}")
+        lines += [f"flag: {f}" for f in self.flags]
+        return "\n".join(lines)
+
     def to_dict(self) -> dict:
         """JSON-ready provenance (what ``calibrate-finger`` stores in the finger file)."""
         return {

@@ -23,7 +23,8 @@ from pathlib import Path
 from .._atomic import atomic_write_json
 from .finger import FingerParams
 
-__all__ = ["FINGER_FORMAT", "read_finger_file", "write_finger_file", "finger_from_mapping"]
+__all__ = ["FINGER_FORMAT", "read_finger_file", "write_finger_file", "finger_from_mapping",
+           "read_subject_fingers"]
 
 FINGER_FORMAT = "fingerfriction-finger"
 _VERSION = 1
@@ -117,3 +118,20 @@ def write_finger_file(path: str | os.PathLike, finger: FingerParams, *,
     p = Path(path)
     atomic_write_json(p, doc)  # NaN (an undetermined uncertainty) is written as null
     return p
+
+
+def read_subject_fingers(items, option: str = "--finger") -> dict[str, FingerParams] | None:
+    """``['SUBJECT=FILE', ...]`` (a command line's repeated option) -> {subject: finger}.
+
+    Returns None for no items; raises ``ValueError`` naming ``option`` and the item, or the
+    file and its fault.
+    """
+    if not items:
+        return None
+    out = {}
+    for item in items:
+        label, sep, path = str(item).partition("=")
+        if not sep or not label.strip() or not path.strip():
+            raise ValueError(f"{option}: expected SUBJECT=FILE (e.g. 1=finger1.json), got {item!r}")
+        out[label.strip()] = read_finger_file(path.strip())
+    return out
