@@ -45,6 +45,16 @@ def fail(message: str) -> None:
     raise typer.Exit(2)
 
 
+def _finger_file(path: str | None = None, items: list[str] | None = None):
+    """``--finger FILE`` (a finger) or ``--finger SUBJECT=FILE`` items (a dict), one-line errors."""
+    from .mechanics import finger_file  # small, but only when --finger is given
+
+    try:
+        return finger_file.read_subject_fingers(items) if path is None else finger_file.read_finger_file(path)
+    except ValueError as exc:
+        fail(str(exc))
+
+
 # ---------------------------------------------------------------------------------------
 # demo (simulate + analyze + fit + report; fingerfriction.demo)
 # ---------------------------------------------------------------------------------------
@@ -132,6 +142,9 @@ def predict_contact(
     out: str = typer.Option(
         "predict-contact", "--out", help="Folder for the occupancy figure (PNG); created if missing."
     ),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Predict tactile blind spots and simultaneous contacts of a finger sliding over a surface."""
     from .mechanics import default_positions, get_subject, sweep  # heavy (numba); when the command runs
@@ -144,7 +157,7 @@ def predict_contact(
         owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
                 "what": "folder of occupancy figures"}
         check_output_dir(out, **owns)
-        finger = get_subject(subject)
+        finger = get_subject(subject) if finger_path is None else _finger_file(finger_path)
         positions = default_positions(surf, step=step)
         with console.status(f"solving the contact at {positions.size} finger positions..."):
             res = sweep(surf, finger, positions, load=load)
@@ -154,7 +167,8 @@ def predict_contact(
     except (ValueError, TypeError, OSError) as exc:
         fail(str(exc))
         return
-    table = Table(title=f"Tactile blind spots: {surf.name}, subject {subject}, {load:g} N ({kind} contact)")
+    who = f"subject {subject}" if finger_path is None else f"finger {finger.name or finger_path}"
+    table = Table(title=f"Tactile blind spots: {surf.name}, {who}, {load:g} N ({kind} contact)")
     table.add_column("#", justify="right")
     table.add_column("start (mm)", justify="right")
     table.add_column("end (mm)", justify="right")
@@ -211,6 +225,15 @@ def simulate_cmd(
     realism: Annotated[bool, typer.Option(
         "--realism", help="A harder study: friction drawn per trial (10 % SD), falling with load, and the "
                           "normal force wandering over +-50 mN (fingerfriction.sim.RealismParams).")] = False,
+    finger: Annotated[
+        list[str] | None,
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger, a finger JSON file (repeat)."),
+    ] = None,
+    finger_seed: Annotated[
+        int | None,
+        typer.Option("--finger-seed", help="Draw the other subjects' fingers around the calibrated ones "
+                     "(radius, modulus, flat length +-25 %) with this seed."),
+    ] = None,
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
     from .sim import (  # heavy (video encoder, mechanics); when the command runs
@@ -235,6 +258,10 @@ def simulate_cmd(
         kw["speeds"] = tuple(sp)
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
+    if finger:
+        kw["fingers"] = _finger_file(items=finger)
+    if finger_seed is not None:
+        kw["finger_seed"] = finger_seed
     try:
         opts = SimOptions(**kw)
     except ValueError as exc:
@@ -570,15 +597,19 @@ def predict_cmd(
     step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
     contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Predict F_T(x), F_int, F_def, contact occupancy and blind spots on any relief."""
     from .predict import predict  # heavy (the forward model); imported when the command runs
 
+    finger = None if finger_path is None else _finger_file(finger_path)
     try:
         owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
         check_output_dir(out, **owns)
         pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact,
-                       model=model)
+                       model=model, finger=finger)
         paths = pred.write(output_dir(out, **owns), figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
@@ -613,15 +644,19 @@ def render_cmd(
     mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce."),
     table: str = typer.Option(None, "--table", help="Also write the table CSV (x_mm, F_T_N, mu_cmd)."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Friction command for a flat friction-modulating display, as a signal in time."""
     from .render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
+    finger = None if finger_path is None else _finger_file(finger_path)
     try:
         output_file(out, create=False), table and output_file(table, option="--table", create=False)
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
                                        normal_force=normal_force, step=step, mu_range=(mu_min, mu_max),
-                                       model=model)
+                                       model=model, finger=finger)
         files = r.write_command(output_file(out), speed, rate)
         if table:
             files["table"] = r.write_table(output_file(table, option="--table"))
@@ -644,13 +679,19 @@ def validate_cmd(
     results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
     out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps."),
+    finger: Annotated[
+        list[str] | None,
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger); repeat."),
+    ] = None,
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from .predict import validate_results  # heavy (the forward model); imported when the command runs
 
+    fingers = _finger_file(items=finger)
     try:
-        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step)
+        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step,
+                               fingers=fingers)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
@@ -764,6 +805,49 @@ def _print_init_table(res) -> None:
         t.add_row(r.id, r.surface, os.path.basename(r.video), frames, os.path.basename(r.force), samples,
                   style="red" if r.problem else None)
     console.print(t)
+
+
+@app.command("calibrate-finger")
+def calibrate_finger_cmd(
+    results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze'."),
+    subject: str = typer.Option(..., "--subject", help="Subject label as in the study's manifest."),
+    out: str = typer.Option(None, "--out", help="Finger JSON to write (default finger-s<SUBJECT>.json)."),
+    initial: str = typer.Option(None, "--initial", help="Starting finger JSON (default: the subject's "
+                                "default finger, or subject 1's)."),
+    load: float = typer.Option(None, "--load", help="Assume this constant normal force in N (studies "
+                               "without an absolute F_N; the modulus is then relative to it)."),
+    surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap uncertainties."),
+) -> None:
+    """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
+    and write it as a finger JSON that predict, predict-contact, validate and render accept."""
+    from .mechanics.calibrate import CalibrationOptions  # heavy (numba); when the command runs
+    from .study.finger_calibration import calibrate_results  # heavy (the forward model); likewise
+
+    start = None if initial is None else _finger_file(initial)
+    target = out or f"finger-s{subject}.json"
+    try:
+        output_file(target, create=False)  # a folder given as the file fails before the work
+        opts = CalibrationOptions(seed=seed)
+        t0 = time.process_time()
+        with console.status(f"calibrating the finger of subject {subject}..."):
+            res = calibrate_results(results, subject, initial=start, options=opts, load=load,
+                                    surfaces=_csv(surfaces))
+        cpu = time.process_time() - t0
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    console.print(escape(res.summary()), highlight=False)
+    console.print(f"CPU {cpu:.1f} s ({res.n_solves} contact solves)", highlight=False)
+    if not res.success:
+        fail(f"the calibration of subject {subject} did not succeed: {res.message}; no finger written")
+    from .mechanics.finger_file import write_finger_file  # small; only once there is a finger
+
+    try:
+        path = write_finger_file(output_file(target), res.finger, calibration={
+            "results": os.path.abspath(results), "subject": subject, **res.to_dict()})
+    except OSError as exc:
+        fail(f"cannot write {target}: {exc}")
+    console.print(f"[green]wrote[/] {path}", highlight=False)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -190,12 +190,13 @@ class HapticRenderer:
     @classmethod
     def for_surface(cls, surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
                     normal_force: float | None = None, step: float = 0.01, resolution: float = 0.01,
-                    mu_range: tuple[float, float] = (0.0, 5.0), model: str | None = None) -> HapticRenderer:
+                    mu_range: tuple[float, float] = (0.0, 5.0), model: str | None = None,
+                    finger=None) -> HapticRenderer:
         """Predict a relief for a subject and precompute its renderer.
 
         Parameters
         ----------
-        surface_spec, subject, params, load, step, model
+        surface_spec, subject, params, load, step, model, finger
             As :func:`fingerfriction.predict.predict`.
         normal_force : float, optional
             Normal force on the display in N (default: ``load``).
@@ -204,7 +205,7 @@ class HapticRenderer:
         mu_range : (float, float), optional
             The display's attainable friction coefficients.
         """
-        pred = predict(surface_spec, subject, params, load=load, step=step, model=model)
+        pred = predict(surface_spec, subject, params, load=load, step=step, model=model, finger=finger)
         fn = load if normal_force is None else float(normal_force)
         L = flat_contact_length(pred.finger, load=fn)
         disp = DisplayModel(normal_force=fn, p0=pred.display_p0(fn, L), flat_length=L,

@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 
+from ..mechanics import FingerParams
 from ..model import MODELS, FrictionModel, FrictionParams, LoadParams
 from ..study.store import ResultsStore, read_fit_table
 from ..surfaces import Surface, get_surface
@@ -56,7 +57,8 @@ def _default_params_cached(key, finger, load: float, step: float) -> FrictionPar
     return FrictionParams(mu, p0, PAPER_FORCE_RISE_N / m)
 
 
-def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> FrictionParams:
+def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05,
+                   finger: FingerParams | None = None) -> FrictionParams:
     """Documented default Eq. (4) parameters of subject 1 or 2 (``docs/predict.md``).
 
     ``mu`` from the paper; ``p0 = F_N / L_flat`` (flat-ground friction ``mu F_N``);
@@ -71,8 +73,12 @@ def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05)
         Normal force in N (default 0.3).
     step : float
         Finger step in mm of the calibration sweeps (default 0.05).
+    finger : FingerParams, optional
+        The subject's own finger (e.g. from ``calibrate-finger``) instead of its default:
+        the paper's ``mu`` of the subject, ``p0`` and ``p1`` from this finger's sweeps.
     """
-    key, finger = _resolve_finger(subject)
+    key, default = _resolve_finger(subject)
+    finger = default if finger is None else finger
     if key not in PAPER_MU:
         raise ValueError(
             f"no default friction parameters for subject {subject!r}: give params "
@@ -208,14 +214,15 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
         raise ValueError(f"{path}: malformed parameters ({exc})") from None
 
 
-def _resolve_params(params, subject, load: float, model: str | None = None):
+def _resolve_params(params, subject, load: float, model: str | None = None,
+                    finger: FingerParams | None = None):
     if model is not None and model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     if params is None:
         if (model or "load") == "paper":
-            return (default_params(subject, load=load),
+            return (default_params(subject, load=load, finger=finger),
                     "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)")
-        return (default_load_params(subject, load=load),
+        return (default_load_params(subject, load=load, finger=finger),
                 "default (paper mu; one uniform pressure carrying F_N; p1: 50 mN peak F_def)")
     if isinstance(params, (LoadParams, FrictionParams)):
         return params, "given"
@@ -225,7 +232,8 @@ def _resolve_params(params, subject, load: float, model: str | None = None):
                     f"{type(params).__name__}")
 
 
-def default_load_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> LoadParams:
+def default_load_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05,
+                        finger: FingerParams | None = None) -> LoadParams:
     """Documented default parameters of the load-consistent model for subject 1 or 2.
 
     The paper's ``mu``; the paper's pressure assumption, one uniform pressure over the
@@ -233,5 +241,5 @@ def default_load_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 
     ``p1`` as :func:`default_params` (the deformation term is the same in both variants).
     A fit of a lab's own study gives the subject's inset and ``kappa``: prefer it.
     """
-    p = default_params(subject, load=load, step=step)
+    p = default_params(subject, load=load, step=step, finger=finger)
     return LoadParams(mu=p.mu, p1=p.p1)

@@ -324,7 +324,7 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
             finger = _finger_for_label(subj, fingers)
             lo = min(float(t.x[0]) for t in ttest)
             hi = max(float(t.x[-1]) for t in ttest)
-            key = (name, subj, float(load), contact, round(lo, 9), round(hi, 9), float(forward_step))
+            key = (name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(forward_step))
             if key not in cache:
                 xs = lo + forward_step * np.arange(int(math.ceil((hi - lo) / forward_step - 1e-9)) + 1)
                 cache[key] = (xs, forward_regions(surf, finger, xs, load=load, contact=contact))
@@ -454,7 +454,7 @@ def trials_from_results(results: str | os.PathLike) -> list:
 
 def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | None = None,
                      forward_step: float = 0.01, models: tuple[str, ...] | None = None,
-                     trials: list | None = None) -> OutOfSample:
+                     trials: list | None = None, fingers: dict | None = None) -> OutOfSample:
     """Leave-one-surface-out validation of an analysed study; writes ``loso.csv``.
 
     Validates each model variant of ``models`` (default: the fit's default model first,
@@ -463,7 +463,9 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
     ``rho_in_sample`` is the study's Table 1), else the defaults. The table, one block of
     rows per model (column ``model``), goes to ``out`` (default ``RESULTS/fit/loso.csv``)
     and a figure of the first model's held-out trials beside it (``loso.png``). This is
-    the function the fit stage and ``fingerfriction validate`` call.
+    the function the fit stage and ``fingerfriction validate`` call. ``fingers``
+    (subject label -> FingerParams, e.g. from ``calibrate-finger``) replaces the default
+    finger of those subjects.
 
     Returns
     -------
@@ -482,8 +484,11 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
         if m not in MODELS:
             raise ValueError(f"models must be among {MODELS}, got {m!r}")
     trials = trials_from_results(root) if trials is None else trials
+    if fingers is not None:  # the other subjects keep their default finger
+        fingers = {**{t.subject: _finger_for_label(t.subject, None) for t in trials
+                      if t.subject not in fingers}, **fingers}
     cache: dict = {}
-    results_by_model = [leave_one_surface_out(trials, model=m, grid=grid, options=options,
+    results_by_model = [leave_one_surface_out(trials, model=m, fingers=fingers, grid=grid, options=options,
                                               load_options=load_options, forward_step=forward_step,
                                               forward_cache=cache) for m in models]
     res = OutOfSample(table=pd.concat([r.table for r in results_by_model], ignore_index=True),

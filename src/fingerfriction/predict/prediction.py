@@ -17,6 +17,7 @@ import pandas as pd
 
 from .._atomic import atomic_write
 from ..blindspots import BlindSpots, Occupancy, blind_spots, occupancy
+from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
 from ..regions import as_regions, n_regions, region_lengths
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
@@ -301,7 +302,8 @@ def predict_from_regions(surface: Surface, positions, regions, params: FrictionP
 
 def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N, step: float = 0.01,
             contact: str = "geometric", window: Sequence[float] | None = None,
-            max_slope_angle: float = MAX_SLOPE_ANGLE, model: str | None = None) -> Prediction:
+            max_slope_angle: float = MAX_SLOPE_ANGLE, model: str | None = None,
+            finger=None) -> Prediction:
     """Predict F_T(x), F_int, F_def, occupancy and blind spots on any relief.
 
     The forward contact model (:mod:`fingerfriction.mechanics`) is swept over the surface
@@ -331,6 +333,10 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
         First and last finger positions in mm (default :func:`sweep_window`).
     max_slope_angle : float, optional
         Slope limit in rad (:func:`check_profile`).
+    finger : FingerParams, optional
+        The subject's own finger (``calibrate-finger``'s, read with
+        :func:`fingerfriction.mechanics.finger_file.read_finger_file`) instead of its
+        default one; default parameters then keep the subject's paper ``mu``.
 
     Returns
     -------
@@ -350,8 +356,12 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
         raise ValueError(f"step must be a finger step in mm in (0, 1], got {step!r}")
     if not (isinstance(load, (int, float)) and math.isfinite(load) and load > 0):
         raise ValueError(f"load must be a positive normal force in N, got {load!r}")
-    label, finger = _resolve_finger(subject)
-    p, source = _resolve_params(params, label, float(load), model)
+    label, default_finger = _resolve_finger(subject)
+    if finger is None:
+        finger = default_finger
+    elif not isinstance(finger, FingerParams):
+        raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
+    p, source = _resolve_params(params, label, float(load), model, finger=finger)
     lo, hi = sweep_window(surface) if window is None else (float(window[0]), float(window[1]))
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise ValueError(

@@ -35,7 +35,8 @@ from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from ..video.writers import VideoWriter
 from ._io import write_npz
 from .camera import Camera, CameraParams
-from .contact import ContactTable, SimFinger, build_table, get_provider
+from .contact import ContactTable, MechanicsProvider, SimFinger, build_table, get_provider
+from .fingers import check_finger_options, study_fingers
 from .kinematics import Kinematics, KinematicsParams, simulate_kinematics
 from .physics import SUBJECT_FORCE_LAWS, ForceLaw, RealismParams, true_forces
 from .sensor import SensorParams, apply_sensor
@@ -84,6 +85,12 @@ class SimOptions:
         A harder experiment (:class:`~fingerfriction.sim.physics.RealismParams`): friction
         drawn per trial, friction falling with load, the normal force wandering over the
         full +-50 mN. None (default) keeps the default study's figures comparable.
+    fingers : dict, optional
+        Subject label -> finger (``FingerParams``, its dict or a finger file's object):
+        overrides the calibrated finger of that subject (:mod:`~fingerfriction.sim.fingers`).
+    finger_seed : int, optional
+        Draw every subject without an override around its calibrated finger (radius,
+        modulus, flat length within +-25 %, :func:`~fingerfriction.sim.fingers.draw_finger`).
     """
 
     reps: int = 5
@@ -100,6 +107,8 @@ class SimOptions:
     table_loads: tuple = (0.22, 0.3, 0.38)
     video_end_mm: float = 14.0
     realism: RealismParams | None = None
+    fingers: dict = field(default_factory=dict)
+    finger_seed: int | None = None
 
     def __post_init__(self) -> None:
         if self.realism is not None:
@@ -115,7 +124,10 @@ class SimOptions:
         subs = tuple(str(s) for s in self.subjects)
         if not subs:
             raise ValueError("subjects must not be empty")
-        provider = get_provider(self.contact_model)
+        fingers, fseed = check_finger_options(self.fingers, self.finger_seed, subs, self.contact_model)
+        object.__setattr__(self, "fingers", fingers)
+        object.__setattr__(self, "finger_seed", fseed)
+        provider = self.provider(subs)
         for s in subs:
             if s not in SUBJECT_FORCE_LAWS:
                 raise ValueError(
@@ -171,6 +183,11 @@ class SimOptions:
     def surface(self, spec: str) -> Surface:
         return surface_from_spec(spec)
 
+    def provider(self, subjects=None):
+        """The contact provider, with this study's fingers (:mod:`~fingerfriction.sim.fingers`)."""
+        fingers = study_fingers(self.fingers, self.finger_seed, subjects or self.subjects)
+        return get_provider(self.contact_model) if fingers is None else MechanicsProvider(fingers=fingers)
+
     def trial_specs(self) -> list[TrialSpec]:
         """The design in a fixed order: subject, surface, speed, repetition."""
         out = []
@@ -195,6 +212,9 @@ class SimOptions:
             "table_loads": list(self.table_loads), "video_end_mm": self.video_end_mm,
             # only when set, so that the default study's record is unchanged
             **({"realism": self.realism.to_dict()} if self.realism is not None else {}),
+            # only when set, so a default study's description (and resume check) is unchanged
+            **({"fingers": self.fingers} if self.fingers else {}),
+            **({"finger_seed": self.finger_seed} if self.finger_seed is not None else {}),
         }
 
     @classmethod
@@ -474,7 +494,7 @@ def _stack_regions(grids, masks) -> np.ndarray:
 
 
 def _truth_header(opts: SimOptions) -> dict:
-    provider = get_provider(opts.contact_model)
+    provider = opts.provider()
     subjects = {
         s: {"finger": provider.finger_dict(s), "force_law": SUBJECT_FORCE_LAWS[s].to_dict()}
         for s in opts.subjects
@@ -554,7 +574,7 @@ def _table_task(surface_spec: str, subject: str, load: float, opts: SimOptions, 
     if not os.path.exists(path):
         surf = surface_from_spec(surface_spec)
         table = build_table(surf, subject, loads=(load,), step=opts.table_step,
-                            provider=get_provider(opts.contact_model))
+                            provider=opts.provider())
         table.save(path)
     return path
 
