@@ -515,3 +515,30 @@ def test_predict_uses_the_load_consistent_model_by_default():
     assert "load-consistent" in load_pred.params_text and "paper" in paper_pred.params_text
     with pytest.raises(ValueError, match="model must be one of"):
         predict("bump:W=3,H=0.5", 1, step=0.05, model="hertz")
+
+
+def test_loso_heldout_fingers_replace_the_finger_of_one_surface_only(forward_study):
+    """heldout_fingers (issue 15: fingers calibrated on the other surfaces) change the
+    forward finger of the held-out surface named, for the subject named, and nothing else."""
+    from fingerfriction.fit import FitOptions
+    from fingerfriction.predict import leave_one_surface_out
+    from fingerfriction.predict.loso import _with_calibrated
+
+    trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0)
+    stiff = dataclasses.replace(SUBJECTS[1], modulus=10 * SUBJECTS[1].modulus)
+    held = {"bump-2mm": {"S1": stiff}}
+    opts = FitOptions(median_kernel=1)
+    t = leave_one_surface_out(trials, model="paper", options=opts, forward_step=LOSO_STEP,
+                              heldout_fingers=held).table
+    changed = (t["subject"].isin(["S1", "Both subjects"])) & (t["surface"] == "bump-2mm")
+    assert np.all(t.loc[changed, "rho_out_of_sample"] < 0.99)
+    np.testing.assert_allclose(t.loc[~changed, "rho_out_of_sample"], 1.0, atol=1e-9)
+    # the columns validate_results adds: NaN where a subject kept its default finger
+    base = leave_one_surface_out(trials, model="paper", options=opts, forward_step=LOSO_STEP).table
+    merged = _with_calibrated(base, t, held)
+    assert len(merged) == len(base)
+    got = merged.set_index(["subject", "surface"])["rho_out_of_sample_calibrated_finger"]
+    assert got["S1", "bump-2mm"] == pytest.approx(float(t[(t.subject == "S1") & (t.surface == "bump-2mm")]
+                                                         ["rho_out_of_sample"].iloc[0]))
+    assert np.isnan(got["S2", "bump-2mm"]) and np.isnan(got["Both subjects", "bump-2mm"])
+    assert np.isnan(got["S1", "step-up-4mm"])

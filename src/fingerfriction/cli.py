@@ -683,24 +683,37 @@ def validate_cmd(
         list[str] | None,
         typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger); repeat."),
     ] = None,
+    calibrated: bool = typer.Option(False, "--calibrated-fingers", help="Also predict each held-out surface "
+                                    "with each subject's finger calibrated on the other surfaces (slow)."),
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from .predict import validate_results  # heavy (the forward model); imported when the command runs
+    from .study.finger_calibration import calibrate_held_out  # heavy (numba); likewise
 
     fingers = _finger_file(items=finger)
     try:
+        held = None
+        if calibrated:
+            with console.status("calibrating the fingers without each surface...") as st:
+                held = calibrate_held_out(results, progress=lambda k, n, what: st.update(
+                    f"calibrated {k} of {n} fingers ({what})"))
+            for (surf, subj), why in held.errors.items():
+                console.print(f"[yellow]no calibrated finger[/] for subject {subj} without {surf}: {why}",
+                              highlight=False, soft_wrap=True)
         res = validate_results(results, out=None if out is None else output_file(out), forward_step=step,
-                               fingers=fingers)
+                               fingers=fingers, calibrated_fingers=held and held.fingers())
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
+    cal = "rho_out_of_sample_calibrated_finger" in res.table.columns
     for col in ("model", "subject", "surface", "trials", "rho in sample", "rho held-out params, video",
-                "rho out of sample"):
+                "rho out of sample", *(["rho out of sample, calibrated finger"] if cal else [])):
         t.add_column(col, justify="right" if col.startswith(("rho", "trials")) else "left")
     for r in res.table.itertuples():
         t.add_row(r.model, str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
-                  f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
+                  f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}",
+                  *([f"{r.rho_out_of_sample_calibrated_finger:.2f}"] if cal else []))
     console.print(t)
 
 @app.command("init")

@@ -198,7 +198,8 @@ class OutOfSample:
 def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=None, options=None,
                           load_options: LoadFitOptions | None = None, load: float = DEFAULT_LOAD_N,
                           forward_step: float = 0.01, contact: str = "geometric",
-                          forward_cache: dict | None = None, in_sample=None) -> OutOfSample:
+                          forward_cache: dict | None = None, in_sample=None,
+                          heldout_fingers: dict | None = None) -> OutOfSample:
     """Out-of-sample validation: fit on all surfaces but one, predict the held-out one.
 
     For each surface ``s`` of the study the model is fitted on the trials of the *other*
@@ -255,6 +256,11 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     in_sample : pandas.DataFrame, optional
         The Table 1 of the same model on all trials (:func:`fingerfriction.stats.correlation_table`)
         when the caller has it; computed otherwise.
+    heldout_fingers : dict, optional
+        Held-out surface name -> {subject label: FingerParams}: the forward-model finger
+        that predicts that surface (e.g. calibrated on the other five,
+        :func:`fingerfriction.study.finger_calibration.calibrate_held_out`); subjects not
+        in it use ``fingers``.
 
     Returns
     -------
@@ -321,7 +327,7 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
                              "note": note})
                 continue
             params = _training_params(model, sf, ok)
-            finger = _finger_for_label(subj, fingers)
+            finger = _heldout_finger(subj, name, fingers, heldout_fingers)
             lo = min(float(t.x[0]) for t in ttest)
             hi = max(float(t.x[-1]) for t in ttest)
             key = (name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(forward_step))
@@ -346,6 +352,12 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
             rows.append(_loso_row(model, subj, surf, ttest, ins, got, params))
         rows.append(_loso_row(model, BOTH, surf, test, ins, pooled, None))
     return OutOfSample(table=_in_table1_order(pd.DataFrame(rows), subjects), estimates=estimates)
+
+
+def _heldout_finger(subject, surface: str, fingers, heldout_fingers):
+    """``heldout_fingers[surface][subject]`` when given, else the subject's finger."""
+    per = (heldout_fingers or {}).get(surface) or {}
+    return per[subject] if subject in per else _finger_for_label(subject, fingers)
 
 
 def _in_table1_order(table: pd.DataFrame, subjects: list) -> pd.DataFrame:
@@ -454,7 +466,8 @@ def trials_from_results(results: str | os.PathLike) -> list:
 
 def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | None = None,
                      forward_step: float = 0.01, models: tuple[str, ...] | None = None,
-                     trials: list | None = None, fingers: dict | None = None) -> OutOfSample:
+                     trials: list | None = None, fingers: dict | None = None,
+                     calibrated_fingers: dict | None = None) -> OutOfSample:
     """Leave-one-surface-out validation of an analysed study; writes ``loso.csv``.
 
     Validates each model variant of ``models`` (default: the fit's default model first,
@@ -465,7 +478,11 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
     and a figure of the first model's held-out trials beside it (``loso.png``). This is
     the function the fit stage and ``fingerfriction validate`` call. ``fingers``
     (subject label -> FingerParams, e.g. from ``calibrate-finger``) replaces the default
-    finger of those subjects.
+    finger of those subjects. ``calibrated_fingers`` (held-out surface -> {subject:
+    FingerParams}, each calibrated on the other surfaces) adds the columns
+    ``rho_out_of_sample_calibrated_finger`` and ``p_out_of_sample_calibrated_finger``: the
+    same validation with those fingers (NaN where a subject has no calibrated finger for
+    that surface, e.g. its calibration failed).
 
     Returns
     -------
@@ -493,12 +510,36 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
                                               forward_cache=cache) for m in models]
     res = OutOfSample(table=pd.concat([r.table for r in results_by_model], ignore_index=True),
                       estimates=results_by_model[0].estimates)
+    if calibrated_fingers:
+        cal = pd.concat([leave_one_surface_out(trials, model=m, fingers=fingers, grid=grid, options=options,
+                                               load_options=load_options, forward_step=forward_step,
+                                               forward_cache=cache, heldout_fingers=calibrated_fingers).table
+                         for m in models], ignore_index=True)
+        res = OutOfSample(table=_with_calibrated(res.table, cal, calibrated_fingers), estimates=res.estimates)
     target = os.fspath(out) if out is not None else os.fspath(store.loso_path)
     os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
     res.write_csv(target)
     OutOfSample(table=results_by_model[0].table, estimates=res.estimates).write_figure(
         os.path.splitext(target)[0] + ".png")
     return res
+
+
+def _with_calibrated(table: pd.DataFrame, cal: pd.DataFrame, calibrated_fingers: dict) -> pd.DataFrame:
+    """``table`` with the out-of-sample rho and p of ``cal`` (the calibrated-finger run) as
+    two more columns; NaN where a subject (or, pooled, any subject) kept its default finger."""
+    key = ["model", "subject", "surface"]
+    got = cal.loc[:, key + ["rho_out_of_sample", "p_out_of_sample"]].rename(columns={
+        "rho_out_of_sample": "rho_out_of_sample_calibrated_finger",
+        "p_out_of_sample": "p_out_of_sample_calibrated_finger"})
+    out = table.merge(got, on=key, how="left")
+    subjects = sorted(set(out["subject"]) - {BOTH})
+    cols = ["rho_out_of_sample_calibrated_finger", "p_out_of_sample_calibrated_finger"]
+    for i, r in out.iterrows():
+        have = calibrated_fingers.get(r["surface"]) or {}
+        needed = subjects if r["subject"] == BOTH else [r["subject"]]
+        if not all(s in have for s in needed):
+            out.loc[i, cols] = math.nan
+    return out
 
 
 def _load_options(d) -> LoadFitOptions:

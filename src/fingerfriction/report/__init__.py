@@ -320,6 +320,7 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
             speeds=", ".join(f"{v:g}" for v in data.speeds),
             has_fit=has_fit, failed=data.failed, notes=data.notes,
             table1=t1 is not None, loso=loso is not None,
+            loso_calibrated=loso is not None and "rho_out_of_sample_calibrated_finger" in loso.columns,
             loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],

@@ -270,7 +270,8 @@ def loso_table(data: ReportData) -> pd.DataFrame | None:
     missing = [c for c in LOSO_COLUMNS if c not in data.loso.columns]
     if missing:
         raise ValueError(f"{data.root / 'fit' / 'loso.csv'}: missing columns {missing}")
-    cols = [c for c in ("model", *LOSO_COLUMNS, "rho_out_of_sample_measured_load") if c in data.loso.columns]
+    cols = [c for c in ("model", *LOSO_COLUMNS, "rho_out_of_sample_measured_load",
+                        "rho_out_of_sample_calibrated_finger") if c in data.loso.columns]
     out = data.loso.loc[:, cols].reset_index(drop=True)
     if out["subject"].nunique() == 2 and BOTH in set(out["subject"]):  # one subject + its copy
         out = out[out["subject"] != BOTH].reset_index(drop=True)

@@ -20,6 +20,8 @@ import dataclasses
 import logging
 import math
 import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,7 +37,7 @@ from ..mechanics.calibrate import (
 from ..surfaces import surface_from_spec
 from .store import ResultsStore, regions_from_table
 
-__all__ = ["trials_from_results", "calibrate_results"]
+__all__ = ["trials_from_results", "calibrate_results", "HeldOutCalibration", "calibrate_held_out"]
 
 log = logging.getLogger(__name__)
 
@@ -211,3 +213,74 @@ def calibrate_results(results: str | os.PathLike, subject, *, initial: FingerPar
         res.flags.append(f"{len(skipped)} trial(s) of subject {subject} not used (first: {skipped[0][0]}: "
                          f"{skipped[0][1]})")
     return res
+
+
+@dataclass
+class HeldOutCalibration:
+    """Each subject's finger calibrated without each surface (:func:`calibrate_held_out`).
+
+    Attributes
+    ----------
+    calibrations : dict
+        ``(held-out surface, subject) -> FingerCalibration`` (on the other surfaces).
+    errors : dict
+        ``(held-out surface, subject) -> message`` where no finger could be calibrated.
+    """
+
+    calibrations: dict = field(default_factory=dict)
+    errors: dict = field(default_factory=dict)
+
+    def fingers(self) -> dict[str, dict[str, FingerParams]]:
+        """``{held-out surface: {subject: finger}}`` of the successful calibrations (the
+        ``calibrated_fingers`` of :func:`fingerfriction.predict.validate_results`)."""
+        out: dict[str, dict[str, FingerParams]] = {}
+        for (surface, subject), res in self.calibrations.items():
+            if res.success:
+                out.setdefault(surface, {})[subject] = res.finger
+        return out
+
+
+def calibrate_held_out(results: str | os.PathLike, *, subjects=None,
+                       options: CalibrationOptions | None = None,
+                       progress: Callable[[int, int, str], None] | None = None) -> HeldOutCalibration:
+    """For leave-one-surface-out: each subject's finger calibrated on all surfaces but one.
+
+    Parameters
+    ----------
+    results : path-like
+        Results folder of ``fingerfriction analyze``.
+    subjects : iterable of str, optional
+        Default: every subject of the results.
+    options : CalibrationOptions, optional
+    progress : callable, optional
+        ``progress(done, total, label)`` after each calibration.
+
+    Returns
+    -------
+    HeldOutCalibration
+        A calibration that raises :class:`CalibrationError` or does not succeed is recorded
+        in ``errors`` / with ``success=False``, and the others go on.
+    """
+    run = ResultsStore(results).read_run()
+    by_subject: dict[str, set] = {}
+    for m in run.get("trials", []):
+        by_subject.setdefault(str(m.get("subject")), set()).add(str(m.get("surface")))
+    chosen = sorted(by_subject) if subjects is None else [str(s) for s in subjects]
+    for s in chosen:
+        if s not in by_subject:
+            raise ValueError(f"{os.fspath(results)!r}: no trial of subject {s!r}; the results have subjects "
+                             f"{', '.join(sorted(by_subject)) or 'none'}")
+    jobs = [(surf, s) for s in chosen for surf in sorted(by_subject[s])]
+    out = HeldOutCalibration()
+    for k, (surf, s) in enumerate(jobs, start=1):
+        others = sorted(by_subject[s] - {surf})
+        try:
+            res = calibrate_results(results, s, options=options, surfaces=others)
+            out.calibrations[(surf, s)] = res
+            if not res.success:
+                out.errors[(surf, s)] = res.message
+        except CalibrationError as exc:
+            out.errors[(surf, s)] = str(exc)
+        if progress is not None:
+            progress(k, len(jobs), f"subject {s} without {surf}")
+    return out
