@@ -17,6 +17,11 @@ B. **Where the time goes.** Per stage and per pass; one fine-level evaluation (a
 C. **The paper's fingers come back.** The seed-0 study (``/work/studies/full`` and its
    ``analyze`` results): each subject calibrated starting from the *other* subject's
    default finger (about 20 % away), compared with its true (default) finger.
+D. **Predictions that transfer.** On the study of A (after ``fingerfriction fit``):
+   leave-one-surface-out with each subject's finger calibrated on the other five surfaces
+   (12 calibrations), beside the same validation with the default finger of its label;
+   rho per held-out surface (target: >= 0.75 with the calibrated finger, for the default,
+   load-consistent model; the paper's model is printed for information).
 
 Run: ``.venv/bin/python benchmarks/calibrate.py [--study DIR] [--finger-seed 1]
 [--full-results DIR] [--workers 2]`` (about 20 min the first time: the simulation and
@@ -39,8 +44,9 @@ from fingerfriction.mechanics import SUBJECTS
 from fingerfriction.mechanics._calibration_problem import _Problem
 from fingerfriction.mechanics.calibrate import CalibrationOptions
 from fingerfriction.mechanics.finger_file import finger_from_mapping
+from fingerfriction.predict import validate_results
 from fingerfriction.sim.fingers import DRAWN_FIELDS, relative_difference
-from fingerfriction.study.finger_calibration import calibrate_results, trials_from_results
+from fingerfriction.study.finger_calibration import calibrate_held_out, calibrate_results, trials_from_results
 
 TARGET_PARAM = 0.05
 TARGET_BS_MM = 0.05
@@ -128,6 +134,47 @@ def warm_start_table(results: str, subject: str, finger) -> None:
               f"({it1 / n1:5.1f} it/solve), {base / t1:4.2f}x the cold start")
 
 
+def transfer(exe: str, results: str, true: dict) -> list:
+    """Part D; returns the summary lines."""
+    run([exe, "fit", results])
+    t0 = time.process_time()
+    held = calibrate_held_out(results)
+    dt = time.process_time() - t0
+    n = len(held.calibrations) + len([k for k in held.errors if k not in held.calibrations])
+    print(f"   {n} calibrations (each subject without each surface) in {dt:.0f} s CPU "
+          f"({dt / max(n, 1):.0f} s each)")
+    for (surf, subj), why in sorted(held.errors.items()):
+        print(f"   no calibrated finger for subject {subj} without {surf}: {why}")
+    print(f"   {'subject':8s} {'held out':14s} " + " ".join(f"{f:>16s}" for f in DRAWN_FIELDS)
+          + "   (error against the true finger)")
+    for (surf, subj), res in sorted(held.calibrations.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+        errs = " ".join(f"{getattr(res.finger, f):9.4f} "
+                        f"{100 * (getattr(res.finger, f) / getattr(true[subj], f) - 1):+5.1f}%"
+                        for f in DRAWN_FIELDS)
+        print(f"   {subj:8s} {surf:14s} {errs}")
+    res = validate_results(results, calibrated_fingers=held.fingers())
+    tab = res.table
+    print(f"   {'model':6s} {'subject':14s} {'held out':14s} {'in sample':>9s} {'default finger':>14s} "
+          f"{'calibrated':>10s} {'change':>7s}")
+    ok = True
+    for r in tab.itertuples():
+        d, c = r.rho_out_of_sample, r.rho_out_of_sample_calibrated_finger
+        if r.model == "load":
+            ok &= bool(np.isfinite(c) and c >= 0.75)
+        print(f"   {r.model:6s} {str(r.subject):14s} {r.surface:14s} {r.rho_in_sample:9.3f} {d:14.3f} "
+              f"{c:10.3f} {c - d:+7.3f}")
+    for m in dict.fromkeys(tab["model"]):
+        sel = tab[tab["model"] == m]
+        diff = sel["rho_out_of_sample_calibrated_finger"] - sel["rho_out_of_sample"]
+        print(f"   {m} model: calibration changes the out-of-sample rho by {diff.mean():+.3f} on average "
+              f"({diff.min():+.3f} .. {diff.max():+.3f}); lowest with the default finger "
+              f"{sel['rho_out_of_sample'].min():.3f}, with the calibrated one "
+              f"{sel['rho_out_of_sample_calibrated_finger'].min():.3f}")
+    print(f"   rho >= 0.75 on every held-out surface with the calibrated finger (load-consistent model): "
+          f"{verdict(ok)}")
+    return [("D leave-one-surface-out, calibrated finger, rho >= 0.75 (load model)", ok)]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--study", default="/work/studies/finger/seed1", help="simulated study folder (A)")
@@ -188,6 +235,9 @@ def main() -> None:
             ok_p, ok_b = report_calibration(res, SUBJECTS[int(s)], s)
             print(f"    CPU {dt:.1f} s")
             summary += [(f"C subject {s} default finger within 5 %", ok_p)]
+
+    print("\nD. Leave one surface out with each subject's finger calibrated on the other five surfaces")
+    summary += transfer(exe, results, true)
 
     print("\nSummary")
     for name, ok in summary:

@@ -162,3 +162,33 @@ def test_finger_option_errors_are_one_line(tmp_path):
         assert "bad.json" in r.output and "width" in r.output and "Traceback" not in r.output
     r = _cli(["validate", str(tmp_path), "--finger", "1"])
     assert r.exit_code == 2 and "expected SUBJECT=FILE" in r.output
+
+
+def test_held_out_calibrations_record_what_failed(tmp_path):
+    from fingerfriction.study.finger_calibration import calibrate_held_out
+
+    _write(tmp_path / "r", DESIGN)  # 2 surfaces x 2 trials: 2 trials left without either
+    seen = []
+    held = calibrate_held_out(tmp_path / "r", progress=lambda k, n, what: seen.append((k, n, what)))
+    assert set(held.errors) == {("bump-4mm", "7"), ("step-up-2mm", "7")}
+    assert "only 2 trial(s)" in held.errors["bump-4mm", "7"]
+    assert held.fingers() == {} and held.calibrations == {}
+    assert seen[-1][:2] == (2, 2)
+    with pytest.raises(ValueError, match="no trial of subject '3'"):
+        calibrate_held_out(tmp_path / "r", subjects=["3"])
+
+
+@pytest.mark.slow
+def test_held_out_calibrations_use_the_other_surfaces_only(tmp_path):
+    from fingerfriction.study.finger_calibration import calibrate_held_out
+
+    _write(tmp_path / "r", DESIGN)
+    opts = CalibrationOptions(dx=0.08, coarse_step=0.3, fine_step=0.1, n_loads=2, coarse_stride=2,
+                              bootstrap=10, min_frames=50, min_trials=2)
+    held = calibrate_held_out(tmp_path / "r", options=opts)
+    assert not held.errors
+    for (surf, subj), res in held.calibrations.items():
+        assert subj == "7" and [s.surface for s in res.surfaces] == [n for n in ("step-up-2mm", "bump-4mm")
+                                                                     if n != surf]
+    f = held.fingers()
+    assert set(f) == {"step-up-2mm", "bump-4mm"} and set(f["bump-4mm"]) == {"7"}
