@@ -46,6 +46,7 @@ from fingerfriction.mechanics.calibrate import CalibrationOptions
 from fingerfriction.mechanics.finger_file import finger_from_mapping
 from fingerfriction.predict import validate_results
 from fingerfriction.sim.fingers import DRAWN_FIELDS, relative_difference
+from fingerfriction.stats import BOTH
 from fingerfriction.study.finger_calibration import calibrate_held_out, calibrate_results, trials_from_results
 
 TARGET_PARAM = 0.05
@@ -170,6 +171,14 @@ def transfer(exe: str, results: str, true: dict) -> list:
               f"({diff.min():+.3f} .. {diff.max():+.3f}); lowest with the default finger "
               f"{sel['rho_out_of_sample'].min():.3f}, with the calibrated one "
               f"{sel['rho_out_of_sample_calibrated_finger'].min():.3f}")
+    per = tab[tab["subject"] != BOTH]
+    for m in dict.fromkeys(per["model"]):
+        sel = per[per["model"] == m]
+        gd = (sel["rho_out_of_sample"] - sel["rho_heldout_params_video"]).abs()
+        gc = (sel["rho_out_of_sample_calibrated_finger"] - sel["rho_heldout_params_video"]).abs()
+        print(f"   {m} model: |rho out of sample - rho with the video's own regions| (same held-out "
+              f"parameters): default finger {gd.mean():.3f} (max {gd.max():.3f}), calibrated {gc.mean():.3f} "
+              f"(max {gc.max():.3f})")
     print(f"   rho >= 0.75 on every held-out surface with the calibrated finger (load-consistent model): "
           f"{verdict(ok)}")
     return [("D leave-one-surface-out, calibrated finger, rho >= 0.75 (load model)", ok)]
