@@ -520,12 +520,19 @@ def _print_tables(rep) -> None:
 @app.command("report")
 def report_cmd(
     results: str = typer.Argument(..., help="Results folder (after analyze; fit for Fig. 6/S3, Table 1)."),
+    sample: int = typer.Option(6, "--sample", min=0,
+                               help="Trial pages for every flagged trial and this many of the others."),
+    all_trials: bool = typer.Option(False, "--all-trials", help="A page for every trial."),
+    animations: bool = typer.Option(True, "--animations/--no-animations",
+                                    help="Overlay animation on each trial page (needs the study's videos)."),
 ) -> None:
-    """Figures (PNG, SVG), Table 1, blind-spot table and a self-contained HTML report."""
+    """Figures (PNG, SVG), Table 1, blind-spot table, a self-contained HTML report and a page
+    per flagged (and sampled) trial."""
     from .report import make_report
 
     try:
-        rep = make_report(results, progress=True)
+        rep = make_report(results, progress=True, sample=None if all_trials else sample,
+                          animations=animations)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     _print_tables(rep)

@@ -895,7 +895,8 @@ def _validate_after_fit(store: ResultsStore, trials: Sequence, validate: bool):
     t0 = time.perf_counter()
     try:
         res = validate_results(store.root)
-    except (ValueError, KeyError, OSError, np.linalg.LinAlgError) as exc:
+    # RuntimeError: predict finds no successful training fit without a surface (a small study)
+    except (ValueError, KeyError, OSError, RuntimeError, np.linalg.LinAlgError) as exc:
         logger.warning("out-of-sample validation failed: %s", _one_line(exc))
         return None, f"failed: {_one_line(exc)}"
     logger.info("out-of-sample validation: %.1f s", time.perf_counter() - t0)

@@ -208,5 +208,10 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
 
     write_synthetic_results(tmp_path / "r")
     fit(tmp_path / "r", progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # truth 0.55, 0.60
-    html = make_report(tmp_path / "r").html.read_text()
-    assert html.count("at the end of the search grid [0.3, 0.5]") == 2
+    rep = make_report(tmp_path / "r")
+    html = rep.html.read_text()
+    summary = html[html.index("<h2>Summary</h2>"):html.index("</ul>", html.index("<h2>Summary</h2>"))]
+    assert summary.count("at the end of the search grid [0.3, 0.5]") == 2
+    # and in the warnings block at the top, once per subject
+    assert [f["subject"] for f in rep.flags if f["code"] == "mu-at-bound"] == ["1", "2"]
+    assert html.index('id="warnings"') < html.index("<h2>Summary</h2>")

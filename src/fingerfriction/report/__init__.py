@@ -14,7 +14,7 @@ import base64
 import html
 import logging
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import resources
 from pathlib import Path
@@ -28,6 +28,7 @@ from .._progress import ProgressBar
 from ..stats import write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
+from .flags import collect_flags, flagged_trials, group_flags
 from .tables import (
     blindspot_table,
     fit_parameter_table,
@@ -37,6 +38,7 @@ from .tables import (
     truth_tables,
     with_formatted_p,
 )
+from .trial_pages import choose_pages, page_href, write_trial_pages
 
 __all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
 
@@ -63,6 +65,11 @@ class ReportResult:
     truth : dict of str to pandas.DataFrame
         Recovered against true parameters (simulated studies).
     n_trials, n_failed : int
+    flags : tuple of dict
+        Everything flagged (:func:`fingerfriction.report.flags.collect_flags`): ``level``,
+        ``code``, ``subject``, ``trial``, ``model``, ``message``.
+    pages : dict of str to Path
+        The trial pages written, by trial id.
     fitted : bool
         Whether the results were fitted (Fig. 6, Fig. S3 and Table 1 need the fit).
     notices : tuple of str
@@ -80,6 +87,8 @@ class ReportResult:
     loso: pd.DataFrame | None = None
     fitted: bool = False
     notices: tuple[str, ...] = ()
+    flags: tuple[dict, ...] = ()
+    pages: dict = field(default_factory=dict)
 
 
 #: Captions of the figures in the HTML report (the figure titles carry the essentials).
@@ -107,19 +116,40 @@ CAPTIONS = {
 }
 
 
-def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
-    def fmt(v):
+def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}", links: dict | None = None) -> str:
+    """An HTML table; cells of a ``trial`` column with a page in ``links`` link to it."""
+    links = links or {}
+
+    def fmt(col, v):
         if isinstance(v, float):
             return "" if v != v else float_format.format(v)
+        if col == "trial" and v in links:
+            return f'<a class="trial-link" href="{html.escape(links[v])}">{html.escape(str(v))}</a>'
         return html.escape(str(v))
 
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
-    body = "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
+    cols = list(df.columns)
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in cols)
+    body = "".join("<tr>" + "".join(f"<td>{fmt(c, v)}</td>" for c, v in zip(cols, row, strict=True)) + "</tr>"
                    for row in df.itertuples(index=False))
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def make_report(results: str | os.PathLike, *, progress: bool = False) -> ReportResult:
+def _trial_table(data: ReportData, flags: list[dict]) -> pd.DataFrame:
+    """One row per trial of the run: labels, status, counts of its flags by level."""
+    status = dict(data.failed)
+    rows = []
+    for m in data.run.get("trials", []):
+        own = [f for f in flags if f["trial"] == m["id"]]
+        rows.append({"trial": m["id"], "subject": str(m.get("subject", "")), "surface": m.get("surface", ""),
+                     "speed_mm_s": m.get("speed_mm_s"), "status": "failed" if m["id"] in status else "ok",
+                     "errors": sum(f["level"] == "error" for f in own),
+                     "warnings": sum(f["level"] == "warning" for f in own),
+                     "notes": sum(f["level"] == "info" for f in own)})
+    return pd.DataFrame(rows)
+
+
+def make_report(results: str | os.PathLike, *, progress: bool = False, sample: int | None = 6,
+                animations: bool = True) -> ReportResult:
     """Write the figures, tables and the HTML report of a results folder.
 
     Parameters
@@ -129,6 +159,13 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         ``fit``).
     progress : bool
         Show a progress bar on stderr.
+    sample : int or None
+        Trial pages (``report/trials/<trial-id>.html``) are written for every flagged
+        trial and for this many of the others, spread over the manifest's order (None:
+        every trial).
+    animations : bool
+        Put the overlay animation on each trial page (needs the study's videos; about
+        0.4 s of CPU per page).
 
     Returns
     -------
@@ -144,7 +181,10 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
     out.mkdir(parents=True, exist_ok=True)
     has_fit = data.fit is not None and any(t.model is not None for t in data.trials)
     files: list[Path] = []
-    bar = ProgressBar(progress, len(FIGURES) + 2, "report")
+    flags = collect_flags(data)
+    flagged = flagged_trials(flags)
+    page_ids = choose_pages(data, flagged, sample)
+    bar = ProgressBar(progress, len(FIGURES) + 2 + len(page_ids), "report")
     figures = []
     try:
         for stem, title, fn, needs_fit in FIGURES:
@@ -191,6 +231,11 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
                                  undefined=jinja2.StrictUndefined)
         template = env.from_string(
             resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
+        pages = write_trial_pages(data, flags, page_ids, out / "trials", animations=animations,
+                                  progress=lambda tid: bar.advance(tid))
+        files += list(pages.values())
+        links = {tid: page_href(tid) for tid in pages}
+        groups = group_flags(flags)
         run = data.run
         notices = []
         if not has_fit:
@@ -205,6 +250,9 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
                                "not a minimum inside the grid, the true value may lie beyond it")
         n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
         page = template.render(
+            flag_groups=groups, n_flagged=len(flagged), links=links, all_flags=flags,
+            trials_table=Markup(_html_table(_trial_table(data, flags), links=links)),
+            n_pages=len(pages),
             notices=notices, mu_notes=mu_notes, n_neg_p0=n_neg_p0,
             subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
             table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
@@ -233,4 +281,4 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         bar.close()
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
                         n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
-                        notices=tuple(notices))
+                        notices=tuple(notices), flags=tuple(flags), pages=pages)
