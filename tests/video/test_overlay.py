@@ -84,7 +84,8 @@ def test_write_results_overlay_draws_the_stored_results(study, tmp_path):
     with av.open(str(tmp_path / "r.gif")) as c:
         gif = [f.to_ndarray(format="rgb24") for f in c.decode(video=0)]
     assert len(gif) == 5 and gif[0].shape == (180, 630, 3)
-    info = write_results_overlay(video, frames, 0.4, tmp_path / "r.mp4", surface=SURF, max_frames=2, scale=1.0)
+    info = write_results_overlay(video, frames, 0.4, tmp_path / "r.mp4", surface=SURF, max_frames=2,
+                                 scale=1.0)
     assert info.n_frames == 2
     with pytest.raises(ValueError, match=r"\.mp4 or \.gif"):
         write_results_overlay(video, frames, 0.4, tmp_path / "r.avi")
