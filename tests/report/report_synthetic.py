@@ -78,7 +78,9 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
             {"subjects": {s: {"mu": mu} for s, mu in subjects.items()}}))
     store.write_run({
         "study": str(truth_dir.parent) if truth_dir is not None else "synthetic",
-        "parameters": {"video": {}, "forces": {}}, "params_sha256": "synthetic",
+        "parameters": {"video": {"contact_tol_px": 3.0, "position": "hybrid"},
+                       "forces": {"notch_hz": [50.0, 150.0, 300.0], "flat_segment_mm": None}},
+        "params_sha256": "synthetic",
         "versions": {"fingerfriction": "test"},
         "surfaces": {s: get_surface(s).to_dict() for s in SURFACES},
         "trials": trials,

@@ -215,3 +215,16 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
     # and in the warnings block at the top, once per subject
     assert [f["subject"] for f in rep.flags if f["code"] == "mu-at-bound"] == ["1", "2"]
     assert html.index('id="warnings"') < html.index("<h2>Summary</h2>")
+
+
+def test_run_record_is_a_readable_table(report):
+    rep, results, _ = report
+    html = rep.html.read_text()
+    rec = html[html.index('<section id="record">'):html.index("</section>", html.index('<section id="record">'))]
+    for title in ("Study", "Analysis parameters", "Fit", "Versions and platform"):
+        assert title in rec
+    assert "{" not in rec and "'" not in rec.replace("&#39;", "")  # no raw Python dict text
+    assert "<th>stage</th><th>parameter</th><th>value</th>" in rec
+    assert "0.3 to 0.9 by 0.01 (61 values)" in rec
+    assert "<td>forces</td><td>notch_hz</td><td>50, 150, 300</td>" in rec
+    assert "<td>flat_segment_mm</td><td>default</td>" in rec

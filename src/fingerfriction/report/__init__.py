@@ -33,6 +33,7 @@ from .tables import (
     blindspot_table,
     fit_parameter_table,
     loso_table,
+    run_record,
     table1,
     table1_display,
     truth_tables,
@@ -272,7 +273,13 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
             blindspots=Markup(_html_table(bs)),
             truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
             params=Markup(_html_table(params)) if params is not None else None,
-            figures=figures, parameters=run.get("parameters", {}), versions=run.get("versions", {}),
+            figures=figures,
+            record=[(title, key, Markup(_html_table(df, links=links)))
+                    for key, title in (("study", "Study"), ("parameters", "Analysis parameters"),
+                                       ("fit", "Fit"), ("runs", "History of analyze runs"),
+                                       ("versions", "Versions and platform"),
+                                       ("inputs", "Input files (SHA-256)"))
+                    for df in [run_record(data).get(key)] if df is not None],
         )
         atomic_write_text(out / "index.html", page)
         files.append(out / "index.html")
