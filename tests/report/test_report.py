@@ -220,7 +220,8 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
 def test_run_record_is_a_readable_table(report):
     rep, results, _ = report
     html = rep.html.read_text()
-    rec = html[html.index('<section id="record">'):html.index("</section>", html.index('<section id="record">'))]
+    i = html.index('<section id="record">')
+    rec = html[i:html.index("</section>", i)]
     for title in ("Study", "Analysis parameters", "Fit", "Versions and platform"):
         assert title in rec
     assert "{" not in rec and "'" not in rec.replace("&#39;", "")  # no raw Python dict text

@@ -307,8 +307,8 @@ def run_record(data: ReportData) -> dict[str, pd.DataFrame]:
     for tid, files in (run.get("inputs") or {}).items():
         for kind, d in (files or {}).items():
             if isinstance(d, dict):
-                inp.append({"trial": tid, "file": kind, "path": d.get("path", ""), "sha256": d.get("sha256", ""),
-                            "bytes": d.get("bytes", "")})
+                inp.append({"trial": tid, "file": kind, "path": d.get("path", ""),
+                            "sha256": d.get("sha256", ""), "bytes": d.get("bytes", "")})
     if inp:
         out["inputs"] = pd.DataFrame(inp)
     return out
