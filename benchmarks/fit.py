@@ -2,7 +2,7 @@
 
 Closed form (vectorised least squares over the grid; target < 2 s) and Nelder-Mead (one
 simplex per trial per grid value, as the paper; target < 30 s). Synthetic trials from
-``fingerfriction.synthetic`` (finger-pad contact changing every frame, Eq. 4 + 10 % noise).
+``fingerfriction.testing`` (finger-pad contact changing every frame, Eq. 4 + 10 % noise).
 A reference measured in the same run (one ``numpy.linalg.lstsq`` per trial per mu on the
 full design, the naive closed form) gives machine-independent ratios. Wall-clock and
 process CPU times are both printed: on the shared 2-core machine the wall clock depends on
@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from fingerfriction.fit import FitOptions, _Design, fit_trials, mu_grid
-from fingerfriction.synthetic import synthetic_trials
+from fingerfriction.testing import synthetic_trials
 
 
 def main() -> None:

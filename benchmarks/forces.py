@@ -1,6 +1,6 @@
 """Accuracy and throughput of the force processing on a simulated study.
 
-For every trial, the recovered ``F_T(x)`` (``fingerfriction.forces.process_trial``: the
+For every trial, the recovered ``F_T(x)`` (``fingerfriction.study.trial.process_trial_forces``: the
 recorded channels, the finger positions per video frame) is compared with the *true*
 tangential force of the simulator (``truth/<trial>.npz``) brought onto the same grid by the
 same *linear* processing the recovered force went through:
@@ -51,16 +51,16 @@ import numpy as np
 from fingerfriction.forces import (
     ForceDataError,
     ForceProcessingParams,
-    frame_times,
     lowpass_filter,
     notch_filter,
-    process_trial,
-    read_trial_forces,
     remove_linear_drift,
     resample_to_positions,
 )
-from fingerfriction.forces.readers import study_path
 from fingerfriction.sim import SensorParams
+from fingerfriction.study import load_manifest, resolve_path
+from fingerfriction.study.trial import TrialInput, process_trial_forces, read_trial_forces
+from fingerfriction.surfaces import surface_from_spec
+from fingerfriction.video import AnalysisOptions, analyze_video
 
 STUDIES = Path("/work/studies")
 
@@ -108,9 +108,6 @@ def video_positions(
     study: Path, manifest: dict, trial: dict, position: str = "cf-centroid"
 ) -> tuple[np.ndarray, np.ndarray]:
     """x(t) and contact regions per frame from the video analysis (``fingerfriction.video``)."""
-    from fingerfriction.surfaces import surface_from_spec
-    from fingerfriction.video import AnalysisOptions, analyze_video
-
     v = trial["video"]
     surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
     H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
@@ -119,7 +116,7 @@ def video_positions(
     opts = AnalysisOptions(
         calibration_frame=int(v.get("calibration_frame", 0)), position=position, n_max_regions=32
     )
-    res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
+    res = analyze_video(resolve_path(study, v["path"], where="video.path"), H, surface=surface, options=opts)
     return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
 
 
@@ -151,6 +148,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     study = pick_study(args.study)
     manifest = json.loads((study / "manifest.json").read_text())
+    typed = load_manifest(study)
     trials = manifest["trials"]
     if args.surfaces:
         trials = [t for t in trials if t["surface"] in args.surfaces]
@@ -201,13 +199,14 @@ def main(argv=None) -> int:
     video_err = []
     for tr in trials:
         tid = tr["id"]
-        with np.load(study_path(study, tr["truth"], "truth"), allow_pickle=False) as z:
+        trial = TrialInput.from_study(typed, tid)
+        with np.load(resolve_path(study, tr["truth"], where="truth"), allow_pickle=False) as z:
             truth = {
                 k: z[k]
                 for k in ("t_force", "x_finger_force", "F_T", "t_video", "x_finger_video", "regions_geom")
             }
         # the manifest's clocks must reproduce the truth's sample and frame times
-        tv = frame_times(tr)
+        tv = trial.record.video.frame_times()
         fs = float(tr["force"]["fs_hz"])
         tf = float(tr["force"].get("t0_s", 0.0)) + np.arange(truth["t_force"].size) / fs
         max_sync = max(max_sync, np.max(np.abs(tv - truth["t_video"])), np.max(np.abs(tf - truth["t_force"])))
@@ -224,8 +223,8 @@ def main(argv=None) -> int:
 
         t0 = time.perf_counter()
         try:
-            prof = process_trial(
-                study, manifest, tid, x_frames, params=default, regions=regions if args.regions else None
+            prof = process_trial_forces(
+                trial, x_frames, params=default, regions=regions if args.regions else None
             )
         except (ForceDataError, ValueError) as exc:
             failures.append((tid, str(exc)))
@@ -263,8 +262,8 @@ def main(argv=None) -> int:
         for name, (p, ref_notch) in variants.items():
             try:
                 if id(p) not in cache:
-                    cache[id(p)] = process_trial(
-                        study, manifest, tid, x_frames, params=p, regions=regions if args.regions else None
+                    cache[id(p)] = process_trial_forces(
+                        trial, x_frames, params=p, regions=regions if args.regions else None
                     )
                 pv = cache[id(p)]
                 row[name] = rel_rms(pv.f_t, reference_profile(truth, pv, p, fs, notch=ref_notch))

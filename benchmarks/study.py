@@ -30,7 +30,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from fingerfriction.pipeline import AnalysisParams, analyze, sim_params
+from fingerfriction.study.analyze import analyze
+from fingerfriction.study.params import AnalysisParams, sim_params
 
 PAPER_TRIALS = 180
 

@@ -20,7 +20,7 @@ from fingerfriction.fit import (
 )
 from fingerfriction.model import FrictionModel
 from fingerfriction.surfaces import SURFACE_NAMES, get_surface
-from fingerfriction.synthetic import synthetic_trial
+from fingerfriction.testing import synthetic_trial
 
 X = np.arange(-13.0, 13.0 + 1e-9, 0.01)  # the paper's 26 mm window at 0.01 mm: 2601 positions
 

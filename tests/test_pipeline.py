@@ -21,15 +21,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fingerfriction.pipeline import (
-    SIM_CF_CENTROID_PARAMS,
-    AnalysisParams,
-    analyze,
-    fit,
-    regions_on_grid,
-    sim_params,
-)
-from fingerfriction.results import (
+from fingerfriction.regions import regions_on_grid
+from fingerfriction.study.analyze import analyze
+from fingerfriction.study.fitting import fit
+from fingerfriction.study.params import SIM_CF_CENTROID_PARAMS, AnalysisParams, sim_params
+from fingerfriction.study.store import (
     ResultsStore,
     atomic_write_parquet,
     frames_table,

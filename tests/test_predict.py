@@ -98,7 +98,7 @@ def test_flat_ground_is_amontons_with_flat_consistent_p0():
 def test_failed_sweep_is_an_error_not_a_number():
     from types import SimpleNamespace
 
-    from fingerfriction.predict import _sweep_regions
+    from fingerfriction.predict.forward import _sweep_regions
 
     reg = np.array([[[0.0, 1.0]], [[0.1, 1.1]], [[0.2, 1.2]]])
     res = SimpleNamespace(success=np.array([True, False, True]), positions=np.array([0.0, 0.1, 0.2]),
@@ -372,7 +372,7 @@ def _synthetic_results(tmp_path):
 
 @pytest.mark.slow
 def test_params_from_pipeline_fit_and_validate_results(tmp_path):
-    from fingerfriction.pipeline import fit
+    from fingerfriction.study.fitting import fit
 
     root = _synthetic_results(tmp_path)
     fit(root, progress=False, median_kernel=1)

@@ -16,7 +16,7 @@ from fingerfriction.stats import (
     table1_wide,
     write_table,
 )
-from fingerfriction.synthetic import synthetic_trials
+from fingerfriction.testing import synthetic_trials
 
 
 def tf(subject, shape, scale, measured, estimate):

@@ -3,10 +3,13 @@ over relief surfaces (Janko, Wiertlewski & Visell, Sci. Rep. 2018), with a forwa
 finger-contact model and a virtual experiment.
 
 Stages, in the order a trial flows through them: :mod:`~fingerfriction.surfaces`,
-:mod:`~fingerfriction.mechanics`, :mod:`~fingerfriction.sim`, :mod:`~fingerfriction.video`,
-:mod:`~fingerfriction.forces`, :mod:`~fingerfriction.model`, :mod:`~fingerfriction.fit`,
-:mod:`~fingerfriction.stats`, :mod:`~fingerfriction.blindspots`,
-:mod:`~fingerfriction.pipeline`, :mod:`~fingerfriction.report`.
+:mod:`~fingerfriction.regions`, :mod:`~fingerfriction.mechanics`, :mod:`~fingerfriction.sim`
+(the virtual experiment), :mod:`~fingerfriction.video`, :mod:`~fingerfriction.forces`,
+:mod:`~fingerfriction.model`, :mod:`~fingerfriction.fit`, :mod:`~fingerfriction.stats`,
+:mod:`~fingerfriction.blindspots`, :mod:`~fingerfriction.study` (manifest, results store,
+one trial, the parallel analysis, the fit), :mod:`~fingerfriction.predict`,
+:mod:`~fingerfriction.report`, :mod:`~fingerfriction.demo`; ``docs/`` has one page per
+stage with the reasoning and measured figures behind its choices.
 """
 
 from importlib.metadata import PackageNotFoundError, version

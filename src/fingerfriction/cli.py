@@ -6,11 +6,19 @@ result; user errors (bad files, bad options) are caught and shown as one line, e
 
 from __future__ import annotations
 
+import os
 import sys
+import time
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from .surfaces import surface_from_spec
 
 app = typer.Typer(
     add_completion=False,
@@ -32,7 +40,7 @@ def fail(message: str) -> None:
 
 
 # ---------------------------------------------------------------------------------------
-# demo (study pipeline: simulate + analyze + fit + report; fingerfriction.pipeline.demo)
+# demo (simulate + analyze + fit + report; fingerfriction.demo)
 # ---------------------------------------------------------------------------------------
 
 
@@ -60,7 +68,7 @@ def demo(
 ) -> None:
     """Simulate the built-in default study, analyze it, fit the model, write the report;
     print Table 1 and the blind-spot table."""
-    from .pipeline import demo as run_demo
+    from .demo import demo as run_demo  # heavy (every stage); imported when the command runs
 
     try:
         design = {}
@@ -111,13 +119,8 @@ def predict_contact(
     ),
 ) -> None:
     """Predict tactile blind spots and simultaneous contacts of a finger sliding over a surface."""
-    import os
-
-    from rich.table import Table
-
-    from .mechanics import default_positions, get_subject, sweep
-    from .mechanics.figures import save_occupancy_figure
-    from .surfaces import surface_from_spec
+    from .mechanics import default_positions, get_subject, sweep  # heavy (numba); when the command runs
+    from .mechanics.figures import save_occupancy_figure  # heavy (matplotlib); when the command runs
 
     try:
         if kind not in ("geometric", "mechanical"):
@@ -192,12 +195,7 @@ def simulate_cmd(
     ] = "mechanics-bem",
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
-    import time
-
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from .sim import SimOptions, simulate_study
-    from .study import ManifestError
+    from .sim import SimOptions, simulate_study  # heavy (video encoder, mechanics); when the command runs
 
     kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
                 "contact_model": contact_model}
@@ -234,7 +232,7 @@ def simulate_cmd(
 
         try:
             study = simulate_study(out, opts, workers=workers or None, progress=report)
-        except (ValueError, OSError, ManifestError) as exc:
+        except (ValueError, OSError) as exc:
             prog.stop()
             fail(str(exc))
     dt = time.perf_counter() - t0
@@ -262,22 +260,20 @@ def overlay_cmd(
     scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop."),
 ) -> None:
     """Write a video of a trial's frames with the traced contours and contact regions drawn."""
-    from .study import ManifestError, load_manifest
-    from .video import AnalysisOptions
-    from .video.overlay import write_overlay
+    from .study.params import video_options  # heavy (video stage); imported when the command runs
+    from .study.trial import TrialInput  # heavy (both stages); imported when the command runs
+    from .video.overlay import write_overlay  # heavy (OpenCV, PyAV); imported when the command runs
 
     try:
-        st = load_manifest(study)
-        tr = st.trial(trial)
-        opts = AnalysisOptions(level=level, calibration_frame=tr.video.calibration_frame)
+        tr = TrialInput.from_study(study, trial)
+        opts = video_options({"level": level}, tr.record.video.calibration_frame)  # as `analyze`
         info = write_overlay(
-            st.path(tr.video.path), tr.calibration["surface_height_mm"], out or f"{trial}-overlay.mp4",
-            surface=st.surface(tr.surface), options=opts, start=start, stop=stop, step=step, fps=fps,
-            scale=scale,
+            tr.path(tr.record.video.path, "video.path"), tr.height_mm, out or f"{trial}-overlay.mp4",
+            surface=tr.surface, options=opts, start=start, stop=stop, step=step, fps=fps, scale=scale,
         )
     except KeyError as exc:
         fail(str(exc.args[0]) if exc.args else str(exc))
-    except (ValueError, OSError, ManifestError) as exc:
+    except (ValueError, OSError) as exc:
         fail(str(exc))
     console.print(f"[green]wrote[/] {info.path}: {info.n_frames} frames ({info.n_flagged} flagged)")
 
@@ -286,55 +282,6 @@ def overlay_cmd(
 # ---------------------------------------------------------------------------------------
 # forces (force processing, fingerfriction.forces)
 # ---------------------------------------------------------------------------------------
-
-
-def _frame_positions(study: str, manifest: dict, trial: dict, positions: str | None, from_truth: bool,
-                     from_video: bool):
-    """Per-frame finger positions (mm) and contact regions (or None) for the forces command:
-    a file, the video analysis, or the study's truth."""
-    import numpy as np
-
-    from .forces.readers import study_path
-
-    if sum((positions is not None, from_truth, from_video)) > 1:
-        raise ValueError("give only one of --positions, --from-video, --from-truth")
-    if from_video:
-        from .surfaces import surface_from_spec
-        from .video import AnalysisOptions, analyze_video
-
-        v = trial["video"]
-        surface = surface_from_spec(manifest["surfaces"][trial["surface"]])
-        H = float((trial.get("calibration") or {}).get("surface_height_mm", surface.max_height))
-        opts = AnalysisOptions(calibration_frame=int(v.get("calibration_frame", 0)))
-        res = analyze_video(study_path(study, v["path"], "video.path"), H, surface=surface, options=opts)
-        return np.asarray(res.x, dtype=float), np.asarray(res.regions, dtype=float)
-    return _positions_only(study, trial, positions, from_truth), None
-
-
-def _positions_only(study: str, trial: dict, positions: str | None, from_truth: bool):
-    import numpy as np
-
-    from .forces.readers import study_path
-
-    if positions is not None:
-        if positions.endswith(".npy"):
-            return np.load(positions, allow_pickle=False)
-        import pandas as pd
-
-        df = pd.read_csv(positions)
-        if "x_mm" not in df.columns:
-            raise ValueError(f"{positions!r} has no column 'x_mm' (columns: {list(df.columns)})")
-        return df["x_mm"].to_numpy(dtype=float)
-    if from_truth:
-        if not trial.get("truth"):
-            raise ValueError(f"trial {trial.get('id')!r} has no 'truth' file (not a simulated study)")
-        path = study_path(study, trial["truth"], f"trial {trial.get('id')!r}: truth")
-        with np.load(path, allow_pickle=False) as z:
-            return np.asarray(z["x_finger_video"], dtype=float)
-    raise ValueError(
-        "finger positions are needed: --from-video (run the video analysis), --positions FILE "
-        "(x_mm per video frame; .csv with column x_mm or .npy) or --from-truth (simulated studies)"
-    )
 
 
 @app.command("forces")
@@ -351,38 +298,35 @@ def forces_cmd(
         False, "--estimate-highpass", help="fit the sensor cut-off on the rests (--highpass-hz: the prior)"
     ),
 ) -> None:
-    """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window."""
-    import json
-    from pathlib import Path
+    """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window.
 
-    import numpy as np
-
-    from .forces import ForceProcessingParams, process_trial
+    With --from-video, x(t) and the contact regions come from the video stage run exactly as
+    `analyze` runs it (the same options)."""
+    from .forces import ForceProcessingParams  # heavy (scipy); imported when the command runs
+    from .study.trial import TrialInput, finger_positions, process_trial_forces  # heavy: both stages
 
     try:
-        manifest = json.loads((Path(study) / "manifest.json").read_text())
-        rec = next((t for t in manifest.get("trials", []) if t.get("id") == trial), None)
-        if rec is None:
-            raise ValueError(f"no trial {trial!r} in {study}/manifest.json")
-        x, regions = _frame_positions(study, manifest, rec, positions, from_truth, from_video)
+        tr = TrialInput.from_study(study, trial)
+        x, regions = finger_positions(tr, positions=positions, from_truth=from_truth, from_video=from_video)
         params = ForceProcessingParams(
             sensor_highpass_hz=highpass_hz or None, notch_q=notch_q, estimate_highpass=estimate_highpass
         )
-        prof = process_trial(study, manifest, trial, x, params=params, regions=regions, on_error="flag")
+        prof = process_trial_forces(tr, x, params=params, regions=regions, on_error="flag")
         if out is not None:
             prof.write_csv(out)
-    except (ValueError, OSError, KeyError) as exc:
+    except KeyError as exc:
+        fail(str(exc.args[0]) if exc.args else str(exc))
+        return
+    except (ValueError, OSError) as exc:
         fail(str(exc).strip("'\""))
         return
-    from rich.markup import escape
-
     for f in prof.flags:
         colour = "red" if f.severity == "error" else "yellow"
         tag = escape(f"[{f.code}]")
         console.print(f"[{colour}]{f.severity}[/] {tag} {escape(f.message)}", highlight=False)
     if not prof.success:
         fail(prof.message)
-    ok = np.isfinite(prof.f_t)
+    ok = ~np.isnan(prof.f_t)
     console.print(
         f"trial {trial}: F_T(x) on {prof.x.size} positions "
         f"[{prof.window_mm[0]:g}, {prof.window_mm[1]:g}] mm, "
@@ -404,7 +348,7 @@ def forces_cmd(
 
 
 # ---------------------------------------------------------------------------------------
-# analyze / fit / report (study pipeline, fingerfriction.pipeline and .report)
+# analyze / fit / report (study pipeline, fingerfriction.study and .report)
 # ---------------------------------------------------------------------------------------
 
 
@@ -434,7 +378,8 @@ def analyze_cmd(
                                    "x(t) extended; see README)."),
 ) -> None:
     """Every trial through video analysis and force processing, in parallel (resumable)."""
-    from .pipeline import POSITIONS, AnalysisParams, analyze, sim_params
+    from .study.analyze import analyze  # heavy (Dask, both stages); imported when the command runs
+    from .study.params import POSITIONS, AnalysisParams, sim_params  # heavy (both stages), as above
 
     try:
         if position not in POSITIONS:
@@ -464,7 +409,7 @@ def fit_cmd(
     median: int = typer.Option(11, help="Median filter window on the model, samples (odd; 1 = off)."),
 ) -> None:
     """mu per subject (grid search), p0 and p1 per trial, model forces with F_int and F_def."""
-    from .pipeline import fit
+    from .study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
 
     try:
         res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
@@ -480,9 +425,7 @@ def fit_cmd(
 
 
 def _print_tables(rep) -> None:
-    from rich.table import Table
-
-    from .report.tables import format_p, table1_display
+    from .report.tables import format_p, table1_display  # heavy (matplotlib); when a table is printed
 
     if rep.table1 is not None:
         wide = table1_display(rep.table1)
@@ -528,7 +471,7 @@ def report_cmd(
 ) -> None:
     """Figures (PNG, SVG), Table 1, blind-spot table, a self-contained HTML report and a page
     per flagged (and sampled) trial."""
-    from .report import make_report
+    from .report import make_report  # heavy (matplotlib, jinja2); imported when the command runs
 
     try:
         rep = make_report(results, progress=True, sample=None if all_trials else sample,
@@ -563,9 +506,7 @@ def predict_cmd(
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
 ) -> None:
     """Predict F_T(x), F_int, F_def, contact occupancy and blind spots on any relief."""
-    from rich.table import Table
-
-    from .predict import predict
+    from .predict import predict  # heavy (the forward model); imported when the command runs
 
     try:
         pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
@@ -605,7 +546,7 @@ def render_cmd(
     step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction."),
 ) -> None:
     """Friction command for a flat friction-modulating display, as a signal in time."""
-    from .render import HapticRenderer
+    from .render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
     try:
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
@@ -635,9 +576,7 @@ def validate_cmd(
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
-    from rich.table import Table
-
-    from .predict import validate_results
+    from .predict import validate_results  # heavy (the forward model); imported when the command runs
 
     try:
         res = validate_results(results, out=out, forward_step=step)

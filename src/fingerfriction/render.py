@@ -49,6 +49,8 @@ import os
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
+from scipy.io import wavfile
 
 from ._atomic import atomic_write
 from .predict import DEFAULT_LOAD_N, Prediction, flat_contact_length, predict
@@ -261,8 +263,6 @@ class HapticRenderer:
     # ------------------------------------------------------------------ export
     def table_frame(self):
         """The table as a pandas DataFrame: x_mm, F_T_N, mu_cmd."""
-        import pandas as pd
-
         return pd.DataFrame({"x_mm": self.x, "F_T_N": self.force, "mu_cmd": self.mu_cmd})
 
     def write_table(self, path: str | os.PathLike) -> str:
@@ -336,13 +336,9 @@ class HapticRenderer:
         if ext == ".wav":
             if rate != int(rate):
                 raise ValueError(f"a WAV file needs an integer sample rate in Hz, got {rate!r}")
-            from scipy.io import wavfile
-
             data = mu.astype(np.float32)
             atomic_write(p, lambda tmp: wavfile.write(tmp, int(rate), data))
         else:
-            import pandas as pd
-
             df = pd.DataFrame({"t_s": t, "x_mm": x, "mu_cmd": mu})
             atomic_write(p, lambda tmp: df.to_csv(tmp, index=False, float_format="%.9g"))
         pred = self.prediction
@@ -397,8 +393,6 @@ def read_command(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
     except json.JSONDecodeError as exc:
         raise ValueError(f"{p}.json: not valid JSON ({exc})") from None
     if p.lower().endswith(".wav"):
-        from scipy.io import wavfile
-
         try:
             rate, data = wavfile.read(p)
         except (OSError, ValueError) as exc:
@@ -406,8 +400,6 @@ def read_command(path: str | os.PathLike) -> tuple[np.ndarray, dict]:
         if rate != int(meta.get("rate_hz", -1)):
             raise ValueError(f"{p}: WAV rate {rate} Hz differs from the sidecar's {meta.get('rate_hz')!r}")
         return np.asarray(data, dtype=float), meta
-    import pandas as pd
-
     try:
         df = pd.read_csv(p)
     except (OSError, ValueError) as exc:

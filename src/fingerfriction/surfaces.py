@@ -238,7 +238,7 @@ class SampledProfile(Surface):
         if not math.isfinite(lam) or lam < 0:
             raise ValueError(f"smoothing must be >= 0, got {self.smoothing!r}")
         if lam == 0.0:
-            from scipy.interpolate import make_interp_spline
+            from scipy.interpolate import make_interp_spline  # only for sampled profiles (import cost)
 
             spl = make_interp_spline(x, h, k=3)
         else:

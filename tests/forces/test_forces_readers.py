@@ -11,7 +11,8 @@ import pytest
 import scipy.io
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
-from fingerfriction.forces import ForceFileError, read_force_file, read_trial_forces
+from fingerfriction.forces import ForceFileError, read_force_file
+from fingerfriction.study.trial import read_trial_forces
 
 FS = 10_000.0
 

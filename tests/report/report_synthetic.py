@@ -8,7 +8,7 @@ import json
 import numpy as np
 
 from fingerfriction.model import FrictionParams, friction_force
-from fingerfriction.results import ResultsStore, frames_table
+from fingerfriction.study.store import ResultsStore, frames_table
 from fingerfriction.surfaces import get_surface
 
 SUBJECTS = {"1": 0.55, "2": 0.60}

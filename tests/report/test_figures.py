@@ -23,7 +23,7 @@ from fingerfriction.report.figures import (
     save_figure,
 )
 from fingerfriction.report.style import FULL_WIDTH_IN, MIN_FONT_PT, OKABE_ITO
-from fingerfriction.results import frames_table
+from fingerfriction.study.store import frames_table
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from fingerfriction.report import make_report
 from fingerfriction.report.data import load_report_data
 from fingerfriction.report.flags import collect_flags, flagged_trials, group_flags, position_gaps
 from fingerfriction.report.trial_pages import choose_pages
-from fingerfriction.results import ResultsStore
+from fingerfriction.study.store import ResultsStore
 
 
 @pytest.fixture()

@@ -71,7 +71,7 @@ def test_cli_overlay(study, tmp_path):
 def test_write_results_overlay_draws_the_stored_results(study, tmp_path):
     """From the per-frame table ``analyze`` stores: only the drawn frames are decoded, the
     regions drawn are the stored ones (here: moved 2 mm, so not what a new analysis finds)."""
-    from fingerfriction.results import frames_table
+    from fingerfriction.study.store import frames_table
     from fingerfriction.video import analyze_video
     from fingerfriction.video.overlay import write_results_overlay
 
@@ -89,6 +89,7 @@ def test_write_results_overlay_draws_the_stored_results(study, tmp_path):
     assert info.n_frames == 2
     with pytest.raises(ValueError, match=r"\.mp4 or \.gif"):
         write_results_overlay(video, frames, 0.4, tmp_path / "r.avi")
-    no_finger = frames.assign(x_mm=np.nan, n_regions=0)
+    no_finger = frames.assign(x_mm=np.nan, n_regions=0, **{c: np.nan for c in frames.columns
+                                                           if c[0] in "ab" and c[1:].isdigit()})
     with pytest.raises(ValueError, match="no frame with the finger"):
         write_results_overlay(video, no_finger, 0.4, tmp_path / "n.gif", surface=SURF)

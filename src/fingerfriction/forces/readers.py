@@ -62,8 +62,6 @@ __all__ = [
     "list_channels",
     "probe_force_file",
     "read_force_file",
-    "read_trial_forces",
-    "study_path",
 ]
 
 logger = logging.getLogger(__name__)
@@ -504,7 +502,7 @@ def _csv_column(layout: CsvLayout, key: str, name, path: Path) -> int:
 
 
 def _read_csv(path: Path, wanted: dict, delimiter: str | None = None) -> tuple[dict, dict]:
-    import pandas as pd
+    import pandas as pd  # only for CSV files
 
     layout = csv_layout(path, delimiter=delimiter)
     cols = {key: _csv_column(layout, key, name, path) for key, name in wanted.items()}
@@ -593,12 +591,12 @@ def _mat_leaves(node, prefix: str = "") -> list[str]:
 
 
 def _read_mat(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     _not_index(path, "mat", wanted)
     if h5py.is_hdf5(path):  # MATLAB v7.3 files are HDF5 with a 512-byte user block
         return _read_mat73(path, wanted)
-    import scipy.io
+    import scipy.io  # only for MATLAB v5 files
 
     try:
         # simplify_cells turns structs into dicts; MATLAB objects (classdef) are not
@@ -624,7 +622,7 @@ def _read_mat(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
 
 
 def _read_mat73(path: Path, wanted: dict) -> tuple[dict, dict]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     out = {}
     with h5py.File(path, "r") as f:
@@ -650,7 +648,7 @@ def _read_mat73(path: Path, wanted: dict) -> tuple[dict, dict]:
 
 
 def _dataset_names(f) -> list[str]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     found: list[str] = []
     f.visititems(lambda n, o: found.append(n) if isinstance(o, h5py.Dataset) else None)
@@ -658,7 +656,7 @@ def _dataset_names(f) -> list[str]:
 
 
 def _read_hdf5(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
-    import h5py
+    import h5py  # only for HDF5 and MATLAB v7.3 files
 
     _not_index(path, "hdf5", wanted)
     info: dict = {}
@@ -683,7 +681,7 @@ def _read_hdf5(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
 
 
 def _read_tdms(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
-    from nptdms import TdmsFile
+    from nptdms import TdmsFile  # only for TDMS files
 
     _not_index(path, "tdms", wanted)
     try:
@@ -965,68 +963,3 @@ def read_force_file(
     logger.debug("read %d samples x 2 channels from %s (%s, %s)", n, p, fmt, units)
     return ForceRecord(f1=f1, f2=f2, fs_hz=fs, t0_s=t0, path=str(p), format=fmt, channels=chans,
                        scale=scale, units=units)
-
-
-def study_path(study_dir: str | os.PathLike, relpath, field: str) -> Path:
-    """Absolute path of a manifest path inside the study folder; refuses one that escapes it.
-
-    Parameters
-    ----------
-    study_dir : path-like
-        The study folder.
-    relpath : str
-        A path from the manifest, relative to the folder.
-    field : str
-        What to call it in the error message (``"force.path"``).
-    """
-    root = Path(study_dir).resolve()
-    if not isinstance(relpath, str) or not relpath or Path(relpath).is_absolute():
-        raise ValueError(f"{field} must be a relative path inside the study folder, got {relpath!r}")
-    target = (root / relpath).resolve()
-    if root != target and root not in target.parents:
-        raise ValueError(f"{field} {relpath!r} escapes the study folder {str(root)!r}")
-    return target
-
-
-#: Fields of a manifest ``force`` entry passed to :func:`read_force_file`.
-_FORCE_FIELDS = ("fs_hz", "channels", "format", "t0_s", "n_samples", "units", "sensitivity_n_per_v",
-                 "gain_v_per_n", "time", "delimiter")
-
-
-def read_trial_forces(study_dir: str | os.PathLike, trial: Mapping) -> ForceRecord:
-    """Read the force file of one trial of a study (``docs/study-format.md``).
-
-    Parameters
-    ----------
-    study_dir : path-like
-        The study folder (holding ``manifest.json``).
-    trial : mapping
-        One entry of the manifest's ``trials`` list; its ``force`` field gives ``path``
-        and any of ``format``, ``fs_hz``, ``n_samples``, ``channels``, ``units``,
-        ``sensitivity_n_per_v``, ``gain_v_per_n``, ``time``, ``delimiter``, ``t0_s``
-        (the keywords of :func:`read_force_file`).
-
-    Returns
-    -------
-    ForceRecord
-
-    Raises
-    ------
-    ValueError
-        For a missing path, a bad field, or a path that escapes the study folder; and
-        any error of :func:`read_force_file`, prefixed with the trial id.
-    """
-    tid = trial.get("id", "?") if isinstance(trial, Mapping) else "?"
-    force = trial.get("force") if isinstance(trial, Mapping) else None
-    if not isinstance(force, Mapping):
-        raise ValueError(f"trial {tid!r}: manifest entry has no 'force' object")
-    if "path" not in force:
-        raise ValueError(f"trial {tid!r}: manifest field force.path is missing")
-    try:
-        channel_scale(force.get("units", "N"), force.get("sensitivity_n_per_v"), force.get("gain_v_per_n"))
-    except ValueError as exc:
-        raise ValueError(f"trial {tid!r}: force.{exc}") from None
-    target = study_path(study_dir, force["path"], f"trial {tid!r}: force.path")
-    kw = {k: force[k] for k in _FORCE_FIELDS if force.get(k) is not None}
-    kw.setdefault("t0_s", 0.0)
-    return read_force_file(target, **kw)

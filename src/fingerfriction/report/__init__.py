@@ -1,6 +1,6 @@
 """Figures, tables and a self-contained HTML report of an analysed (and fitted) study.
 
-:func:`make_report` reads a results folder (:mod:`fingerfriction.results`) and writes,
+:func:`make_report` reads a results folder (:mod:`fingerfriction.study.store`) and writes,
 into ``RESULTS/report/``: each figure as PNG and SVG (:mod:`.figures`), Table 1, the
 blind-spot table, the out-of-sample validation (``loso``, computed by
 ``fit``) and, for a simulated study, the recovered parameters next to the ground
@@ -25,7 +25,9 @@ from markupsafe import Markup
 
 from .._atomic import atomic_write_text
 from .._progress import ProgressBar
+from ..forces.signals import describe_history
 from ..stats import write_table
+from ..study.store import ResultsStore
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
 from .flags import collect_flags, flagged_trials, group_flags
@@ -60,7 +62,7 @@ class ReportResult:
         Table 1 in long format (None before the fit).
     loso : pandas.DataFrame or None
         Out-of-sample validation, rho per held-out surface (computed by ``fit``,
-        :func:`fingerfriction.pipeline.fit`; None if the fit did not validate).
+        :func:`fingerfriction.study.fitting.fit`; None if the fit did not validate).
     blindspots : pandas.DataFrame
         One row per blind spot per surface.
     truth : dict of str to pandas.DataFrame
@@ -149,6 +151,49 @@ def _trial_table(data: ReportData, flags: list[dict]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _force_history(data: ReportData) -> list[tuple[str, list[str]]]:
+    """Per trial, the steps of its force processing as lines a person reads."""
+    return [(t.id, describe_history(t.force_history) if t.force_history is not None
+             else ["not recorded (the trial was analysed by an earlier version)"]) for t in data.trials]
+
+
+def _write_tables(data: ReportData, out: Path, has_fit: bool, files: list[Path]):
+    """Write Table 1, the out-of-sample table, the blind spots and the truth tables (CSV,
+    Markdown, Table 1 also LaTeX) into ``out``, appending to ``files``; returns
+    ``(table1, loso, blindspots, truth, fitted parameters)``."""
+    t1 = table1(data) if has_fit else None
+    if t1 is not None:
+        for ext in ("csv", "md", "tex"):  # the CSV keeps the numbers, the others read as text
+            write_table(t1 if ext == "csv" else with_formatted_p(t1), out / f"table1.{ext}")
+            files.append(out / f"table1.{ext}")
+    loso = loso_table(data) if has_fit else None
+    if loso is not None:
+        for ext in ("csv", "md"):
+            write_table(loso if ext == "csv" else with_formatted_p(loso), out / f"loso.{ext}")
+            files.append(out / f"loso.{ext}")
+    bs = blindspot_table(data)
+    for ext in ("csv", "md"):
+        write_table(bs, out / f"blindspots.{ext}")
+        files.append(out / f"blindspots.{ext}")
+    truth = truth_tables(data)
+    for key, df in truth.items():
+        for ext in ("csv", "md"):
+            write_table(df, out / f"truth_{key}.{ext}")
+            files.append(out / f"truth_{key}.{ext}")
+    return t1, loso, bs, truth, fit_parameter_table(data)
+
+
+def _mu_notes(fit: dict) -> dict:
+    """Per subject, a note when the fitted mu sits at an end of the search grid."""
+    grid = fit.get("mu_grid") or {}
+    notes = {}
+    for s, m in (fit.get("mu") or {}).items():
+        if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
+            notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
+                        "not a minimum inside the grid, the true value may lie beyond it")
+    return notes
+
+
 def make_report(results: str | os.PathLike, *, progress: bool = False, sample: int | None = 6,
                 animations: bool = True) -> ReportResult:
     """Write the figures, tables and the HTML report of a results folder.
@@ -199,88 +244,23 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
                             "png_b64": base64.b64encode(blobs["png"]).decode("ascii")})
             bar.advance(stem)
 
-        t1 = table1(data) if has_fit else None
-        if t1 is not None:
-            for ext in ("csv", "md", "tex"):  # the CSV keeps the numbers, the others read as text
-                write_table(t1 if ext == "csv" else with_formatted_p(t1), out / f"table1.{ext}")
-                files.append(out / f"table1.{ext}")
-        loso = loso_table(data) if has_fit else None
-        if loso is not None:
-            for ext in ("csv", "md"):
-                write_table(loso if ext == "csv" else with_formatted_p(loso), out / f"loso.{ext}")
-                files.append(out / f"loso.{ext}")
-        loso_png = data.root / "fit" / "loso.png"
+        t1, loso, bs, truth, params = _write_tables(data, out, has_fit, files)
+        loso_png = ResultsStore(data.root).loso_figure_path
         loso_img = (base64.b64encode(loso_png.read_bytes()).decode("ascii")
                     if loso is not None and loso_png.is_file() else None)
-        bs = blindspot_table(data)
-        for ext in ("csv", "md"):
-            write_table(bs, out / f"blindspots.{ext}")
-            files.append(out / f"blindspots.{ext}")
-        truth = truth_tables(data)
-        for key, df in truth.items():
-            for ext in ("csv", "md"):
-                write_table(df, out / f"truth_{key}.{ext}")
-                files.append(out / f"truth_{key}.{ext}")
-        params = fit_parameter_table(data)
         bar.advance("tables")
 
-        titles = {"mu": "Friction coefficient per subject",
-                  "blindspots": "Blind-spot widths: video analysis against the simulator's 3-px contact",
-                  "tracking": "Finger position x(t): RMS error against the true finger centre "
-                              "(one constant offset per trial removed)"}
-        env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
-                                 undefined=jinja2.StrictUndefined)
-        template = env.from_string(
-            resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
         pages = write_trial_pages(data, flags, page_ids, out / "trials", animations=animations,
                                   progress=lambda tid: bar.advance(tid))
         files += list(pages.values())
         links = {tid: page_href(tid) for tid in pages}
-        groups = group_flags(flags)
-        run = data.run
         notices = []
         if not has_fit:
             notices.append(f"The model is not fitted: Fig. 6, Fig. S3 and Table 1 are left out; run "
                            f"`fingerfriction fit {data.root}` and then this report again.")
-        fit = data.fit or {}
-        grid = fit.get("mu_grid") or {}
-        mu_notes = {}
-        for s, m in (fit.get("mu") or {}).items():
-            if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
-                mu_notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
-                               "not a minimum inside the grid, the true value may lie beyond it")
-        n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
-        page = template.render(
-            flag_groups=groups, n_flagged=len(flagged), links=links, all_flags=flags,
-            trials_table=Markup(_html_table(_trial_table(data, flags), links=links)),
-            n_pages=len(pages),
-            notices=notices, mu_notes=mu_notes, n_neg_p0=n_neg_p0,
-            subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
-            table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
-                         if t1 is not None else None),
-            loso_img=loso_img, captions=CAPTIONS,
-            study_name=Path(run.get("study", "study")).name, study=run.get("study", ""),
-            results=str(data.root),
-            generated=datetime.now(UTC).isoformat(timespec="seconds"),
-            version=(run.get("versions") or {}).get("fingerfriction", "?"),
-            n_ok=len(data.trials), n_trials=len(data.trials) + len(data.failed),
-            subjects=data.subjects, surfaces=data.surface_names,
-            speeds=", ".join(f"{v:g}" for v in data.speeds),
-            mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
-            table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
-            loso=Markup(_html_table(with_formatted_p(loso))) if loso is not None else None,
-            loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
-            blindspots=Markup(_html_table(bs)),
-            truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
-            params=Markup(_html_table(params)) if params is not None else None,
-            figures=figures,
-            record=[(title, key, Markup(_html_table(df, links=links)))
-                    for key, title in (("study", "Study"), ("parameters", "Analysis parameters"),
-                                       ("fit", "Fit"), ("runs", "History of analyze runs"),
-                                       ("versions", "Versions and platform"),
-                                       ("inputs", "Input files (SHA-256)"))
-                    for df in [run_record(data).get(key)] if df is not None],
-        )
+        page = _render_index(
+            data, has_fit=has_fit, figures=figures, tables=(t1, loso, bs, truth, params), loso_img=loso_img,
+            flags=flags, flagged=flagged, links=links, n_pages=len(pages), notices=notices)
         atomic_write_text(out / "index.html", page)
         files.append(out / "index.html")
         bar.advance("index.html")
@@ -289,3 +269,56 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
                         n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
                         notices=tuple(notices), flags=tuple(flags), pages=pages)
+
+
+#: Titles of the ground-truth tables (simulated studies).
+_TRUTH_TITLES = {"mu": "Friction coefficient per subject",
+                 "blindspots": "Blind-spot widths: video analysis against the simulator's 3-px contact",
+                 "tracking": "Finger position x(t): RMS error against the true finger centre "
+                             "(one constant offset per trial removed)"}
+
+#: Sections of the run record: (key of :func:`.tables.run_record`, title).
+_RECORD = (("study", "Study"), ("parameters", "Analysis parameters"), ("fit", "Fit"),
+           ("runs", "History of analyze runs"), ("versions", "Versions and platform"),
+           ("inputs", "Input files (SHA-256)"))
+
+
+def _render_index(data: ReportData, *, has_fit, figures, tables, loso_img, flags, flagged, links, n_pages,
+                  notices) -> str:
+    """The text of ``index.html``."""
+    t1, loso, bs, truth, params = tables
+    env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
+                             undefined=jinja2.StrictUndefined)
+    template = env.from_string(
+        resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
+    run = data.run
+    record = run_record(data)
+    n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
+    return template.render(
+        flag_groups=group_flags(flags), n_flagged=len(flagged), links=links, all_flags=flags,
+        trials_table=Markup(_html_table(_trial_table(data, flags), links=links)),
+        n_pages=n_pages,
+        notices=notices, mu_notes=_mu_notes(data.fit or {}), n_neg_p0=n_neg_p0,
+        subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
+        table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
+                     if t1 is not None else None),
+        loso_img=loso_img, captions=CAPTIONS,
+        study_name=Path(run.get("study", "study")).name, study=run.get("study", ""),
+        results=str(data.root),
+        generated=datetime.now(UTC).isoformat(timespec="seconds"),
+        version=(run.get("versions") or {}).get("fingerfriction", "?"),
+        n_ok=len(data.trials), n_trials=len(data.trials) + len(data.failed),
+        subjects=data.subjects, surfaces=data.surface_names,
+        speeds=", ".join(f"{v:g}" for v in data.speeds),
+        mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
+        table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
+        loso=Markup(_html_table(with_formatted_p(loso))) if loso is not None else None,
+        loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
+        blindspots=Markup(_html_table(bs)),
+        truth=[(_TRUTH_TITLES.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
+        params=Markup(_html_table(params)) if params is not None else None,
+        figures=figures,
+        record=[(title, key, Markup(_html_table(record[key], links=links))) for key, title in _RECORD
+                if key in record],
+        force_history=_force_history(data),
+    )

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..results import ResultsStore, regions_from_table
-from ..surfaces import Surface, surface_from_spec
+from ..study.store import ResultsStore, regions_from_table
+from ..surfaces import Surface
 
 __all__ = ["TrialData", "ReportData", "load_report_data"]
 
@@ -36,7 +36,7 @@ class TrialData:
         Per-position table (``x_mm, F_T_N, t_s``).
     model : pandas.DataFrame or None
         Fit output per position (``x_mm, F_T_N, F_hat_N, F_model_N, F_int_N, F_def_N``)
-        when :func:`fingerfriction.pipeline.fit` has run.
+        when :func:`fingerfriction.study.fitting.fit` has run.
     status : dict
         The trial's ``status.json`` (inputs, stage diagnostics under ``info``).
     """
@@ -80,6 +80,13 @@ class TrialData:
         v_ref = float(np.median(np.abs(v[ok])))
         with np.errstate(invalid="ignore"):
             return inside & (np.abs(v) >= min_speed_fraction * v_ref)
+
+    @property
+    def force_history(self) -> list | None:
+        """Every step of the trial's force processing with its parameters and fitted values
+        (``status.json``, ``info.forces.history``); None for a trial analysed before the
+        history was stored."""
+        return ((self.status.get("info") or {}).get("forces") or {}).get("history")
 
 
 @dataclass(eq=False)
@@ -157,8 +164,7 @@ def load_report_data(results) -> ReportData:
     """
     store = ResultsStore(results)
     run = store.read_run()
-    surfaces = {k: surface_from_spec(v) for k, v in (run.get("surfaces") or {}).items()}
-    model_dir = store.fit_dir / "model"
+    surfaces = store.surfaces()
     trials, failed = [], []
     for m in run.get("trials", []):
         tid = m["id"]
@@ -167,10 +173,7 @@ def load_report_data(results) -> ReportData:
             failed.append((tid, (st or {}).get("reason") or "not analysed (run interrupted?)"))
             continue
         frames = store.read_frames(tid)
-        model = None
-        mp = model_dir / f"{tid}.parquet"
-        if mp.is_file():
-            model = pd.read_parquet(mp)
+        model = store.read_model(tid)
         trials.append(TrialData(
             id=tid, subject=str(m.get("subject")), surface=str(m.get("surface")),
             speed_mm_s=float(m.get("speed_mm_s") or math.nan), repetition=m.get("repetition"),
@@ -178,13 +181,11 @@ def load_report_data(results) -> ReportData:
             status=st))
     if not trials:
         raise ValueError(f"{str(store.root)!r}: no trial finished OK; nothing to report")
-    fit = fit_trials = None
-    if (store.fit_dir / "fit.json").is_file():
-        fit = json.loads((store.fit_dir / "fit.json").read_text(encoding="utf-8"))
-        fit_trials = pd.read_csv(store.fit_dir / "trials.csv", dtype={"subject": str})
-    loso = None
-    if fit is not None and (store.fit_dir / "loso.csv").is_file():
-        loso = pd.read_csv(store.fit_dir / "loso.csv", dtype={"subject": str})
+    fit = store.read_fit_record()
+    fit_trials = loso = None
+    if fit is not None:
+        fit_trials = store.read_fit_table()
+        loso = store.read_loso()
     truth = truth_dir = None
     notes = []
     if run.get("truth"):

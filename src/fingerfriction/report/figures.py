@@ -31,9 +31,10 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from .._atomic import atomic_write_bytes
 from ..blindspots import blind_spots, occupancy
 from ..regions import region_lengths
-from ..results import atomic_write_bytes
+from ..stats import shape_label
 from .data import ReportData, TrialData
 from .style import (
     BLIND_SPOT,
@@ -75,8 +76,6 @@ def save_figure(fig: Figure, stem: str | Path, *, dpi: int = 150) -> dict[str, b
 
 def _label(data: ReportData, surface: str) -> str:
     """'Bump 2 mm' (the paper's names) or the surface's own name."""
-    from ..stats import shape_label
-
     s = data.surfaces.get(surface)
     shape, width = getattr(s, "shape", None), getattr(s, "width", None)
     if shape and width:

@@ -233,7 +233,7 @@ def loso_table(data: ReportData) -> pd.DataFrame | None:
     """Out-of-sample validation next to Table 1: rho per held-out surface.
 
     From ``fit/loso.csv`` (:func:`fingerfriction.predict.validate_results`, run by
-    :func:`fingerfriction.pipeline.fit`): per subject (and both subjects) and held-out
+    :func:`fingerfriction.study.fitting.fit`): per subject (and both subjects) and held-out
     surface, the in-sample rho (Table 1), the out-of-sample rho (fitted on the other
     surfaces, predicted from the surface's geometry alone) with its p-value, and rho with
     the held-out parameters on the video regions. None when the fit did not validate.

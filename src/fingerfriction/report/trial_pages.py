@@ -16,16 +16,20 @@ from __future__ import annotations
 
 import base64
 import io
-import json
 import logging
-import math
 from importlib import resources
 from pathlib import Path
 
+import jinja2
 import numpy as np
 from matplotlib.figure import Figure
 
 from .._atomic import atomic_write_text
+from ..forces.signals import describe_history
+from ..study.manifest import load_manifest
+from ..study.params import video_options
+from ..study.trial import TrialInput
+from ..video.overlay import write_results_overlay
 from .data import ReportData, TrialData
 from .figures import _label, _measured, region_events
 from .flags import position_gaps
@@ -161,44 +165,30 @@ def trial_plots(t: TrialData, data: ReportData) -> dict[str, str]:
     return out
 
 
-def _manifest(data: ReportData) -> dict:
+def _study(data: ReportData):
+    """The analysed study (its manifest), or the reason it cannot be read from here."""
     study = data.run.get("study")
     if not study:
-        return {}
+        return None, "the run record names no study"
     try:
-        m = json.loads((Path(study) / "manifest.json").read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError):
-        return {}
-    return {t.get("id"): t for t in m.get("trials", []) if isinstance(t, dict)}
+        return load_manifest(study), None
+    except (OSError, ValueError) as exc:
+        return None, f"the study's manifest is not reachable from here ({exc})"
 
 
-def _animation(t: TrialData, data: ReportData, manifest: dict, tmp_dir: Path, max_frames: int):
+def _animation(t: TrialData, data: ReportData, study, tmp_dir: Path, max_frames: int):
     """(base64 GIF, None) or (None, why there is none)."""
-    from ..surfaces import surface_from_spec
-    from ..video.analysis import AnalysisOptions
-    from ..video.overlay import write_results_overlay
-
-    m = manifest.get(t.id)
-    if m is None:
-        return None, "the study's manifest is not reachable from here (the run record names " \
-                     f"{data.run.get('study')!r})"
-    video = Path(data.run["study"]) / m["video"]["path"]
-    if not video.is_file():
-        return None, f"video not found: {video}"
-    spec = (data.run.get("surfaces") or {}).get(t.surface)
-    surface = surface_from_spec(spec) if spec else None
-    H = float((m.get("calibration") or {}).get("surface_height_mm", math.nan))
-    if not math.isfinite(H) and surface is not None:
-        H = surface.max_height
-    vopt = dict((data.run.get("parameters") or {}).get("video") or {})
-    vopt["calibration_frame"] = int(m["video"].get("calibration_frame", 0) or 0)
     try:
-        opts = AnalysisOptions(**vopt)
-        out = tmp_dir / f"{t.id}.gif"
-        write_results_overlay(video, t.frames, H, out, surface=surface, options=opts, max_frames=max_frames)
+        trial = TrialInput.from_study(study, t.id)
+        video = trial.path(trial.record.video.path, "video.path")
+        opts = video_options((data.run.get("parameters") or {}).get("video"),
+                             trial.record.video.calibration_frame)
+        out = tmp_dir / f".{t.id}.overlay.gif"
+        write_results_overlay(video, t.frames, trial.height_mm, out, surface=trial.surface, options=opts,
+                              max_frames=max_frames)
         blob = out.read_bytes()
         out.unlink()
-    except (ValueError, TypeError, OSError) as exc:
+    except (KeyError, ValueError, TypeError, OSError) as exc:
         return None, f"overlay failed: {exc}"
     return base64.b64encode(blob).decode("ascii"), None
 
@@ -209,14 +199,12 @@ def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str],
 
     Returns ``{trial id: page path}``. ``progress`` (optional) is called once per page.
     """
-    import jinja2
-
     out_dir.mkdir(parents=True, exist_ok=True)
     env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
                              undefined=jinja2.StrictUndefined)
     template = env.from_string(
         resources.files("fingerfriction.report").joinpath("templates/trial.html.j2").read_text("utf-8"))
-    manifest = _manifest(data) if animations else {}
+    study, no_study = _study(data) if animations else (None, "animations switched off for this report")
     by_id = {t.id: t for t in data.trials}
     failed = dict(data.failed)
     labels = {m["id"]: m for m in data.run.get("trials", [])}
@@ -241,11 +229,12 @@ def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str],
             info = t.status.get("info") or {}
             ctx["info"] = {"video": info.get("video") or {}, "forces": info.get("forces") or {},
                            "n_frames": info.get("n_frames"), "n_flagged_frames": info.get("n_flagged_frames")}
-            ctx["history"] = (info.get("forces") or {}).get("history") or t.status.get("history")
-            if animations:
-                ctx["animation"], ctx["animation_note"] = _animation(t, data, manifest, out_dir, max_frames)
+            hist = t.force_history
+            ctx["history"] = describe_history(hist) if hist is not None else None
+            if study is not None:
+                ctx["animation"], ctx["animation_note"] = _animation(t, data, study, out_dir, max_frames)
             else:
-                ctx["animation_note"] = "animations switched off for this report"
+                ctx["animation_note"] = no_study
         path = out_dir / f"{tid}.html"
         atomic_write_text(path, template.render(**ctx))
         written[tid] = path

@@ -43,7 +43,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from .. import mechanics
+from ..mechanics import ContactSolver, sweep
 from ..surfaces import Surface
+from ._io import write_npz
 
 __all__ = [
     "SimFinger",
@@ -245,8 +248,6 @@ class MechanicsProvider:
         self.failures = 0
 
     def _finger(self, subject: str):
-        from .. import mechanics
-
         if self.fingers is not None:
             try:
                 return self.fingers[str(subject)]
@@ -265,8 +266,6 @@ class MechanicsProvider:
                 "side_radius_mm": self.side_radius, **self._finger(subject).to_dict()}
 
     def _bem_grid(self, subject: str):
-        from ..mechanics import ContactSolver
-
         finger = self._finger(subject)
         hw = finger.default_half_width(clearance=self.clearance)
         u = ContactSolver(finger, n=self.n, half_width=hw).u.copy()
@@ -287,8 +286,6 @@ class MechanicsProvider:
         return np.concatenate([u[0] - ext[::-1], u, u[-1] + ext])
 
     def solve(self, surface: Surface, subject: str, x_centres: np.ndarray, load: float):
-        from ..mechanics import sweep
-
         finger, hw, u = self._bem_grid(subject)
         res = sweep(surface, finger, np.asarray(x_centres, float), load=float(load),
                     n=self.n, half_width=hw, keep_profiles=True)
@@ -417,8 +414,6 @@ class ContactTable:
 
     def save(self, path) -> None:
         """Write the table as an uncompressed ``.npz`` (readable with ``mmap``-free np.load)."""
-        from ._io import write_npz
-
         write_npz(path, {
             "xi": self.xi, "positions": self.positions, "loads": self.loads, "y_f": self.y_f,
             "p": self.p, "integrals": self.integrals, "provider": np.array(self.provider),

@@ -15,14 +15,16 @@ from __future__ import annotations
 import json
 import logging
 import math
+import multiprocessing as mp
 import os
 import shutil
 import zlib
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from .. import __version__
@@ -516,8 +518,6 @@ def _get_table(paths: tuple[str, ...]) -> ContactTable:
 
 def _init_worker() -> None:
     """One OpenCV thread per worker process: the pool already uses every core."""
-    import cv2
-
     cv2.setNumThreads(1)
 
 
@@ -603,8 +603,6 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
     if todo:
         cache.mkdir(exist_ok=True)
         if workers > 1:
-            import multiprocessing as mp
-
             ctx = mp.get_context("forkserver") if "forkserver" in mp.get_all_start_methods() else None
             ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
         else:
@@ -672,8 +670,6 @@ class _Serial:
         pass
 
     def submit(self, fn, *args):
-        from concurrent.futures import Future
-
         f: Future = Future()
         try:
             f.set_result(fn(*args))

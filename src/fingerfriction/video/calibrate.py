@@ -35,7 +35,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..surfaces import RaisedCosine, Surface
-from .binarize import Crop, binarize
+from .binarize import Crop, binarize, central_crop, otsu_level
 
 __all__ = ["Calibration", "calibrate", "surface_edge_rows"]
 
@@ -212,7 +212,6 @@ def calibrate(frame: np.ndarray, surface_height_mm: float, *, crop: Crop | None 
         If ``H`` is not a positive length, the crop does not fit, the frame is constant,
         or no surface feature can be found in the crop.
     """
-    from .binarize import central_crop, otsu_level
 
     H = float(surface_height_mm)
     if not (math.isfinite(H) and H > 0):

@@ -22,11 +22,12 @@ import cv2
 import numpy as np
 
 from .._atomic import AtomicFile
+from ..regions import as_regions
 from ..surfaces import Surface
 from .analysis import FLAG_REASONS, AnalysisOptions, FrameAnalyzer, FrameFlag
 from .calibrate import calibrate
 from .contours import trace_finger
-from .readers import open_video
+from .readers import AVReader, open_video
 
 __all__ = ["write_overlay", "write_results_overlay", "OverlayInfo"]
 
@@ -140,7 +141,7 @@ def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
     ValueError
         For an unknown output extension, bad frame range, or an unusable video.
     """
-    import av
+    import av  # heavy (FFmpeg bindings), only to encode the overlay
 
     out = os.fspath(out)
     ext = os.path.splitext(out)[1].lower()
@@ -207,15 +208,13 @@ def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tupl
     1.25 s for all 884 frames, measured). Random-access formats (TIFF, cine) read the
     chosen frames directly.
     """
-    from .readers import AVReader
-
     candidates = np.unique(np.asarray(candidates, dtype=np.int64))
     if candidates.size == 0:
         return []
     idx = candidates[np.unique(np.linspace(0, candidates.size - 1, min(max_frames, candidates.size)).round()
                                .astype(int))]
     if isinstance(reader, AVReader):
-        import av
+        import av  # heavy (FFmpeg bindings): only for compressed videos
 
         with av.open(reader.path) as c:
             st = c.streams.video[0]
@@ -246,6 +245,21 @@ def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tupl
             out += [(i0 + k, block[k].copy()) for k in range(block.shape[0]) if i0 + k in want]
         return out
     return [(int(i), reader.read_frame(int(i))) for i in idx]
+
+
+def _stored(frames):
+    """Frame indices, x(t) (mm), regions ``(n, k, 2)`` (mm), flag texts and position sources
+    (None when not recorded) from a per-frame table."""
+    idx = frames["frame"].to_numpy(np.int64)
+    x = frames["x_mm"].to_numpy(float)
+    k, pairs = 1, []
+    while f"a{k}" in frames.columns:
+        pairs.append(np.column_stack([frames[f"a{k}"].to_numpy(float), frames[f"b{k}"].to_numpy(float)]))
+        k += 1
+    regions = as_regions(np.stack(pairs, axis=1)) if pairs else np.full((len(frames), 1, 2), np.nan)
+    flags = frames["flag"].astype(str).to_numpy() if "flag" in frames.columns else np.full(len(frames), "")
+    source = frames["x_source"].astype(str).to_numpy() if "x_source" in frames.columns else None
+    return idx, x, regions, flags, source
 
 
 def write_results_overlay(video, frames, surface_height_mm: float, out: str | os.PathLike, *,
@@ -289,9 +303,7 @@ def write_results_overlay(video, frames, surface_height_mm: float, out: str | os
     ValueError
         Unknown extension, bad options, an unusable video, or no frame to draw.
     """
-    import av
-
-    from ..regions import as_regions
+    import av  # heavy (FFmpeg bindings): only when an overlay is written
 
     out = os.fspath(out)
     ext = os.path.splitext(out)[1].lower()
@@ -304,19 +316,9 @@ def write_results_overlay(video, frames, surface_height_mm: float, out: str | os
     if not (np.isfinite(scale) and 0.1 <= scale <= 4):
         raise ValueError(f"scale must be in [0.1, 4], got {scale!r}")
     opt = options or AnalysisOptions()
-    idx = frames["frame"].to_numpy(np.int64)
-    x_all = frames["x_mm"].to_numpy(float)
-    k = 1
-    pairs = []
-    while f"a{k}" in frames.columns:
-        pairs.append(np.column_stack([frames[f"a{k}"].to_numpy(float), frames[f"b{k}"].to_numpy(float)]))
-        k += 1
-    regions = as_regions(np.stack(pairs, axis=1)) if pairs else np.full((len(frames), 1, 2), np.nan)
-    flags = frames["flag"].astype(str).to_numpy() if "flag" in frames.columns else np.full(len(frames), "")
-    source = frames["x_source"].astype(str).to_numpy() if "x_source" in frames.columns else None
+    idx, x_all, regions, flags, source = _stored(frames)
     row_of = {int(f): r for r, f in enumerate(idx)}
-    n_reg = frames["n_regions"].to_numpy() if "n_regions" in frames.columns else np.zeros(len(frames))
-    seen = idx[np.isfinite(x_all) | (n_reg > 0)]
+    seen = idx[np.isfinite(x_all) | ~np.isnan(regions[..., 0]).all(axis=1)]
     reader = open_video(video)
     target = None
     n_written = n_flagged = 0

@@ -161,7 +161,7 @@ def _to_gray(img: np.ndarray, where: str) -> np.ndarray:
     if img.ndim == 2:
         return img
     if img.ndim == 3 and img.shape[-1] in (3, 4):
-        import cv2
+        import cv2  # heavy (OpenCV), only for this reader
 
         code = cv2.COLOR_RGB2GRAY if img.shape[-1] == 3 else cv2.COLOR_RGBA2GRAY
         return cv2.cvtColor(img, code)
@@ -188,7 +188,7 @@ class TiffStackReader(VideoReader):
     format = "tiff"
 
     def __init__(self, path: str) -> None:
-        import tifffile
+        import tifffile  # only for TIFF files
 
         super().__init__(path)
         names = sorted((n for n in os.listdir(path) if n.lower().endswith((".tif", ".tiff"))),
@@ -205,7 +205,7 @@ class TiffStackReader(VideoReader):
         self.n_frames = len(self.files)
 
     def _read_range(self, start, stop, out):
-        import tifffile
+        import tifffile  # only for TIFF files
 
         for k, i in enumerate(range(start, stop)):
             f = self.files[i]
@@ -227,7 +227,7 @@ class MultiPageTiffReader(VideoReader):
     format = "tiff"
 
     def __init__(self, path: str) -> None:
-        import tifffile
+        import tifffile  # only for TIFF files
 
         super().__init__(path)
         try:
@@ -287,7 +287,7 @@ class AVReader(VideoReader):
     """
 
     def __init__(self, path: str, *, threads: int = 1) -> None:
-        import av
+        import av  # heavy (FFmpeg bindings), only for video containers
 
         super().__init__(path)
         self.format = os.path.splitext(path)[1].lower().lstrip(".")
@@ -325,7 +325,7 @@ class AVReader(VideoReader):
         self._pos = 0
 
     def _open(self) -> None:
-        import av
+        import av  # heavy (FFmpeg bindings), only for video containers
 
         self.close()
         self._container = av.open(self.path)
@@ -348,7 +348,7 @@ class AVReader(VideoReader):
         return frame.to_ndarray(format="gray")
 
     def _read_range(self, start, stop, out):
-        import av
+        import av  # heavy (FFmpeg bindings), only for video containers
 
         if self._gen is None or start < self._pos:
             self._open()

@@ -1,4 +1,5 @@
-"""The study manifest: a folder of trials described by ``manifest.json`` (schema v1).
+"""The study manifest: a folder of trials described by ``manifest.json`` (schema v1); the
+package's only manifest parser and the only resolver of manifest paths.
 
 A *study* is a folder holding, per trial, one video file and one force file, listed in a
 human-readable ``manifest.json`` (``docs/study-format.md`` is the reference). This module
@@ -11,8 +12,8 @@ reads, validates and writes that manifest:
   must be a positive number, got -1``);
 * :func:`write_manifest` writes it atomically (temporary file + ``os.replace``), with a
   deterministic layout (same study, same bytes);
-* :func:`resolve_path` turns a manifest path into an absolute one, refusing any path that
-  escapes the study folder.
+* :func:`resolve_path` (and :meth:`Study.path`) turns a manifest path into an absolute
+  one, refusing any path that escapes the study folder.
 """
 
 from __future__ import annotations
@@ -25,8 +26,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ._atomic import atomic_write_bytes, atomic_write_text
-from .surfaces import Surface, surface_from_spec
+import numpy as np
+
+from .._atomic import atomic_write_bytes
+from ..forces.readers import FORCE_FORMATS
+from ..surfaces import Surface, surface_from_spec
 
 __all__ = [
     "FORMAT_NAME",
@@ -42,14 +46,12 @@ __all__ = [
     "resolve_path",
     "load_manifest",
     "write_manifest",
-    "atomic_write_bytes",
-    "atomic_write_text",
+    "manifest_bytes",
 ]
 
 FORMAT_NAME = "fingerfriction-study"
 SCHEMA_VERSION = 1
 VIDEO_FORMATS = ("ffv1-mkv", "tiff", "avi", "mp4", "mkv", "cine")
-FORCE_FORMATS = ("npz", "csv", "mat", "tdms", "hdf5")
 MANIFEST_NAME = "manifest.json"
 
 _ID_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
@@ -90,7 +92,7 @@ def _check_relpath(path: Any, where: str) -> str:
     if p.is_absolute() or path.startswith("/"):
         raise _fail(where, f"must be relative to the study folder, got absolute path {path!r}")
     if any(part == ".." for part in p.parts):
-        raise _fail(where, f"path {path!r} escapes the study folder ('..' is not allowed)")
+        raise ManifestError(f"{where} {path!r} escapes the study folder ('..' is not allowed)")
     return path
 
 
@@ -207,8 +209,6 @@ class VideoInfo:
 
     def frame_times(self):
         """Times in s of every frame on the common clock, ``(n_frames,)`` ndarray."""
-        import numpy as np
-
         return self.t0_s + np.arange(self.n_frames) / self.fps
 
     def to_dict(self) -> dict:
@@ -231,6 +231,14 @@ class VideoInfo:
             t0_s=_num(d, "t0_s", where, default=0.0),
             calibration_frame=_num(d, "calibration_frame", where, integer=True, nonneg=True, default=0),
         )
+
+
+def _units(d: dict, where: str) -> str:
+    units = d.get("units", "N")
+    if units != "N":
+        raise ManifestError(f"{where}.units is {units!r}; only 'N' (newtons) is supported: scale the "
+                            "channels to newtons")
+    return units
 
 
 @dataclass(frozen=True)
@@ -283,8 +291,6 @@ class ForceInfo:
 
     def sample_times(self):
         """Times in s of every sample on the common clock, ``(n_samples,)`` ndarray."""
-        import numpy as np
-
         return self.t0_s + np.arange(self.n_samples) / self.fs_hz
 
     def to_dict(self) -> dict:
@@ -308,7 +314,7 @@ class ForceInfo:
             fs_hz=_num(d, "fs_hz", where, positive=True),
             n_samples=_num(d, "n_samples", where, positive=True, integer=True),
             channels=ch,
-            units=_str(d, "units", where, allowed=("N",), default="N"),
+            units=_units(d, where),
             t0_s=_num(d, "t0_s", where, default=0.0),
         )
 
@@ -331,9 +337,10 @@ class TrialRecord:
         Repetition number (>= 1).
     video : VideoInfo
     force : ForceInfo
-    calibration : dict
+    calibration : dict or None
         ``{'surface_height_mm': H}``: the known feature height H in mm (> 0) used to
-        calibrate the image scale.
+        calibrate the image scale; None (the field absent from the manifest): the
+        surface's own feature height (:meth:`Study.surface_height_mm`).
     truth : str or None
         Relative path of the ground-truth file (simulated studies only).
     """
@@ -345,7 +352,7 @@ class TrialRecord:
     repetition: int
     video: VideoInfo
     force: ForceInfo
-    calibration: dict
+    calibration: dict | None = None
     truth: str | None = None
 
     def __post_init__(self) -> None:
@@ -361,9 +368,10 @@ class TrialRecord:
             raise _fail("video", f"must be a VideoInfo, got {type(self.video).__name__}")
         if not isinstance(self.force, ForceInfo):
             raise _fail("force", f"must be a ForceInfo, got {type(self.force).__name__}")
-        cal = _obj(self.calibration, "calibration")
-        H = _num(cal, "surface_height_mm", "calibration", positive=True)
-        object.__setattr__(self, "calibration", {**cal, "surface_height_mm": H})
+        if self.calibration is not None:
+            cal = _obj(self.calibration, "calibration")
+            H = _num(cal, "surface_height_mm", "calibration", positive=True)
+            object.__setattr__(self, "calibration", {**cal, "surface_height_mm": H})
         if self.truth is not None:
             _check_relpath(self.truth, "truth")
 
@@ -372,8 +380,9 @@ class TrialRecord:
             "id": self.id, "subject": self.subject, "surface": self.surface,
             "speed_mm_s": self.speed_mm_s, "repetition": self.repetition,
             "video": self.video.to_dict(), "force": self.force.to_dict(),
-            "calibration": dict(self.calibration),
         }
+        if self.calibration is not None:
+            d["calibration"] = dict(self.calibration)
         if self.truth is not None:
             d["truth"] = self.truth
         return d
@@ -391,8 +400,10 @@ class TrialRecord:
         truth = d.get("truth")
         if truth is not None:
             _check_relpath(truth, f"{where}.truth")
-        cal = _obj(d.get("calibration", None), f"{where}.calibration")
-        _num(cal, "surface_height_mm", f"{where}.calibration", positive=True)
+        cal = d.get("calibration")
+        if cal is not None:
+            cal = _obj(cal, f"{where}.calibration")
+            _num(cal, "surface_height_mm", f"{where}.calibration", positive=True)
         try:
             return cls(
                 id=tid,

@@ -1,0 +1,393 @@
+"""The study pipeline's orchestration: every trial of a study through
+:func:`~fingerfriction.study.trial.process_trial`, in parallel on Dask, into a resumable
+results store, with a run record.
+
+:func:`analyze` runs the trials on a ``dask.distributed`` cluster (a
+:class:`~distributed.LocalCluster` of one single-threaded process per core by default, or
+an existing scheduler given by address), and the client writes each result into the
+:class:`~fingerfriction.study.store.ResultsStore` as it arrives. Finished trials are
+skipped on the next run unless ``force=True``; a trial that fails is recorded with a
+one-line reason and the others go on.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import platform
+import sys
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+import dask
+from distributed import Client, LocalCluster, as_completed
+
+from .. import __version__
+from .._progress import ProgressBar
+from .manifest import Study, TrialRecord, load_manifest, resolve_path
+from .params import AnalysisParams
+from .store import ResultsStore, now, params_digest, sha256_file
+from .trial import TrialInput, one_line, process_trial
+
+__all__ = ["TrialOutcome", "AnalyzeResult", "analyze"]
+
+logger = logging.getLogger(__name__)
+
+_LABELS = ("subject", "surface", "speed_mm_s", "repetition")
+
+
+#: Packages whose versions go into the run record.
+_VERSIONED = (
+    "fingerfriction", "numpy", "scipy", "pandas", "pyarrow", "dask", "distributed",
+    "opencv-python-headless", "scikit-image", "av", "tifffile", "h5py", "nptdms",
+    "matplotlib", "jinja2",
+)
+
+
+
+@dataclass(frozen=True)
+class TrialOutcome:
+    """What happened to one trial in :func:`analyze` (passed to the callback).
+
+    ``status`` is ``'ok'``, ``'failed'`` or ``'skipped'``; ``reason`` is the one-line
+    reason of a failure (empty otherwise); ``elapsed_s`` the processing time in s.
+    """
+
+    trial_id: str
+    status: str
+    reason: str = ""
+    elapsed_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class AnalyzeResult:
+    """Summary of an :func:`analyze` run.
+
+    Attributes
+    ----------
+    results : Path
+        The results folder.
+    n_trials, n_computed, n_skipped, n_failed : int
+        Trials in the study; computed OK in this run; skipped (already finished);
+        failed in this run.
+    failures : tuple of (str, str)
+        ``(trial_id, reason)`` of each failure of this run.
+    elapsed_s : float
+        Wall time of the run in s.
+    compute_s : float
+        Wall time in s from the first trial submitted to the last result written (the run
+        without connecting to or starting the cluster).
+    scheduler : str
+        Scheduler address used (or ``'local'`` for a LocalCluster started here).
+    n_workers : int
+        Number of workers that ran the trials.
+    """
+
+    results: Path
+    n_trials: int
+    n_computed: int
+    n_skipped: int
+    n_failed: int
+    failures: tuple[tuple[str, str], ...]
+    elapsed_s: float
+    scheduler: str
+    n_workers: int
+    compute_s: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        """True if every trial of the study is finished OK."""
+        return self.n_failed == 0 and self.n_computed + self.n_skipped == self.n_trials
+
+
+
+def _run_trial(trial: TrialInput, params: dict) -> dict:
+    """Dask task: process one trial, never raise; return tables or a one-line reason."""
+    t0 = time.perf_counter()
+    c0 = time.process_time()  # CPU of this worker process (all its threads)
+    inputs: dict[str, dict] = {}
+    try:
+        for key in ("video", "force"):
+            rel = getattr(trial.record, key).path
+            p = trial.path(rel, f"{key}.path")
+            st = p.stat()
+            inputs[key] = {"path": rel, "sha256": sha256_file(p), "bytes": st.st_size,
+                           "mtime_ns": st.st_mtime_ns}
+        res = process_trial(trial, AnalysisParams(**params))
+        return {"ok": True, "frames": res.frames, "forces": res.forces, "info": res.info,
+                "inputs": inputs, "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
+    except Exception as exc:  # a failing trial is recorded, the others go on
+        logger.debug("trial %s failed:\n%s", trial.id, traceback.format_exc())
+        return {"ok": False, "reason": one_line(exc), "inputs": inputs,
+                "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
+
+
+def _versions() -> dict:
+    out = {"python": sys.version.split()[0]}
+    for name in _VERSIONED:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    if out.get("fingerfriction") is None:  # running from a source tree
+        out["fingerfriction"] = __version__
+    return out
+
+
+def _load_study(study: str | os.PathLike) -> Study:
+    study_dir = Path(study)
+    if not study_dir.is_dir():
+        raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")
+    return load_manifest(study_dir)
+
+
+def _select(study: Study, selected: Sequence[str] | str | None) -> list[TrialRecord]:
+    """The trials to analyse, in the study's order (all by default)."""
+    trials = list(study.trials)
+    if not trials:
+        raise ValueError(f"study {str(study.root)!r} lists no trials")
+    if selected is None:
+        return trials
+    if isinstance(selected, str):
+        selected = [selected]
+    unknown = sorted(set(selected) - {t.id for t in trials})
+    if unknown:
+        raise ValueError(f"trials {unknown} are not in the study {str(study.root)!r}")
+    return [t for t in trials if t.id in set(selected)]
+
+
+def _base_record(study: Study, pdict: dict, pdigest: str) -> dict:
+    """The run record's fields that do not change during the run."""
+    study_dir = Path(study.root)
+    manifest_path = study_dir / "manifest.json"
+    return {
+        "study": str(study_dir),
+        "manifest_sha256": sha256_file(manifest_path) if manifest_path.is_file() else None,
+        "parameters": pdict,
+        "params_sha256": pdigest,
+        # the x(t) estimator (also in parameters.video.position): 'hybrid' or the paper's 'cf-centroid'
+        "x_estimator": pdict["video"]["position"],
+        "versions": _versions(),
+        "platform": {"system": platform.system(), "machine": platform.machine(),
+                     "node": platform.node(), "cpu_count": os.cpu_count()},
+        "surfaces": dict(study.surfaces),
+        "trials": [{"id": t.id, **{k: getattr(t, k) for k in _LABELS}} for t in study.trials],
+        "truth": str(study_dir / "truth") if (study_dir / "truth" / "study.json").is_file() else None,
+    }
+
+
+def analyze(
+    study: str | os.PathLike,
+    out: str | os.PathLike,
+    *,
+    scheduler: str | None = None,
+    n_workers: int | None = None,
+    force: bool = False,
+    progress: bool = True,
+    params: AnalysisParams | None = None,
+    callback: Callable[[TrialOutcome], None] | None = None,
+    trials: Sequence[str] | None = None,
+) -> AnalyzeResult:
+    """Analyse every trial of a study in parallel on Dask; resumable.
+
+    Parameters
+    ----------
+    study : path
+        The study folder (``manifest.json``, ``docs/study-format.md``).
+    out : path
+        The results folder (created; layout in :mod:`fingerfriction.study.store`).
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:port``). By default a
+        :class:`~distributed.LocalCluster` is started with one single-threaded worker
+        process per core and closed at the end. Workers must see the study folder at
+        the same path; results travel back to this process, which writes them.
+    n_workers : int, optional
+        Workers of the LocalCluster (default: all cores, ``os.cpu_count()``); ignored
+        with ``scheduler``.
+    force : bool
+        Recompute every trial, even finished ones (default False: skip them).
+    progress : bool
+        Show a rich progress bar on stderr.
+    params : AnalysisParams, optional
+        Analysis options (the paper's by default). Trials finished with other
+        parameters are recomputed.
+    callback : callable, optional
+        Called in this process with a :class:`TrialOutcome` after each trial is recorded
+        (and for each skipped trial). An exception raised by it stops the run; what was
+        recorded so far stays.
+    trials : sequence of str, optional
+        Analyse only these trial ids (default: every trial of the study).
+
+    Returns
+    -------
+    AnalyzeResult
+
+    Raises
+    ------
+    ValueError
+        A missing or invalid study, a bad option.
+    """
+    params = params or AnalysisParams()
+    if n_workers is not None and (not isinstance(n_workers, int) or n_workers < 1):
+        raise ValueError(f"n_workers must be a positive integer, got {n_workers!r}")
+    if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+        raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
+    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
+    pdigest = params_digest(pdict)
+    st = _load_study(study)  # every manifest path resolves inside the study folder, or it is refused
+    study_dir = Path(st.root)
+    todo_trials = _select(st, trials)
+    store = ResultsStore(out)
+    for t in todo_trials:
+        store.trial_dir(t.id)  # validates the id before anything runs
+    raw = {"video": dict(params.video), "forces": dict(params.forces)}
+    t_start = time.perf_counter()
+    started = now()
+    todo, skipped = [], []
+    for t in todo_trials:
+        if not force and store.is_finished(t.id, pdigest) and _inputs_unchanged(study_dir, t, store):
+            skipped.append(t.id)
+        else:
+            todo.append(t)
+    store.root.mkdir(parents=True, exist_ok=True)
+    previous = _previous_runs(store)
+    base_record = _base_record(st, pdict, pdigest)
+    store.write_run({**base_record, "state": "running", "started": started, "runs": previous})
+
+    run = _Run(store, pdigest, callback)
+    bar = ProgressBar(progress, len(todo_trials), "analyze")
+    try:
+        for tid in skipped:
+            bar.advance(f"{tid} (done before)")
+            if callback is not None:
+                callback(TrialOutcome(tid, "skipped"))
+        if todo:
+            run.on_dask([TrialInput(study_dir, t, dict(st.surfaces[t.surface])) for t in todo], raw,
+                        scheduler, n_workers, bar)
+    finally:
+        bar.close()
+        elapsed = time.perf_counter() - t_start
+        timed = run.t_submit is not None and run.t_done is not None
+        compute = (run.t_done - run.t_submit) if timed else 0.0
+        this_run = {"started": started, "finished": now(), "elapsed_s": round(elapsed, 3),
+                    "compute_s": round(compute, 3),
+                    "scheduler": run.scheduler, "n_workers": run.n_workers, "force": bool(force),
+                    "computed": run.n_ok, "skipped": len(skipped), "failed": run.n_fail,
+                    "interrupted": run.n_ok + run.n_fail + len(skipped) < len(todo_trials)}
+        inputs = {}
+        trial_status = {}
+        for tid in (t.id for t in st.trials):
+            status = store.status(tid) or {}
+            inputs[tid] = status.get("inputs", {})
+            trial_status[tid] = {"status": status.get("status", "not run"),
+                                 "reason": status.get("reason", "")}
+        store.write_run({**base_record, "state": "interrupted" if this_run["interrupted"] else "complete",
+                         "started": started, "finished": this_run["finished"],
+                         "runs": [*previous, this_run], "inputs": inputs, "trial_status": trial_status})
+
+    return AnalyzeResult(results=store.root, n_trials=len(todo_trials), n_computed=run.n_ok,
+                         n_skipped=len(skipped), n_failed=run.n_fail, failures=tuple(run.failures),
+                         elapsed_s=elapsed, scheduler=run.scheduler, n_workers=run.n_workers,
+                         compute_s=compute)
+
+
+class _Run:
+    """The trials of one :func:`analyze` run on a Dask cluster, each result written as it
+    arrives (counts, failures and timings for the run record)."""
+
+    def __init__(self, store: ResultsStore, pdigest: str, callback):
+        self.store, self.pdigest, self.callback = store, pdigest, callback
+        self.n_ok = self.n_fail = 0
+        self.failures: list[tuple[str, str]] = []
+        self.scheduler, self.n_workers = "none", 0
+        self.t_submit = self.t_done = None
+
+    def on_dask(self, todo: list[TrialInput], raw: dict, scheduler: str | None, n_workers: int | None,
+                bar: ProgressBar) -> None:
+        """Start (or connect to) the cluster, run ``todo``, record each result."""
+        cluster = None
+        if scheduler is None:
+            nw = n_workers or os.cpu_count() or 1
+            # allowed-failures=0: a trial that kills its worker (a crash in a decoder)
+            # is reported at once instead of being retried on, and killing, the others.
+            with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, silence_logs=logging.ERROR)
+            client = Client(cluster)
+            self.scheduler = "local"
+        else:
+            client = Client(scheduler, timeout="20s")
+            self.scheduler = scheduler
+        try:
+            self.n_workers = len(client.scheduler_info().get("workers", {}))
+            futures = {}
+            self.t_submit = time.perf_counter()
+            for t in todo:
+                key = f"fingerfriction-trial-{t.id}-{self.pdigest[:12]}"
+                fut = client.submit(_run_trial, t, raw, key=key, pure=False, retries=0)
+                futures[fut] = t.record
+            for fut in as_completed(futures):
+                t = futures[fut]
+                try:
+                    res = fut.result()
+                except Exception as exc:  # worker died (KilledWorker), cancelled, ...
+                    res = {"ok": False, "reason": one_line(exc), "inputs": {}, "elapsed_s": 0.0}
+                fut.release()
+                self.record(t, res, bar)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+    def record(self, t: TrialRecord, res: dict, bar: ProgressBar) -> None:
+        """Write one trial's result (or failure) into the store; count it; report it."""
+        status = {"params_sha256": self.pdigest, "inputs": res.get("inputs", {}),
+                  "elapsed_s": round(float(res.get("elapsed_s", 0.0)), 4),
+                  "cpu_s": round(float(res.get("cpu_s", 0.0)), 4),
+                  "finished": now(),
+                  "labels": {k: getattr(t, k) for k in _LABELS}}
+        if res["ok"]:
+            self.store.write_trial(t.id, res["frames"], res["forces"], {**status, "info": res["info"]})
+            self.n_ok += 1
+            outcome = TrialOutcome(t.id, "ok", "", status["elapsed_s"])
+        else:
+            self.store.write_failure(t.id, res["reason"], status)
+            self.n_fail += 1
+            self.failures.append((t.id, res["reason"]))
+            logger.warning("trial %s failed: %s", t.id, res["reason"])
+            outcome = TrialOutcome(t.id, "failed", res["reason"], status["elapsed_s"])
+        self.t_done = time.perf_counter()
+        bar.advance(t.id if res["ok"] else f"{t.id} FAILED")
+        if self.callback is not None:
+            self.callback(outcome)
+
+
+def _inputs_unchanged(study_dir: Path, trial: TrialRecord, store: ResultsStore) -> bool:
+    """True if the trial's input files have the size and modification time recorded when it
+    was analysed (a cheap check: hashing every video again would cost as much as reading it)."""
+    rec = (store.status(trial.id) or {}).get("inputs", {})
+    for key in ("video", "force"):
+        r = rec.get(key) or {}
+        rel = getattr(trial, key).path
+        if r.get("path") != rel:
+            return False
+        try:
+            st = resolve_path(study_dir, rel, where=f"{key}.path").stat()
+        except (OSError, ValueError):
+            return False
+        if st.st_size != r.get("bytes") or st.st_mtime_ns != r.get("mtime_ns"):
+            logger.info("trial %s: %s changed since it was analysed; recomputing", trial.id, rel)
+            return False
+    return True
+
+
+def _previous_runs(store: ResultsStore) -> list:
+    try:
+        return list(store.read_run().get("runs", []))
+    except ValueError:
+        return []
+
