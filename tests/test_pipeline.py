@@ -262,6 +262,9 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
         assert fr["x_mm"].min() < -2 and fr["x_mm"].max() > 2  # across the feature
         assert (fr["n_regions"][tracked] > 0).all()
         assert fr["flag"][~tracked].str.len().min() > 0
+        # which estimator gave each frame's x(t): the hybrid's chord or an outline edge
+        assert set(fr["x_source"][tracked]) <= {"chord", "left-edge", "right-edge"}
+        assert (fr["x_source"][tracked] == "chord").any() and (fr["x_source"][~tracked] == "").all()
         assert np.diff(fo["x_mm"]).min() > 0 and np.isfinite(fo["F_T_N"]).all()
         # the paper's 26 mm window, covered by x(t) itself (hybrid): nothing extrapolated
         assert fo["x_mm"].iloc[0] == pytest.approx(-13.0) and fo["x_mm"].iloc[-1] == pytest.approx(13.0)
@@ -461,3 +464,12 @@ def test_analyze_command_interrupted_by_ctrl_c_then_resumed(tiny_study, tmp_path
     assert res.n_skipped == len(finished) and res.n_computed == 4 - len(finished) and res.n_failed == 0
     for tid in finished:
         assert _fingerprint(out, tid) == before[tid]
+
+
+def test_frames_table_keeps_the_position_source():
+    frames = frames_table(np.zeros(3), [np.nan, 1.0, 2.0], np.full((3, 1, 2), np.nan),
+                          x_source=["", "chord", "left-edge"])
+    assert list(frames["x_source"]) == ["", "chord", "left-edge"]
+    assert "x_source" not in frames_table(np.zeros(3), np.zeros(3), np.full((3, 1, 2), np.nan)).columns
+    with pytest.raises(ValueError, match="x_source has 2 entries but t_s has 3"):
+        frames_table(np.zeros(3), np.zeros(3), np.full((3, 1, 2), np.nan), x_source=["", ""])

@@ -83,7 +83,7 @@ def test_trial_page_has_three_plots_and_says_why_there_is_no_animation(results):
     rep = make_report(results, sample=1)
     assert len(rep.pages) == 1
     page = next(iter(rep.pages.values())).read_text()
-    plots = re.findall(r'<img class="plot" id="plot-(x_t|f_t|f_n)" src="data:image/png;base64,', page)
+    plots = re.findall(r'<img class="plot" id="plot-(x_t|f_t|f_n)" src="data:image/svg\+xml;base64,', page)
     assert sorted(plots) == ["f_n", "f_t", "x_t"]
     # the synthetic results have no study folder with videos
     assert 'id="animation-missing"' in page and "manifest is not reachable" in page

@@ -145,6 +145,7 @@ def frames_table(
     *,
     frame: np.ndarray | None = None,
     clipped: np.ndarray | None = None,
+    x_source=None,
 ) -> pd.DataFrame:
     """Build the per-frame table from arrays.
 
@@ -162,11 +163,15 @@ def frames_table(
         Frame indices; default ``0..n_frames-1``.
     clipped : (n_frames,) bool ndarray, optional
         A contact region ends at the edge of the field of view (default: none).
+    x_source : (n_frames,) sequence of str, optional
+        Which estimator gave each frame's x(t) (``chord``, ``left-edge``, ``right-edge``,
+        ``cf-centroid``; empty without a position); the column is left out when None.
 
     Returns
     -------
     pandas.DataFrame
-        Columns ``frame, t_s, x_mm, n_regions, a1, b1, ..., clipped, flag``.
+        Columns ``frame, t_s, x_mm, n_regions, a1, b1, ..., clipped, flag`` (and
+        ``x_source`` when given).
     """
     t_s = np.asarray(t_s, dtype=float).ravel()
     x_mm = np.asarray(x_mm, dtype=float).ravel()
@@ -200,6 +205,11 @@ def frames_table(
         raise ValueError(f"clipped has {clipped.size} entries but t_s has {n}")
     cols["clipped"] = clipped
     cols["flag"] = pd.array(flags, dtype="string")
+    if x_source is not None:
+        src = ["" if s is None else str(s) for s in x_source]
+        if len(src) != n:
+            raise ValueError(f"x_source has {len(src)} entries but t_s has {n}")
+        cols["x_source"] = pd.array(src, dtype="string")
     return pd.DataFrame(cols)
 
 
