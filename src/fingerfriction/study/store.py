@@ -47,7 +47,9 @@ Per-frame table (``frames.parquet``): ``frame`` (int, index in the video), ``t_s
 (int), ``a1, b1, a2, b2, ...`` (contact regions C_i in mm, NaN-padded; as many pairs
 as the trial's largest count, at least one), ``clipped`` (bool, a region ends at the
 edge of the camera's field of view, so its length is a lower bound), ``flag`` (str,
-empty when the frame is good, else the reason it was flagged).
+empty when the frame is good, else the reason it was flagged), ``x_source`` (str, the
+estimator that gave x: ``chord``, ``left-edge``, ``right-edge``, ``cf-centroid``; empty
+without a position; absent in results written before it was recorded).
 
 Per-position table (``forces.parquet``): ``x_mm`` (finger position on the 0.01 mm grid),
 ``F_T_N`` and ``F_N_N`` (tangential and normal force in N, drift-corrected over the flat
