@@ -473,3 +473,40 @@ def test_frames_table_keeps_the_position_source():
     assert "x_source" not in frames_table(np.zeros(3), np.zeros(3), np.full((3, 1, 2), np.nan)).columns
     with pytest.raises(ValueError, match="x_source has 2 entries but t_s has 3"):
         frames_table(np.zeros(3), np.zeros(3), np.full((3, 1, 2), np.nan), x_source=["", ""])
+
+
+@pytest.mark.slow
+def test_force_history_is_stored_and_shown_in_the_run_record(clean_results):
+    """Every step of the force processing, with its fitted values, is in each trial's
+    status.json and, as readable lines, in the report's run record."""
+    from fingerfriction.report import make_report
+
+    _, out = clean_results
+    store = ResultsStore(out)
+    tid = store.trial_ids()[0]
+    history = store.status(tid)["info"]["forces"]["history"]
+    steps = [h["step"] for h in history]
+    assert steps == ["decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_rest_drift",
+                     "remove_drift"]
+    assert history[3]["cutoff_hz"] == 5.0 and np.isfinite(history[4]["F_T_slope_N_per_s"])
+    page = make_report(out).html.read_text(encoding="utf-8")
+    assert "sensor high-pass inverted at 5 Hz (first order)" in page
+    assert "residual drift fitted through the compensation on the rests" in page
+    assert "{&#39;step&#39;" not in page and "{'step'" not in page  # readable lines, not dict text
+    assert "<td>forces</td><td>lowpass_hz</td><td>500</td>" in page  # parameters one per row
+
+
+@pytest.mark.slow
+def test_forces_from_video_is_what_analyze_stores(tiny_study, clean_results, tmp_path):
+    """`forces --from-video` runs the video stage with the options `analyze` uses: the same
+    F_T(x) as the results store holds."""
+    from fingerfriction.cli import main
+
+    _, out = clean_results
+    tid = _trial_ids(tiny_study)[0]
+    csv = tmp_path / "ft.csv"
+    assert main(["forces", str(tiny_study), tid, "--from-video", "--out", str(csv)]) == 0
+    mine = pd.read_csv(csv)
+    stored = ResultsStore(out).read_forces(tid)
+    np.testing.assert_allclose(mine["x_mm"], stored["x_mm"], atol=1e-9)
+    np.testing.assert_allclose(mine["F_T_N"], stored["F_T_N"], rtol=1e-7, atol=1e-12)

@@ -88,13 +88,7 @@ def check_fs(fs, name: str = "fs") -> float:
     ValueError
         If it is not a number, or NaN, infinite, zero or negative.
     """
-    try:
-        v = float(fs)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a sampling frequency in Hz, got {fs!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be a finite positive sampling frequency in Hz, got {fs!r}")
-    return v
+    return positive(name, fs, "Hz", what="sampling frequency")
 
 
 def check_freq(name: str, value, fs: float) -> float:

@@ -410,6 +410,7 @@ def fit_cmd(
 ) -> None:
     """mu per subject (grid search), p0 and p1 per trial, model forces with F_int and F_def."""
     from .study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
+    from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
     try:
         res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
@@ -419,9 +420,10 @@ def fit_cmd(
     _print_failures(res.failures, "fit", limit=5)
     for subj, mu in res.mu.items():
         console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
-    where = f"{results}/fit/loso.csv" if res.loso is not None else res.loso_message
+    store = ResultsStore(results)
+    where = store.loso_path if res.loso is not None else res.loso_message
     console.print(f"out-of-sample validation (leave one surface out): {where}", highlight=False)
-    console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {results}/fit", highlight=False)
+    console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {store.fit_dir}", highlight=False)
 
 
 def _print_tables(rep) -> None:

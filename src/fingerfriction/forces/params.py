@@ -29,11 +29,10 @@ class ForceProcessingParams:
         How the interference is removed. ``"notch"``: zero-phase notch filters (the
         paper's Methods). ``"fit"`` (default): sinusoids at ``notch_hz`` fitted on the
         unloaded baseline, where the true force is zero, are subtracted from the whole
-        record; unlike a notch this leaves the force's own content near 50 Hz intact (a
-        50 Hz notch changes by up to 19 % of the peak-to-peak the force of a step crossed at
-        80-120 mm/s, measured on simulated trials), but it assumes a stable mains
-        frequency over the record. Falls back to the notch (with a warning flag) when no
-        baseline is found. ``"both"``: the fit, then the notch.
+        record; unlike a notch this leaves the force's own content near 50 Hz intact
+        (``docs/forces.md``), but it assumes a stable mains frequency over the record.
+        Falls back to the notch (with a warning flag) when no baseline is found.
+        ``"both"``: the fit, then the notch.
     notch_q : float
         Quality factor of each notch (centre frequency / -3 dB bandwidth of one pass).
         Default 10.0 (5 Hz wide at 50 Hz). Higher Q removes less signal but rings longer
@@ -54,7 +53,7 @@ class ForceProcessingParams:
         flat segment (contact entirely before the feature). Default 8.0 (a 16 mm finger).
     flat_segment_mm : (float, float) or None
         Finger-centre positions ``(x_lo, x_hi)`` in mm of the flat segment; ``None``
-        (default) derives it from the window and the feature (see module notes).
+        (default) derives it from the window and the feature (``docs/forces.md``).
     min_flat_mm : float
         Shortest accepted flat segment in mm of finger travel. Default 1.0.
     max_nan_gap : int
@@ -110,7 +109,7 @@ class ForceProcessingParams:
         For ``post_baseline="auto"``: the rate of change in N/s of the forces (smoothed by
         an 8 ms Gaussian) below which the finger is taken as lifted and at rest. Default
         0.5 (the unloading of a 0.3 N load over 50 ms peaks near 10 N/s; 0.5 mN of white
-        noise at 10 kHz gives 0.003 N/s RMS, 0.01 N/s at most over 10 s, measured).
+        noise at 10 kHz gives about 0.003 N/s RMS, 0.01 N/s at most over 10 s).
     estimate_highpass : bool
         Opt-in, beyond the paper: estimate the sensor's cut-off from the two rests
         (:func:`estimate_highpass`, starting from ``sensor_highpass_hz`` as the prior) and

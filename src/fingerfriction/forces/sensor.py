@@ -232,7 +232,7 @@ def fit_baseline(t, y, mask, *, mains_hz: Sequence[float] = (50.0, 150.0, 300.0)
     A = np.column_stack(cols)
     # normal equations: with columns of order 1 the system is well conditioned (a few
     # thousand at worst) and solving it took 0.02 ms against 13 ms for numpy.linalg.lstsq
-    # on this machine (1400 x 8, measured)
+    # (1400 x 8, measured)
     try:
         coef = np.linalg.solve(A.T @ A, A.T @ y[m])
     except np.linalg.LinAlgError:  # a mains frequency aliased onto another on a tiny baseline
@@ -665,12 +665,9 @@ def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0
     whole record, the contact included, and reaches the rest after the lift-off as a
     random offset, besides the short-range noise seen in the residuals (its
     autocovariance, estimated on the rest runs, summed over lags). Both parts are
-    propagated; the channels are taken as independent. Measured: the RMS of
-    ``(fc_hz - true) / se_hz`` was 1.15 over the 180 trials of the simulated study and 0.96
-    over 300 synthetic records (2-10 Hz). Without the random offset it was 1.42 on the
-    study; the residuals' integrated autocorrelation time is 10-25 samples (noise
-    low-passed at 500 Hz), so the white-noise formula ``s**2 (J^T J)^-1`` would understate
-    the error 3-5 fold.
+    propagated; the channels are taken as independent (how well the standard error matches
+    the scatter of the estimates, and why the white-noise formula would understate it:
+    ``docs/forces.md``).
 
     References
     ----------

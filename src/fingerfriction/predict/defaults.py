@@ -12,7 +12,7 @@ import os
 import numpy as np
 
 from ..model import FrictionModel, FrictionParams
-from ..study.store import read_fit_table
+from ..study.store import ResultsStore, read_fit_table
 from ..surfaces import Surface, get_surface
 from .forward import DEFAULT_LOAD_N, _flat_length, _resolve_finger, forward_regions, sweep_window
 
@@ -57,7 +57,7 @@ def _default_params_cached(key, finger, load: float, step: float) -> FrictionPar
 
 
 def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> FrictionParams:
-    """Documented default Eq. (4) parameters of subject 1 or 2 (see the module notes).
+    """Documented default Eq. (4) parameters of subject 1 or 2 (``docs/predict.md``).
 
     ``mu`` from the paper; ``p0 = F_N / L_flat`` (flat-ground friction ``mu F_N``);
     ``p1`` such that the mean peak of ``F_def`` over the paper's four raised surfaces is
@@ -158,7 +158,7 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
     """
     path = os.fspath(path)
     if os.path.isdir(path):  # a results folder or its fit/ folder
-        for cand in (os.path.join(path, "fit", "fit.json"), os.path.join(path, "fit.json")):
+        for cand in (os.fspath(ResultsStore(path).fit_dir / "fit.json"), os.path.join(path, "fit.json")):
             if os.path.exists(cand):
                 path = cand
                 break

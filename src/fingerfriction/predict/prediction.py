@@ -277,8 +277,8 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
     """Predict F_T(x), F_int, F_def, occupancy and blind spots on any relief.
 
     The forward contact model (:mod:`fingerfriction.mechanics`) is swept over the surface
-    at ``step`` mm; its contact regions (geometric, 70 um, by default: see the module
-    notes) go into Eq. (4) of Janko et al. 2018 with ``params``.
+    at ``step`` mm; its contact regions (geometric, 70 um, by default: ``docs/predict.md``)
+    go into Eq. (4) of Janko et al. 2018 with ``params``.
 
     Parameters
     ----------

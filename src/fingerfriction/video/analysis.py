@@ -156,9 +156,7 @@ class AnalysisOptions:
         Height above the feature's top of the row where the hybrid's single outline edge
         is taken (4 mm: far from the contact, where the skin barely deforms and the
         silhouette is steep, so a small change of the finger's indentation moves the edge
-        little). Measured on two simulated studies (benchmarks/video.py): edges at 2-6 mm
-        agree within a few um; at 1-1.5 mm, inside the deforming part, they are off by
-        0.05-0.4 mm.
+        little; ``docs/video.md``).
     edge_calibration_mm : float
         Chord travel (mm) at each end of the chord's range whose frames give the edges'
         offsets (1 mm).
@@ -167,32 +165,19 @@ class AnalysisOptions:
     -----
     Contact-region cleanup (``min_gap_px``, ``min_region_px``; in image pixels, the
     scale of the artefact, applied per frame by
-    :func:`~fingerfriction.video.contact.contact_regions`). With a soft, flat-bottomed
-    finger the gap near a contact edge grows very slowly, so over many columns it stays
-    within a fraction of a pixel of the 3 px criterion; the pixelated, blurred outline
-    then crosses it back and forth and a region flickers into fragments separated by
-    short gaps. Measured on the 180-trial simulated study ``full`` (every 6th trial,
-    euclidean metric, no cleanup): the raw regions had the right count in 90-92 % of
-    frames; the spurious gaps had a median of 1.1 px, 95th percentile 3.0 px, 99th 5.0
-    px, largest 9.7 px; the spurious fragments a median length of 0.9 px, 95th
-    percentile 2.8 px; the true regions were never shorter than 7.8 px nor separated by
-    less than 17.5 px, and the paper's smallest blind spot (0.47 mm) is about 20 px. The
-    defaults (5 px, 3 px) sit between the two populations; any pair from (2.5, 2) to
-    (12, 5) px gave the same 99.8 % region-count agreement on every 12th trial. Set both
-    to 0 for the raw runs. No hysteresis in time is applied: the per-frame cleanup was
-    enough on the study, and frames stay independent (chunking-invariant).
+    :func:`~fingerfriction.video.contact.contact_regions`): with a soft, flat-bottomed
+    finger the gap near a contact edge stays within a fraction of a pixel of the 3 px
+    criterion over many columns, and a region flickers into fragments separated by short
+    gaps; the defaults bridge those gaps and drop the specks, far below any real blind
+    spot. Set both to 0 for the raw runs. No hysteresis in time is applied: frames stay
+    independent (chunking-invariant).
 
-    Outline smoothing for the contact test (``outline_smooth_px``). Where the gap opens
-    slowly (a flat-bottomed pad bridging a step's foot: 1 px of gap over 50-200 columns),
-    a contact end point is ill-conditioned: a gap error of 0.1 px moves it by 5-20 px.
-    The sub-pixel outlines carry about 0.04 px of noise per column (camera shot noise in
-    each frame, and frozen into the surface edge of the calibration frame); measured on
-    the simulated study ``full`` (every 3rd trial, 26,700 end points), the raw outlines
-    put 99.14 % of the end points within 3 px of the truth (worst 10.8 px), a quadratic
-    Savitzky-Golay fit over 15 / 21 / 31 / 41 columns 99.87 / 99.92 / 99.95 / 99.97 %
-    (worst 5.3 / 5.0 / 4.4 / 4.4 px); wider quadratic fits start to bend the outline (61
-    columns: 99.56 %), quartic fits were no better. The region-count agreement went from
-    99.82 % to 99.93 %. The C_f area, chord and edge positions use the raw outline.
+    Outline smoothing for the contact test (``outline_smooth_px``): where the gap opens
+    slowly, a contact end point is ill-conditioned (a gap error of 0.1 px moves it by
+    5-20 px), and the sub-pixel outlines carry about 0.04 px of noise per column; a
+    quadratic Savitzky-Golay fit along the columns removes most of it. The C_f area,
+    chord and edge positions use the raw outline. The measurements behind both defaults
+    are in ``docs/video.md``.
     """
 
     crop: Crop | None = None

@@ -235,7 +235,7 @@ def contact_regions(d: np.ndarray, tol_px: float, col_to_mm, *, n_max: int = 8,
     edge grows very slowly, so over a stretch of many columns it stays within a fraction
     of a pixel of the 3 px criterion; there the pixelated, blurred outline crosses the
     tolerance back and forth and a region flickers into fragments separated by 1-2 px
-    gaps (measured on the simulated study ``full``: see ``AnalysisOptions``). Those gaps
+    gaps (measured on a simulated study: ``docs/video.md``). Those gaps
     are far below any real blind spot (the paper's smallest is 0.47 mm, about 20 px at
     23 um/px), so gaps shorter than ``min_gap_px`` are bridged; isolated specks shorter
     than ``min_region_px`` are dropped. Both are in pixels of the image (the scale of

@@ -18,12 +18,7 @@ given area is found exactly from the sorted outline (no iteration).
 Alternatives (not in the paper): :func:`chord_midpoint`, the midpoint of the finger's chord
 at a fixed row, and :func:`hybrid_positions`, the chord midpoint where the chord is in
 view and, beyond, one edge of the outline (:func:`chord_ends`) shifted by an offset
-measured where both are seen. Measured on the simulated study /work/studies/full
-(``benchmarks/video.py``, 180 trials): after one constant offset per trial, the C_f
-centroid is off the finger's centre by up to 1.04 mm (RMS per trial up to 0.58 mm) while
-the finger deforms over the feature, and is tracked over |x| < ~4 mm only (C_f leaves the
-field of view beyond); the chord midpoint stays within 0.012 mm but over |x| < ~2 mm; the
-hybrid within 0.047 mm (RMS per trial <= 0.022 mm) over the whole 26 mm force window.
+measured where both are seen. How the three compare on the simulated studies: ``docs/video.md``.
 """
 
 from __future__ import annotations
