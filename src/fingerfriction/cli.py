@@ -18,6 +18,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from ._console import console_log, one_line, summary_line
 from .surfaces import surface_from_spec
 
 app = typer.Typer(
@@ -37,6 +38,58 @@ def fail(message: str) -> None:
     """Print a one-line error and exit with status 2."""
     err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
     raise typer.Exit(2)
+
+
+# ---------------------------------------------------------------------------------------
+# the console of the long commands: --verbose / --quiet, grouped warnings, one summary line
+# ---------------------------------------------------------------------------------------
+
+VERBOSE = typer.Option(False, "--verbose", "-v", help="Show every log record and every failure as it comes.")
+QUIET = typer.Option(False, "--quiet", "-q", help="Print only the summary line.")
+
+
+def _verbosity(verbose: bool, quiet: bool) -> int:
+    """-1 quiet, 0 normal, 1 verbose."""
+    if verbose and quiet:
+        fail("--verbose and --quiet exclude each other")
+    return 1 if verbose else -1 if quiet else 0
+
+
+def _show_progress(verbosity: int) -> bool:
+    """Progress bars on an interactive terminal only: in a log file they are noise."""
+    return verbosity >= 0 and err_console.is_terminal
+
+
+def _echo(text: str) -> None:
+    err_console.print(escape(text), highlight=False, soft_wrap=True)
+
+
+def _warn(text: str) -> None:
+    err_console.print(f"[yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True)
+
+
+def _grouped_failures(failures, what: str, verbosity: int, label_of=None) -> None:
+    """Failures as one warning line per group (a subject, or all), with a count and one
+    example; every failure with ``--verbose``; nothing with ``--quiet``."""
+    failures = list(failures)
+    if verbosity < 0 or not failures:
+        return
+    if verbosity > 0:
+        for tid, reason in failures:
+            _warn(f"{what} failed: {tid}: {one_line(reason, 300)}")
+        return
+    groups: dict = {}
+    for tid, reason in failures:
+        groups.setdefault(label_of(tid) if label_of else "", []).append((tid, reason))
+    for label, items in groups.items():
+        tid, reason = items[0]
+        head = f"{label}: " if label else ""
+        _warn(f"{head}{len(items)} {what} failure{'s' if len(items) != 1 else ''} "
+              f"(e.g. {tid}: {one_line(reason, 120)})")
+
+
+def _summary(text: str) -> None:
+    console.print(escape(text), highlight=False, soft_wrap=True)
 
 
 # ---------------------------------------------------------------------------------------
@@ -65,11 +118,14 @@ def demo(
     subjects: str = typer.Option(None, hidden=True, help="Comma-separated subjects (a smaller design)."),
     surfaces: str = typer.Option(None, hidden=True, help="Comma-separated surfaces (a smaller design)."),
     speeds: str = typer.Option(None, hidden=True, help="Comma-separated speeds in mm/s (a smaller design)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Simulate the built-in default study, analyze it, fit the model, write the report;
     print Table 1 and the blind-spot table."""
     from .demo import demo as run_demo  # heavy (every stage); imported when the command runs
 
+    verbosity = _verbosity(verbose, quiet)
     try:
         design = {}
         for key, val in (("subjects", _csv(subjects)), ("surfaces", _csv(surfaces))):
@@ -81,21 +137,23 @@ def demo(
             except ValueError:
                 raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
                     from None
-        res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers, progress=True, design=design)
+        with console_log(verbosity, _echo) as log:
+            res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers,
+                           progress=_show_progress(verbosity), design=design)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     a, f = res.analysis, res.fit
-    _print_failures(a.failures)
-    _print_failures(f.failures, "fit", limit=3)
-    _print_tables(res.report)
-    for subj, mu in f.mu.items():
-        console.print(f"subject {subj}: mu fitted {mu:.2f} ({f.messages[subj]})", highlight=False)
+    _grouped_failures(a.failures, "analysis", verbosity)
+    _fit_warnings(f, res.results, verbosity)
+    if verbosity >= 0:
+        _print_tables(res.report)
     t = res.elapsed_s
-    console.print(
-        f"{a.n_trials} trials: simulate {t['simulate']:.0f} s, analyze {t['analyze']:.0f} s "
-        f"({a.n_computed} computed, {a.n_skipped} already done, {a.n_failed} failed), fit {t['fit']:.0f} s, "
-        f"report {t['report']:.0f} s; total {sum(t.values()):.0f} s", highlight=False)
-    console.print(f"report: {res.report.html}", highlight=False)
+    _summary(summary_line(
+        "demo", [f"{a.n_trials} trials", f"simulate {t['simulate']:.0f} s",
+                 f"analyze {t['analyze']:.0f} s ({a.n_computed} computed, {a.n_skipped} already done, "
+                 f"{a.n_failed} failed)", f"fit {t['fit']:.0f} s ({f.n_failed} failed, {_mu_text(f)})",
+                 f"report {t['report']:.0f} s ({len(res.report.pages)} trial pages)"],
+        elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
 
 
 # ---------------------------------------------------------------------------------------
@@ -193,6 +251,8 @@ def simulate_cmd(
     contact_model: Annotated[
         str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
     ] = "mechanics-bem",
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
     from .sim import SimOptions, simulate_study  # heavy (video encoder, mechanics); when the command runs
@@ -217,11 +277,13 @@ def simulate_cmd(
         opts = SimOptions(**kw)
     except ValueError as exc:
         fail(str(exc))
+    verbosity = _verbosity(verbose, quiet)
     t0 = time.perf_counter()
     with Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-        TextColumn("{task.fields[label]}"), console=console, transient=False,
-    ) as prog:
+        TextColumn("{task.fields[label]}"), console=err_console, transient=False,
+        disable=not _show_progress(verbosity),
+    ) as prog, console_log(verbosity, _echo) as log:
         tasks: dict = {}
 
         def report(stage: str, done: int, total: int, label: str) -> None:
@@ -235,11 +297,9 @@ def simulate_cmd(
         except (ValueError, OSError) as exc:
             prog.stop()
             fail(str(exc))
-    dt = time.perf_counter() - t0
-    console.print(
-        f"[green]wrote[/] {len(study.trials)} trials to {out}/manifest.json in {dt:.1f} s "
-        f"(ground truth in {out}/truth/)"
-    )
+    _summary(summary_line("simulate", [f"{len(study.trials)} trials written",
+                                       f"ground truth in {out}/truth/"],
+                          elapsed_s=time.perf_counter() - t0, output=f"{out}/manifest.json", log=log))
 
 
 # ---------------------------------------------------------------------------------------
@@ -352,14 +412,6 @@ def forces_cmd(
 # ---------------------------------------------------------------------------------------
 
 
-def _print_failures(failures, what: str = "trial", limit: int | None = None) -> None:
-    failures = list(failures)
-    for tid, reason in failures[:limit]:
-        err_console.print(f"[red]{what} failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
-    if limit is not None and len(failures) > limit:
-        err_console.print(f"... and {len(failures) - limit} more {what} failures", highlight=False)
-
-
 @app.command("analyze")
 def analyze_cmd(
     study: str = typer.Argument(..., help="Study folder (with manifest.json)."),
@@ -376,6 +428,8 @@ def analyze_cmd(
     simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
                                    "experiment (only matter with --position cf-centroid: narrower window, "
                                    "x(t) extended; see README)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Every trial through video analysis and force processing, in parallel (resumable)."""
     from .study.analyze import analyze  # heavy (Dask, both stages); imported when the command runs
@@ -388,15 +442,17 @@ def analyze_cmd(
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
-        res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True,
-                      params=params)
+        verbosity = _verbosity(verbose, quiet)
+        with console_log(verbosity, _echo) as log:
+            res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force,
+                          progress=_show_progress(verbosity), params=params)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    _print_failures(res.failures)
-    console.print(
-        f"{res.n_computed} computed, {res.n_skipped} already done, {res.n_failed} failed "
-        f"of {res.n_trials} trials in {res.elapsed_s:.1f} s ({res.scheduler}, {res.n_workers} workers) "
-        f"-> {res.results}", highlight=False)
+    _grouped_failures(res.failures, "analysis", verbosity)
+    _summary(summary_line(
+        "analyze", [f"{res.n_trials} trials", f"{res.n_computed} computed", f"{res.n_skipped} already done",
+                    f"{res.n_failed} failed", f"{res.scheduler} scheduler, {res.n_workers} workers"],
+        elapsed_s=res.elapsed_s, output=str(res.results), log=log))
 
 
 @app.command("fit")
@@ -407,23 +463,63 @@ def fit_cmd(
     mu_max: float = typer.Option(0.90, help="Largest mu of the grid."),
     mu_step: float = typer.Option(0.01, help="Step of the mu grid."),
     median: int = typer.Option(11, help="Median filter window on the model, samples (odd; 1 = off)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """mu per subject (grid search), p0 and p1 per trial, model forces with F_int and F_def."""
     from .study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
     from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
+    verbosity = _verbosity(verbose, quiet)
+    t0 = time.perf_counter()
     try:
-        res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
-                  progress=True)
+        with console_log(verbosity, _echo) as log:
+            res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
+                      progress=_show_progress(verbosity))
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    _print_failures(res.failures, "fit", limit=5)
-    for subj, mu in res.mu.items():
-        console.print(f"subject {subj}: mu = {mu:.3f}  ({res.messages[subj]})", highlight=False)
     store = ResultsStore(results)
-    where = store.loso_path if res.loso is not None else res.loso_message
-    console.print(f"out-of-sample validation (leave one surface out): {where}", highlight=False)
-    console.print(f"{res.n_trials} trials fitted, {res.n_failed} failed -> {store.fit_dir}", highlight=False)
+    _fit_warnings(res, results, verbosity)
+    val = ("validated (leave one surface out)" if res.loso is not None
+           else f"not validated: {res.loso_message}")
+    _summary(summary_line("fit", [f"{res.n_trials} trials", f"{res.n_failed} failed", _mu_text(res), val],
+                          elapsed_s=time.perf_counter() - t0, output=str(store.fit_dir), log=log))
+
+
+def _mu_text(res) -> str:
+    return "mu " + ", ".join(f"{mu:.2f} (subject {s})" for s, mu in res.mu.items())
+
+
+def _fit_warnings(res, results, verbosity: int) -> None:
+    """One warning line per subject whose trial fits failed or whose mu sits at an end of its
+    grid (each failure and the grid-search message with --verbose)."""
+    from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
+
+    if verbosity < 0:
+        return
+    labels = {t["id"]: str(t.get("subject")) for t in ResultsStore(results).read_run().get("trials", [])}
+    by_subject: dict = {}
+    for tid, reason in res.failures:
+        by_subject.setdefault(labels.get(tid, "?"), []).append((tid, reason))
+    for subj in sorted(set(by_subject) | set(res.mu)):
+        msg = res.messages.get(subj, "")
+        at_end = "end of the grid" in msg
+        items = by_subject.get(subj, [])
+        if verbosity > 0:
+            _echo(f"subject {subj}: {msg}")
+            for tid, reason in items:
+                _warn(f"fit failed: {tid}: {one_line(reason, 300)}")
+            continue
+        parts = []
+        if items:
+            tid, reason = items[0]
+            parts.append(f"{len(items)} trial fit{'s' if len(items) != 1 else ''} failed "
+                         f"(e.g. {tid}: {one_line(reason, 100)})")
+        if at_end:
+            mu = res.mu.get(subj, float("nan"))
+            parts.append(f"mu = {mu:.2f} is at an end of its grid: widen the grid")
+        if parts:
+            _warn(f"subject {subj}: " + "; ".join(parts))
 
 
 def _print_tables(rep) -> None:
@@ -470,20 +566,35 @@ def report_cmd(
     all_trials: bool = typer.Option(False, "--all-trials", help="A page for every trial."),
     animations: bool = typer.Option(True, "--animations/--no-animations",
                                     help="Overlay animation on each trial page (needs the study's videos)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Figures (PNG, SVG), Table 1, blind-spot table, a self-contained HTML report and a page
     per flagged (and sampled) trial."""
     from .report import make_report  # heavy (matplotlib, jinja2); imported when the command runs
 
+    verbosity = _verbosity(verbose, quiet)
+    t0 = time.perf_counter()
     try:
-        rep = make_report(results, progress=True, sample=None if all_trials else sample,
-                          animations=animations)
+        with console_log(verbosity, _echo) as log:
+            rep = make_report(results, progress=_show_progress(verbosity),
+                              sample=None if all_trials else sample, animations=animations)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    _print_tables(rep)
-    for note in rep.notices:  # e.g. not fitted: said before the path, as at the top of the page
-        console.print(f"[bold yellow]note:[/] {note}", highlight=False, soft_wrap=True)
-    console.print(f"report: {rep.html}  ({len(rep.files)} files)", highlight=False)
+    if verbosity >= 0:
+        _print_tables(rep)
+        for note in rep.notices:  # e.g. not fitted: said before the path, as at the top of the page
+            console.print(f"[bold yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+    kinds: dict = {}
+    for f in rep.flags:
+        if f["level"] != "info":
+            kinds.setdefault(f["code"], []).append(f)
+    flagged = " ".join(f"{c} x{len(v)}" for c, v in kinds.items())
+    _summary(summary_line(
+        "report", [f"{rep.n_trials + rep.n_failed} trials", "not fitted" if not rep.fitted else "",
+                   f"{len(rep.pages)} trial pages", f"flags: {flagged}" if flagged else "nothing flagged",
+                   f"{len(rep.files)} files"],
+        elapsed_s=time.perf_counter() - t0, output=str(rep.html), log=log))
 
 
 # ---------------------------------------------------------------------------------------
