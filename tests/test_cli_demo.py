@@ -12,7 +12,8 @@ def test_demo_small_design_end_to_end_and_resumed(tmp_path):
             "--speeds", "120", "--reps", "1", "--workers", "2"]
     r = CliRunner().invoke(app, args)
     assert r.exit_code == 0, r.output
-    assert "Table 1" in r.output and "Tactile blind spots" in r.output and "mu fitted" in r.output
+    assert "Table 1" in r.output and "Tactile blind spots" in r.output
+    assert "demo: 1 trial," in r.output and "(subject 1)" in r.output  # the summary line, mu per subject
     assert "1 computed, 0 already done, 0 failed" in r.output
     assert (tmp_path / "demo" / "results" / "report" / "index.html").is_file()
     assert (tmp_path / "demo" / "study" / "manifest.json").is_file()

@@ -88,6 +88,11 @@ def _grouped_failures(failures, what: str, verbosity: int, label_of=None) -> Non
               f"(e.g. {tid}: {one_line(reason, 120)})")
 
 
+def _n(count: int, noun: str) -> str:
+    """'1 trial', '2 trials'."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
 def _summary(text: str) -> None:
     console.print(escape(text), highlight=False, soft_wrap=True)
 
@@ -149,10 +154,10 @@ def demo(
         _print_tables(res.report)
     t = res.elapsed_s
     _summary(summary_line(
-        "demo", [f"{a.n_trials} trials", f"simulate {t['simulate']:.0f} s",
+        "demo", [_n(a.n_trials, "trial"), f"simulate {t['simulate']:.0f} s",
                  f"analyze {t['analyze']:.0f} s ({a.n_computed} computed, {a.n_skipped} already done, "
                  f"{a.n_failed} failed)", f"fit {t['fit']:.0f} s ({f.n_failed} failed, {_mu_text(f)})",
-                 f"report {t['report']:.0f} s ({len(res.report.pages)} trial pages)"],
+                 f"report {t['report']:.0f} s ({_n(len(res.report.pages), 'trial page')})"],
         elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
 
 
@@ -297,7 +302,7 @@ def simulate_cmd(
         except (ValueError, OSError) as exc:
             prog.stop()
             fail(str(exc))
-    _summary(summary_line("simulate", [f"{len(study.trials)} trials written",
+    _summary(summary_line("simulate", [_n(len(study.trials), "trial") + " written",
                                        f"ground truth in {out}/truth/"],
                           elapsed_s=time.perf_counter() - t0, output=f"{out}/manifest.json", log=log))
 
@@ -450,7 +455,7 @@ def analyze_cmd(
         fail(str(exc))
     _grouped_failures(res.failures, "analysis", verbosity)
     _summary(summary_line(
-        "analyze", [f"{res.n_trials} trials", f"{res.n_computed} computed", f"{res.n_skipped} already done",
+        "analyze", [_n(res.n_trials, "trial"), f"{res.n_computed} computed", f"{res.n_skipped} already done",
                     f"{res.n_failed} failed", f"{res.scheduler} scheduler, {res.n_workers} workers"],
         elapsed_s=res.elapsed_s, output=str(res.results), log=log))
 
@@ -482,7 +487,7 @@ def fit_cmd(
     _fit_warnings(res, results, verbosity)
     val = ("validated (leave one surface out)" if res.loso is not None
            else f"not validated: {res.loso_message}")
-    _summary(summary_line("fit", [f"{res.n_trials} trials", f"{res.n_failed} failed", _mu_text(res), val],
+    _summary(summary_line("fit", [_n(res.n_trials, "trial"), f"{res.n_failed} failed", _mu_text(res), val],
                           elapsed_s=time.perf_counter() - t0, output=str(store.fit_dir), log=log))
 
 
@@ -591,8 +596,8 @@ def report_cmd(
             kinds.setdefault(f["code"], []).append(f)
     flagged = " ".join(f"{c} x{len(v)}" for c, v in kinds.items())
     _summary(summary_line(
-        "report", [f"{rep.n_trials + rep.n_failed} trials", "not fitted" if not rep.fitted else "",
-                   f"{len(rep.pages)} trial pages", f"flags: {flagged}" if flagged else "nothing flagged",
+        "report", [_n(rep.n_trials + rep.n_failed, "trial"), "not fitted" if not rep.fitted else "",
+                   _n(len(rep.pages), "trial page"), f"flags: {flagged}" if flagged else "nothing flagged",
                    f"{len(rep.files)} files"],
         elapsed_s=time.perf_counter() - t0, output=str(rep.html), log=log))
 
