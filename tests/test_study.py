@@ -80,7 +80,8 @@ def _base_dict():
     "mutate, field, hint",
     [
         (lambda d: d["trials"][0]["video"].__setitem__("fps", -1), r"trials\[0\]\.video\.fps", "positive"),
-        (lambda d: d["trials"][0]["video"].pop("n_frames"), r"trials\[0\]\.video\.n_frames", "missing"),
+        (lambda d: d["trials"][0]["video"].pop("n_frames"), r"trials\[0\]\.video\.n_frames",
+         "not given, and the video cannot be read"),
         (lambda d: d["trials"][0]["video"].__setitem__("format", "gif"), r"trials\[0\]\.video\.format",
          "ffv1-mkv"),
         (lambda d: d["trials"][0]["video"].__setitem__("calibration_frame", 5000),

@@ -18,7 +18,9 @@ from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from . import __version__
 from ._console import console_log, one_line, summary_line
+from ._outputs import check_output_dir, output_dir, output_file
 from .surfaces import surface_from_spec
 
 app = typer.Typer(
@@ -28,6 +30,38 @@ app = typer.Typer(
 )
 console = Console()
 err_console = Console(stderr=True)
+
+
+def _readable_help_types() -> None:
+    """Show parameter types in ``--help`` as words (TEXT, INTEGER, FLOAT; nothing for a flag).
+
+    typer 0.2x prints them as Python annotations, ``<str>``, ``<bool>``, ``<int range>``,
+    ``<list[str]>``; this wraps its one formatting method (``_TyperParameter.display_type``)
+    and leaves every other typer version untouched. An option's own ``metavar`` still wins.
+    """
+    base = getattr(getattr(typer, "core", None), "_TyperParameter", None)
+    original = getattr(base, "display_type", None)
+    if original is None or getattr(original, "_readable", False):
+        return
+    names = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN", "Path": "PATH"}
+
+    def display_type(self, ctx):
+        if getattr(self, "is_flag", False):
+            return ""
+        text = original(self, ctx)
+        if not (isinstance(text, str) and text.startswith("<") and text.endswith(">")):
+            return text
+        inner = text[1:-1].replace(" range", "")
+        repeat = inner.startswith("list[") and inner.endswith("]")
+        inner = inner[5:-1] if repeat else inner
+        word = inner if "|" in inner else names.get(inner, inner.upper())
+        return f"{word} (repeatable)" if repeat else word
+
+    display_type._readable = True
+    base.display_type = display_type
+
+
+_readable_help_types()
 
 
 class UserError(Exception):
@@ -102,8 +136,17 @@ def _summary(text: str) -> None:
 # ---------------------------------------------------------------------------------------
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        console.print(f"fingerfriction {__version__}", highlight=False)
+        raise typer.Exit()
+
+
 @app.callback()
-def _root() -> None:
+def _root(
+    version: bool = typer.Option(False, "--version", is_eager=True, callback=_print_version,
+                                 help="Print the version and exit."),
+) -> None:
     """fingerfriction: finger contact, tactile blind spots and friction forces on relief surfaces."""
     # A callback keeps typer in sub-command mode even while only one command exists.
 
@@ -142,6 +185,7 @@ def demo(
             except ValueError:
                 raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
                     from None
+        output_dir(out, owns={"study", "results"}, what="demo folder (study/, results/)")
         with console_log(verbosity, _echo) as log:
             res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers,
                            progress=_show_progress(verbosity), design=design)
@@ -178,7 +222,7 @@ def predict_contact(
         "geometric", "--kind", help="Contact definition: geometric (gap <= 70 um) or mechanical."
     ),
     out: str = typer.Option(
-        None, "--out", help="Directory for the occupancy figure (PNG); default: current."
+        "predict-contact", "--out", help="Folder for the occupancy figure (PNG); created if missing."
     ),
 ) -> None:
     """Predict tactile blind spots and simultaneous contacts of a finger sliding over a surface."""
@@ -188,17 +232,17 @@ def predict_contact(
     try:
         if kind not in ("geometric", "mechanical"):
             raise ValueError(f"--kind must be 'geometric' or 'mechanical', got {kind!r}")
-        out_dir = out or "."
-        if not os.path.isdir(out_dir):
-            raise ValueError(f"--out {out_dir!r} is not an existing directory")
         surf = surface_from_spec(surface)
+        owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
+                "what": "folder of occupancy figures"}
+        check_output_dir(out, **owns)
         finger = get_subject(subject)
         positions = default_positions(surf, step=step)
         with console.status(f"solving the contact at {positions.size} finger positions..."):
             res = sweep(surf, finger, positions, load=load)
         bs = res.blind_spots(kind)
-        png = save_occupancy_figure(res, surf, os.path.join(out_dir, f"occupancy-{surf.name}-s{subject}.png"),
-                                    kind=kind)
+        name = f"occupancy-{surf.name}-s{subject}.png"
+        png = save_occupancy_figure(res, surf, output_dir(out, **owns) / name, kind=kind)
     except (ValueError, TypeError, OSError) as exc:
         fail(str(exc))
         return
@@ -378,7 +422,7 @@ def forces_cmd(
         )
         prof = process_trial_forces(tr, x, params=params, regions=regions, on_error="flag")
         if out is not None:
-            prof.write_csv(out)
+            prof.write_csv(output_file(out))
     except KeyError as exc:
         fail(str(exc.args[0]) if exc.args else str(exc))
         return
@@ -433,11 +477,19 @@ def analyze_cmd(
     simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
                                    "experiment (only matter with --position cf-centroid: narrower window, "
                                    "x(t) extended; see README)."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="List the trials that would be computed and why "
+                                 "(new, input changed, manifest entry changed, parameters changed); run "
+                                 "and write nothing."),
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
-    """Every trial through video analysis and force processing, in parallel (resumable)."""
-    from .study.analyze import analyze  # heavy (Dask, both stages); imported when the command runs
+    """Every trial through video analysis and force processing, in parallel (resumable).
+
+    The study is checked first (as `fingerfriction check`): mistakes in the manifest stop
+    the run; a trial whose recordings do not match its entry fails, the others go on. A
+    finished trial is computed again when its input files, its manifest entry or the
+    analysis parameters changed."""
+    from .study.analyze import StudyCheckError, analyze, plan_analysis  # heavy (Dask, both stages)
     from .study.params import POSITIONS, AnalysisParams, sim_params  # heavy (both stages), as above
 
     try:
@@ -448,16 +500,52 @@ def analyze_cmd(
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
         verbosity = _verbosity(verbose, quiet)
-        with console_log(verbosity, _echo) as log:
-            res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force,
-                          progress=_show_progress(verbosity), params=params)
+        if dry_run:
+            plan = plan_analysis(study, out, params=params, force=force)
+        else:
+            with console_log(verbosity, _echo) as log:
+                res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force,
+                              progress=_show_progress(verbosity), params=params)
+    except StudyCheckError as exc:
+        _print_problems(exc.problems)
+        fail(f"{len(exc.problems)} problem(s) in the manifest; nothing was run")
     except (ValueError, OSError) as exc:
         fail(str(exc))
+    if dry_run:
+        for p in plan.trials:
+            console.print(f"{p.trial_id}: {p.action} ({p.reason})", highlight=False, soft_wrap=True)
+        console.print(f"would compute {len(plan.todo)} and skip {len(plan.skipped)} of {len(plan.trials)} "
+                      "trials; nothing was run or written", highlight=False)
+        return
     _grouped_failures(res.failures, "analysis", verbosity)
     _summary(summary_line(
         "analyze", [_n(res.n_trials, "trial"), f"{res.n_computed} computed", f"{res.n_skipped} already done",
                     f"{res.n_failed} failed", f"{res.scheduler} scheduler, {res.n_workers} workers"],
         elapsed_s=res.elapsed_s, output=str(res.results), log=log))
+
+
+def _print_problems(problems) -> None:
+    for p in problems:
+        err_console.print(escape(str(p)), highlight=False, soft_wrap=True)
+
+
+@app.command("check")
+def check_cmd(
+    study: str = typer.Argument(..., help="Study folder (with manifest.json), or the manifest."),
+) -> None:
+    """Validate a study and list every problem at once: each manifest field of each trial,
+    and each recording against its entry (present, readable, frame count and rate, image
+    size, force channels, sample count and rate). Exit status 2 if there is any."""
+    from .study.check import check_study  # heavy (video and force readers); imported when run
+
+    res = check_study(study)
+    _print_problems(res.problems)
+    n_ok = len(res.study.trials) if res.study is not None else 0
+    if res.problems:
+        whole = "" if res.study is not None else "; the manifest as a whole cannot be read"
+        fail(f"{len(res.problems)} problem(s): {n_ok} of {res.n_entries} trials are fine, "
+             f"{len(res.by_trial())} have problems{whole}")
+    console.print(f"{res.manifest}: {n_ok} trials, no problem found", highlight=False)
 
 
 @app.command("fit")
@@ -612,12 +700,18 @@ def _predict_inputs(params):
     return None if params is None else str(params)
 
 
+#: The files ``predict`` writes in its folder (``Prediction.write``).
+PREDICTION_FILES = {"forces.csv", "regions.csv", "occupancy.csv", "blind_spots.csv", "prediction.json",
+                    "forces.png", "occupancy.png"}
+
+
 @app.command("predict")
 def predict_cmd(
     surface: str = typer.Option(..., "--surface", help="Name (bump-4mm), spec (bump:W=3,H=0.5) or CSV."),
     subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger)."),
     params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
-    out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files."),
+    out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files "
+                            "(created if missing)."),
     load: float = typer.Option(0.3, "--load", help="Normal force in N."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
     contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
@@ -627,8 +721,10 @@ def predict_cmd(
     from .predict import predict  # heavy (the forward model); imported when the command runs
 
     try:
+        owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
+        check_output_dir(out, **owns)
         pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
-        paths = pred.write(out, figures=figures)
+        paths = pred.write(output_dir(out, **owns), figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     p = pred.params
@@ -667,11 +763,12 @@ def render_cmd(
     from .render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
     try:
+        output_file(out, create=False), table and output_file(table, option="--table", create=False)
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
                                        normal_force=normal_force, step=step, mu_range=(mu_min, mu_max))
-        files = r.write_command(out, speed, rate)
+        files = r.write_command(output_file(out), speed, rate)
         if table:
-            files["table"] = r.write_table(table)
+            files["table"] = r.write_table(output_file(table, option="--table"))
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     d = r.display
@@ -697,7 +794,7 @@ def validate_cmd(
     from .predict import validate_results  # heavy (the forward model); imported when the command runs
 
     try:
-        res = validate_results(results, out=out, forward_step=step)
+        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
@@ -707,6 +804,109 @@ def validate_cmd(
     for r in res.table.itertuples():
         t.add_row(str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
                   f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
+    console.print(t)
+
+@app.command("init")
+def init_cmd(
+    study: Annotated[str, typer.Argument(metavar="STUDY", help="Folder of the recordings; manifest.json is "
+                                         "written there, with paths relative to it.")],
+    video: Annotated[list[str], typer.Option(
+        "--video", metavar="PATTERN", help="File-name pattern of the videos, relative to STUDY, e.g. "
+        "'raw/S{subject}_{surface}_{speed}mms_{repetition}.cine'; {subject}, {surface}, {speed} (mm/s) are "
+        "needed, {repetition} and other {fields} are optional, * matches anything. Repeat for several.")],
+    forces: Annotated[list[str], typer.Option(
+        "--forces", metavar="PATTERN", help="File-name pattern of the force files, with the same fields "
+                                            "(repeat for several).")],
+    surface: Annotated[list[str] | None, typer.Option(
+        "--surface", metavar="TOKEN=SURFACE", help="The surface a file-name token stands for: a built-in "
+        "name (bump-2mm), a spec (bump:W=3,H=0.5) or an x,h CSV (repeat). Default: the token itself.")
+    ] = None,
+    channels: Annotated[list[str] | None, typer.Option(
+        "--channels", metavar="[FORMAT:]F1,F2", help="Names (or CSV column indices) of the two piezo "
+        "channels, e.g. 'Piezo/ai0,Piezo/ai1' or 'csv:1,2'. Default F1,F2.")] = None,
+    time: Annotated[list[str] | None, typer.Option(
+        "--time", metavar="[FORMAT:]COLUMN", help="A time column in s (name or CSV index): its rate is "
+        "checked against --fs-hz or gives it, its first value places sample 0.")] = None,
+    units: Annotated[list[str] | None, typer.Option(
+        "--units", metavar="[FORMAT:]N|V|mV", help="Units of the channels in the files (default N).")] = None,
+    sensitivity: Annotated[list[str] | None, typer.Option(
+        "--sensitivity", metavar="[FORMAT:]N_PER_V[,N_PER_V]", help="Channels in volts: the charge "
+        "amplifiers' sensitivity in N/V, one for both or F1,F2.")] = None,
+    gain: Annotated[list[str] | None, typer.Option(
+        "--gain", metavar="[FORMAT:]V_PER_N[,V_PER_N]", help="Channels in volts: the gain in V/N "
+        "(instead of --sensitivity).")] = None,
+    fs_hz: Annotated[list[str] | None, typer.Option(
+        "--fs-hz", metavar="[FORMAT:]HZ", help="Force sampling rate in Hz for files that do not state it "
+        "(checked against those that do).")] = None,
+    force_t0_s: Annotated[list[str] | None, typer.Option(
+        "--force-t0-s", metavar="[FORMAT:]SECONDS", help="Clock offset: time in s of force sample 0 "
+        "(default 0).")] = None,
+    fps: Annotated[float | None, typer.Option(
+        "--fps", metavar="HZ", help="Video frame rate in Hz for files that do not state it (TIFF); checked "
+                                    "against those that do.")] = None,
+    video_t0_s: Annotated[float, typer.Option(
+        "--video-t0-s", metavar="SECONDS", help="Clock offset: time in s of video frame 0 (default 0).")
+    ] = 0.0,
+    calibration_frame: Annotated[int, typer.Option(
+        "--calibration-frame", metavar="INDEX", min=0, help="The finger-free frame used for calibration.")
+    ] = 0,
+    surface_height_mm: Annotated[list[str] | None, typer.Option(
+        "--surface-height-mm", metavar="[SURFACE=]MM", help="Feature height H in mm that calibrates the "
+        "image scale (default: the surface's own).")] = None,
+    description: Annotated[str, typer.Option("--description", metavar="TEXT",
+                                             help="Free text for the manifest.")] = "",
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Print what was found; write nothing.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing manifest.json.")
+                         ] = False,
+    skip_bad: Annotated[bool, typer.Option("--skip-bad", help="Write the trials without problems when "
+                                                                "some have problems.")] = False,
+) -> None:
+    """Build STUDY/manifest.json from a folder of recordings named after a pattern.
+
+    Frame counts, frame rates, image sizes, sample counts and sampling rates are read from
+    the files. The table of the trials found, and the files that were not used, are printed
+    before anything is written."""
+    from .study.init import InitOptions, build_manifest, write_init  # reads the files; when the command runs
+
+    try:
+        opts = InitOptions.from_command_line(
+            video=video, forces=forces, surface=surface, channels=channels, time=time, units=units,
+            sensitivity=sensitivity, gain=gain, fs_hz=fs_hz, force_t0_s=force_t0_s, fps=fps,
+            video_t0_s=video_t0_s, calibration_frame=calibration_frame, surface_height_mm=surface_height_mm,
+            description=description)
+        res = build_manifest(study, opts, created_by=f"fingerfriction {__version__} init")
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_init_table(res)
+    if res.unmatched:
+        console.print(f"{len(res.unmatched)} file(s) not used:", highlight=False)
+        for u in res.unmatched[:40]:
+            console.print(f"  {escape(u.path)}: {escape(u.reason)}", highlight=False)
+        if len(res.unmatched) > 40:
+            console.print(f"  ... and {len(res.unmatched) - 40} more", highlight=False)
+    _print_problems(res.problems)
+    try:
+        path = write_init(res, study, dry_run=dry_run, overwrite=overwrite, skip_bad=skip_bad)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    n_bad = len(res.trials) - res.n_ok
+    left = f" ({n_bad} with problems left out)" if n_bad else ""
+    if dry_run:
+        console.print(f"dry run: {path} would hold {res.n_ok} trials{left}; nothing was written",
+                      highlight=False)
+    else:
+        console.print(f"[green]wrote[/] {path}: {res.n_ok} trials{left}", highlight=False)
+
+
+def _print_init_table(res) -> None:
+    t = Table(title=f"{len(res.trials)} trials found ({res.n_ok} without problems)")
+    for c in ("trial", "surface", "video", "frames @ fps", "force file", "samples @ Hz"):
+        t.add_column(c, overflow="fold")
+    for r in res.trials:
+        frames = "" if r.n_frames is None else f"{r.n_frames} @ {r.fps:g}"
+        samples = "" if r.n_samples is None else f"{r.n_samples} @ {r.fs_hz:g}"
+        t.add_row(r.id, r.surface, os.path.basename(r.video), frames, os.path.basename(r.force), samples,
+                  style="red" if r.problem else None)
     console.print(t)
 
 

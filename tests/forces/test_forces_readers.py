@@ -489,3 +489,15 @@ def test_channel_scale_rules():
         channel_scale("V", {"F1": 1.0, "F2": 0.0})
     with pytest.raises(ValueError, match=r"units must be one of N, V, mV, got 'kN'"):
         channel_scale("kN")
+
+
+def test_tdms_start_offset_places_sample_zero(tmp_path, channels):
+    p = tmp_path / "forces.tdms"
+    props = {"wf_increment": 1 / FS, "wf_start_offset": -0.02}
+    with TdmsWriter(p) as w:
+        w.write_segment([RootObject({}), GroupObject("Piezo"),
+                         ChannelObject("Piezo", "ai0", channels[0], properties=props),
+                         ChannelObject("Piezo", "ai1", channels[1], properties=props)])
+    rec = read_force_file(p, channels={"F1": "ai0", "F2": "ai1"}, t0_s=0.5)
+    assert rec.t0_s == pytest.approx(0.48) and rec.fs_hz == pytest.approx(FS)
+    assert probe_force_file(p, channels={"F1": "ai0", "F2": "ai1"}).time0_s == pytest.approx(-0.02)

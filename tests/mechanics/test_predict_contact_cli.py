@@ -30,14 +30,17 @@ def test_predict_contact_prints_blind_spots_and_writes_png(tmp_path):
     assert [p for p in os.listdir(tmp_path) if p != png.name] == []  # no temp files left
 
 
-def test_predict_contact_bad_input_is_one_line_error(tmp_path):
+def test_predict_contact_bad_input_is_one_line_error(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     for args, msg in [
         (["--surface", "nope"], "unknown surface"),
         (["--surface", "bump-4mm", "--subject", "3"], "unknown subject 3"),
         (["--surface", "bump-4mm", "--load", "-1"], "load"),
-        (["--surface", "bump-4mm", "--out", str(tmp_path / "missing")], "not an existing directory"),
+        (["--surface", "bump-4mm", "--out", str(tmp_path / "a-file")], "is a file; give a folder"),
     ]:
+        (tmp_path / "a-file").write_text("x")
         res = _invoke(args)
         assert res.exit_code == 2, res.output
         assert msg in res.output
         assert "Traceback" not in res.output
+    assert not os.path.exists("predict-contact")  # the default --out is created only to write in it

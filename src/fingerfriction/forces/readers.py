@@ -25,7 +25,8 @@ What lab files need beyond a clean two-column file in newtons:
   (``gain_v_per_n``); the record is in newtons either way.
 * **Rates from the file.** ``fs_hz`` may be omitted when the file states its rate (TDMS
   ``wf_increment``, an HDF5 ``fs_hz`` attribute, a time column); when both are given
-  they must agree.
+  they must agree. A TDMS waveform's ``wf_start_offset`` places sample 0 as a time
+  column's first value does (it is 0 in files written by DAQmx without a pre-trigger).
 
 :func:`probe_force_file` and :func:`list_channels` tell what a file holds (its channels,
 sample count and rate) without a manifest: ``fingerfriction init`` uses them.
@@ -36,11 +37,9 @@ Files are never unpickled: NPZ is opened with ``allow_pickle=False`` and MATLAB 
 
 from __future__ import annotations
 
-import csv
 import logging
 import math
 import os
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,6 +47,8 @@ from pathlib import Path
 import numpy as np
 
 from .._check import check_fs
+from .delimited import CsvLayout, CsvLayoutError, csv_layout
+from .units import FORCE_UNITS, channel_scale
 
 __all__ = [
     "FORCE_FORMATS",
@@ -68,10 +69,6 @@ logger = logging.getLogger(__name__)
 
 #: Formats accepted in the manifest's ``force.format`` field.
 FORCE_FORMATS = ("npz", "csv", "mat", "tdms", "hdf5")
-
-#: Units accepted in the manifest's ``force.units`` field: newtons, or the volts of a
-#: charge amplifier (then with a sensitivity in N/V or a gain in V/N).
-FORCE_UNITS = ("N", "V", "mV")
 
 _SUFFIXES = {
     ".npz": "npz",
@@ -184,8 +181,8 @@ class ForceFileInfo:
         Sampling rate in Hz that the file states (TDMS ``wf_increment``, an HDF5
         attribute, a time column), or None.
     time0_s : float
-        Time in s of sample 0 in the file's own clock (the first value of a time column;
-        0 without one).
+        Time in s of sample 0 in the file's own clock (the first value of a time column,
+        a TDMS waveform's ``wf_start_offset``; 0 without one).
     header : bool or None
         CSV: whether the first line names the columns (None for other formats).
     delimiter : str or None
@@ -266,218 +263,6 @@ def _not_index(path: Path, fmt: str, wanted: dict) -> None:
             )
 
 
-def _scale_arg(value, name: str) -> dict:
-    """A number or ``{'F1': a, 'F2': b}`` -> ``{'F1': a, 'F2': b}`` of finite non-zero floats."""
-    if isinstance(value, Mapping):
-        if set(value) != {"F1", "F2"}:
-            raise ValueError(f"{name} must be a number or map exactly 'F1' and 'F2', got {dict(value)!r}")
-        items = {k: value[k] for k in ("F1", "F2")}
-    else:
-        items = {"F1": value, "F2": value}
-    out = {}
-    for k, v in items.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-            raise ValueError(f"{name} for {k} must be a number, got {v!r}")
-        v = float(v)
-        if not math.isfinite(v) or v == 0:
-            raise ValueError(
-                f"{name} for {k} must be finite and non-zero (negative flips the channel), got {v!r}"
-            )
-        out[k] = v
-    return out
-
-
-def channel_scale(units: str = "N", sensitivity_n_per_v=None, gain_v_per_n=None) -> dict:
-    """Newtons per unit of the file, per channel.
-
-    Parameters
-    ----------
-    units : {'N', 'V', 'mV'}
-        Units of the channels in the file.
-    sensitivity_n_per_v : float or {'F1': float, 'F2': float}, optional
-        For volts: N per V, one number for both channels or one per channel (a charge
-        amplifier set to 10 N/V: ``10``). A negative value flips the channel's sign.
-    gain_v_per_n : float or {'F1': float, 'F2': float}, optional
-        For volts, instead of the sensitivity: V per N (its reciprocal).
-
-    Returns
-    -------
-    dict
-        ``{'F1': s1, 'F2': s2}`` in N per file unit.
-
-    Raises
-    ------
-    ValueError
-        Unknown units; volts without exactly one of the two; a scale given for newtons.
-    """
-    if units not in FORCE_UNITS:
-        raise ValueError(f"units must be one of {', '.join(FORCE_UNITS)}, got {units!r}")
-    given = [n for n, v in (("sensitivity_n_per_v", sensitivity_n_per_v), ("gain_v_per_n", gain_v_per_n))
-             if v is not None]
-    if units == "N":
-        if given:
-            raise ValueError(f"{given[0]} is for channels in volts, but units is 'N'; "
-                             "give units='V' (or 'mV') or drop it")
-        return {"F1": 1.0, "F2": 1.0}
-    if len(given) != 1:
-        raise ValueError(
-            f"units {units!r} needs exactly one of sensitivity_n_per_v (N/V) or gain_v_per_n (V/N), got "
-            + ("both" if given else "neither")
-        )
-    per_volt = 1e-3 if units == "mV" else 1.0
-    if sensitivity_n_per_v is not None:
-        s = _scale_arg(sensitivity_n_per_v, "sensitivity_n_per_v")
-        return {k: v * per_volt for k, v in s.items()}
-    g = _scale_arg(gain_v_per_n, "gain_v_per_n")
-    return {k: per_volt / v for k, v in g.items()}
-
-
-# --------------------------------------------------------------------------------------
-# CSV layout: delimiter, decimal mark, header
-# --------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class CsvLayout:
-    """How a delimited text file is laid out (:func:`csv_layout`).
-
-    Attributes
-    ----------
-    delimiter : str
-        Column delimiter; ``r'\\s+'`` for runs of blanks.
-    decimal : str
-        ``'.'`` or ``','``.
-    header : tuple of str or None
-        Column names from the first row, or None for a headerless file.
-    skiprows : int
-        Lines before the first data row (comment lines starting with ``#`` and the header).
-    n_columns : int
-        Columns of the first data row.
-    first_row : tuple of str
-        The first data row's fields (shown in error messages).
-    """
-
-    delimiter: str
-    decimal: str
-    header: tuple | None
-    skiprows: int
-    n_columns: int
-    first_row: tuple
-
-
-_DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+(?:[eE][+-]?\d+)?$")
-
-
-def _split(line: str, delimiter: str) -> list[str]:
-    if delimiter == r"\s+":
-        return line.split()
-    return [f.strip().strip('"').strip() for f in next(csv.reader([line], delimiter=delimiter))]
-
-
-def _is_number(text: str, decimal: str) -> bool:
-    t = text.strip().strip('"')
-    if decimal == ",":
-        t = t.replace(",", ".")
-    try:
-        float(t)
-    except ValueError:
-        return t.lower() in ("", "nan")
-    return True
-
-
-def _consistent(lines: list[str], delimiter: str) -> bool:
-    """Every line splits into the same number (>= 2) of fields, and the rows after the
-    first (a header may have names) are all numbers."""
-    rows = [_split(line, delimiter) if delimiter != r"\s+" else line.split() for line in lines]
-    if len({len(r) for r in rows}) != 1 or len(rows[0]) < 2:
-        return False
-    data = rows[1:] or rows
-    return any(all(_is_number(f, dec) for r in data for f in r) for dec in (".", ",") if dec != delimiter)
-
-
-def csv_layout(path: str | os.PathLike, *, delimiter: str | None = None) -> CsvLayout:
-    """Detect the delimiter, decimal mark and header row of a delimited text file.
-
-    Parameters
-    ----------
-    path : path-like
-    delimiter : str, optional
-        The delimiter, when known (skips the detection).
-
-    Returns
-    -------
-    CsvLayout
-
-    Raises
-    ------
-    ForceFileError
-        An empty file, or no consistent delimiter.
-
-    Notes
-    -----
-    A delimiter is taken when it splits every one of the first 50 lines (after ``#``
-    comments and blank lines) into the same number (>= 2) of fields, all numbers after the
-    first line, trying tab, ``;``, ``|``, ``,`` and runs of blanks in that order, then
-    :class:`csv.Sniffer` (quoted text fields). This rule comes before the Sniffer because
-    ``csv.Sniffer`` picks ``,`` for ``0,0001;0,12`` (a ``;`` file with decimal commas, as
-    European locales write them): checked on Python 3.11. The decimal
-    mark is ``,`` when the delimiter is not and a field reads like ``-0,31``. The first
-    line is a header unless every field in it is a number.
-    """
-    p = Path(path)
-    try:
-        with open(p, encoding="utf-8-sig", errors="replace", newline="") as fh:
-            head = fh.read(1 << 16)
-            more = bool(fh.read(1))
-    except OSError as exc:
-        raise ForceFileError(f"cannot read {str(p)!r} as CSV: {exc.strerror or exc}") from None
-    raw = head.splitlines()
-    if more and raw:
-        raw = raw[:-1]  # the last line of the chunk may be cut
-    skip = 0
-    lines: list[str] = []
-    for line in raw:
-        if not lines and (not line.strip() or line.lstrip().startswith("#")):
-            skip += 1
-            continue
-        if line.strip():
-            lines.append(line)
-        if len(lines) >= 50:
-            break
-    if not lines:
-        raise ForceFileError(f"{str(p)!r} holds no data rows")
-    delim = delimiter
-    if delim is None:
-        for cand in ("\t", ";", "|", ",", r"\s+"):
-            if _consistent(lines, cand):
-                delim = cand
-                break
-    if delim is None:
-        try:
-            delim = csv.Sniffer().sniff("\n".join(lines), delimiters="\t;|,").delimiter
-        except csv.Error:
-            pass
-    if delim is None:
-        raise ForceFileError(
-            f"cannot tell the column delimiter of {str(p)!r} (tried tab, ';', '|', ',' and blanks; "
-            f"first line {lines[0][:80]!r}); give it (manifest force.delimiter)"
-        )
-    first = _split(lines[0], delim)
-    data_line = lines[1] if len(lines) > 1 else lines[0]
-    decimal = "."
-    if delim != "," and any(_DECIMAL_COMMA.match(f) for ln in lines[:10] for f in _split(ln, delim)):
-        decimal = ","
-    header = None
-    if not all(_is_number(f, decimal) for f in first):
-        header = tuple(first)
-        skip += 1
-    else:
-        data_line = lines[0]
-    row = tuple(_split(data_line, delim))
-    return CsvLayout(delimiter=delim, decimal=decimal, header=header, skiprows=skip, n_columns=len(row),
-                     first_row=row)
-
-
 def _csv_column(layout: CsvLayout, key: str, name, path: Path) -> int:
     """0-based column index of a channel given by name or index."""
     n = layout.n_columns
@@ -504,7 +289,10 @@ def _csv_column(layout: CsvLayout, key: str, name, path: Path) -> int:
 def _read_csv(path: Path, wanted: dict, delimiter: str | None = None) -> tuple[dict, dict]:
     import pandas as pd  # only for CSV files
 
-    layout = csv_layout(path, delimiter=delimiter)
+    try:
+        layout = csv_layout(path, delimiter=delimiter)
+    except CsvLayoutError as exc:
+        raise ForceFileError(str(exc)) from None
     cols = {key: _csv_column(layout, key, name, path) for key, name in wanted.items()}
     info = {"header": layout.header is not None, "delimiter": layout.delimiter,
             "names": list(layout.header) if layout.header is not None else
@@ -708,6 +496,9 @@ def _read_tdms(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
         inc = ch.properties.get("wf_increment")
         if key != "time" and inc is not None and float(inc) > 0:
             info.setdefault("fs_hz", 1.0 / float(inc))
+        start = ch.properties.get("wf_start_offset")
+        if key == "F1" and start is not None and math.isfinite(float(start)):
+            info["time0_s"] = float(start)  # the waveform's time of sample 0, in s
     return out, info
 
 
@@ -751,6 +542,10 @@ def _time_axis(t: np.ndarray, *, name, path: Path) -> tuple[float, float]:
             f"t0 + n/fs at {1 / slope:.6g} Hz; missing or repeated samples? "
             "(the analysis needs a uniform clock)"
         )
+    # the file's own first time when the line passes through it (to a millionth of a period:
+    # floating-point noise of the fit, ~1e-17 s, would otherwise move sample 0 off the grid)
+    if abs(t_first - t[0]) <= 1e-6 * slope:
+        t_first = float(t[0])
     return 1.0 / slope, t_first
 
 
@@ -829,7 +624,7 @@ def probe_force_file(
     if chans:
         n = _check_lengths(data, chans, p)
     fs = info.get("fs_hz")
-    t_first = 0.0
+    t_first = float(info.get("time0_s", 0.0))
     if "time" in data:
         if data["time"].size != (n if n is not None else data["time"].size):
             raise ForceFileError(f"time column {wanted['time']!r} of {str(p)!r} has {data['time'].size} "
@@ -886,7 +681,7 @@ def read_force_file(
     t0_s : float, optional
         Time in s on the trial's common clock of the file's time zero (manifest
         ``force.t0_s``): sample ``n`` is at ``t0_s + n / fs_hz``, or at ``t0_s + time[n]``
-        with a time column.
+        with a time column (``t0_s + wf_start_offset + n / fs_hz`` for a TDMS waveform).
     n_samples : int, optional
         Expected number of samples (manifest ``force.n_samples``); a different file
         length is an error, since it means ``fs_hz`` or the file does not match the trial.
@@ -938,6 +733,8 @@ def read_force_file(
         file_fs, t_first = _time_axis(data["time"], name=time, path=p)
         rtol, what = TIME_COLUMN_RTOL, f"time column {time!r} gives a sampling rate of"
         t0 += t_first
+    else:
+        t0 += float(info.get("time0_s", 0.0))  # TDMS wf_start_offset
     if fs is None:
         if file_fs is None:
             raise ForceFileError(

@@ -27,13 +27,16 @@ import dask
 from distributed import Client, LocalCluster, as_completed
 
 from .. import __version__
+from .._outputs import check_output_dir
 from .._progress import ProgressBar
-from .manifest import Study, TrialRecord, load_manifest, resolve_path
+from .check import check_files, check_study
+from .manifest import Study, TrialRecord, resolve_path
 from .params import AnalysisParams
-from .store import ResultsStore, now, params_digest, sha256_file
+from .store import TRIAL_FORMAT, ResultsStore, now, params_digest, sha256_file
 from .trial import TrialInput, one_line, process_trial
 
-__all__ = ["TrialOutcome", "AnalyzeResult", "analyze"]
+__all__ = ["TrialOutcome", "AnalyzeResult", "TrialPlan", "AnalysisPlan", "StudyCheckError", "plan_analysis",
+           "analyze", "trial_entry"]
 
 logger = logging.getLogger(__name__)
 
@@ -85,6 +88,8 @@ class AnalyzeResult:
         Scheduler address used (or ``'local'`` for a LocalCluster started here).
     n_workers : int
         Number of workers that ran the trials.
+    plan : tuple of TrialPlan
+        What was decided for each trial before the run, and why.
     """
 
     results: Path
@@ -97,6 +102,7 @@ class AnalyzeResult:
     scheduler: str
     n_workers: int
     compute_s: float = 0.0
+    plan: tuple = ()
 
     @property
     def success(self) -> bool:
@@ -126,6 +132,149 @@ def _run_trial(trial: TrialInput, params: dict) -> dict:
                 "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
 
 
+# --------------------------------------------------------------------------------------
+# the plan: which trials to compute, and why (the resume key)
+# --------------------------------------------------------------------------------------
+
+
+class StudyCheckError(ValueError):
+    """The manifest has mistakes; ``problems`` lists every one (one line each)."""
+
+    def __init__(self, manifest: Path, problems):
+        self.problems = tuple(problems)
+        lines = "\n".join(f"  {p}" for p in self.problems)
+        super().__init__(f"{manifest}: {len(self.problems)} problem(s) in the manifest; nothing was run "
+                         f"(`fingerfriction check` lists them too):\n{lines}")
+
+
+@dataclass(frozen=True)
+class TrialPlan:
+    """What :func:`plan_analysis` decided for one trial.
+
+    ``action`` is ``'compute'`` or ``'skip'``; ``reason`` says why: ``'new'``, ``'failed
+    before'``, ``'input changed: video'``, ``'manifest entry changed: force.t0_s'``,
+    ``'parameters changed: forces.window_mm'``, ``'--force'``... or ``'unchanged'``.
+    """
+
+    trial_id: str
+    action: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class AnalysisPlan:
+    """The trials of an :func:`analyze` run and what would be done to each."""
+
+    study: Study
+    trials: tuple
+    params: dict
+    params_sha256: str
+    index: dict
+
+    @property
+    def todo(self) -> list[str]:
+        return [p.trial_id for p in self.trials if p.action == "compute"]
+
+    @property
+    def skipped(self) -> list[str]:
+        return [p.trial_id for p in self.trials if p.action == "skip"]
+
+
+def trial_entry(study: Study, trial: TrialRecord) -> dict:
+    """A trial's manifest entry as the resume key sees it: its fields as written (those
+    left to the files absent) and its surface's spec."""
+    return {**trial.to_dict(), "surface_spec": dict(study.surfaces[trial.surface])}
+
+
+def _flat(d, prefix: str = "") -> dict:
+    out = {}
+    for k, v in (d or {}).items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict) and v:
+            out.update(_flat(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _changed(old: dict, new: dict, limit: int = 4) -> str:
+    a, b = _flat(old), _flat(new)
+    keys = sorted(k for k in set(a) | set(b) if a.get(k, _MISSING) != b.get(k, _MISSING))
+    more = f" (+{len(keys) - limit} more)" if len(keys) > limit else ""
+    return ", ".join(keys[:limit]) + more
+
+
+_MISSING = object()
+
+
+def _reasons(store: ResultsStore, study: Study, t: TrialRecord, pdict: dict, pdigest: str) -> list[str]:
+    """Why a trial must be computed (empty: it is finished and nothing it depends on changed)."""
+    status = store.status(t.id)
+    if status is None:
+        return ["new"]
+    if status.get("status") != "ok":
+        return ["failed before"]
+    d = store.trial_dir(t.id)
+    if not ((d / "frames.parquet").is_file() and (d / "forces.parquet").is_file()):
+        return ["results incomplete"]
+    if status.get("trial_format", 1) != TRIAL_FORMAT:
+        return ["results of an older format"]
+    out = []
+    if status.get("params_sha256") != pdigest:
+        what = _changed(status.get("parameters") or {}, pdict) if status.get("parameters") else ""
+        out.append(f"parameters changed: {what}" if what else "parameters changed")
+    entry = status.get("entry")
+    if entry is None:
+        out.append("manifest entry not recorded (results of an older version)")
+    else:
+        what = _changed(entry, trial_entry(study, t))
+        if what:
+            out.append(f"manifest entry changed: {what}")
+    changed = _inputs_changed(Path(study.root), t, status)
+    if changed:
+        out.append(f"input changed: {', '.join(changed)}")
+    return out
+
+
+def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: AnalysisParams | None = None,
+                  force: bool = False, trials: Sequence[str] | None = None) -> AnalysisPlan:
+    """Which trials :func:`analyze` would compute, and why; nothing is run or written.
+
+    A trial is computed when it is new, failed before, or when anything it depends on
+    changed since it was computed: its input files (size or modification time), its
+    manifest entry (any field, its surface's spec included), or the resolved analysis
+    parameters. ``status.json`` keeps all three.
+
+    Raises
+    ------
+    StudyCheckError
+        The manifest has mistakes (all listed); see :func:`~fingerfriction.study.check.check_study`.
+    ValueError
+        A missing study folder, an unknown trial id, a bad option.
+    """
+    params = params or AnalysisParams()
+    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
+    pdigest = params_digest(pdict)
+    study_dir = Path(study)
+    if not study_dir.is_dir():
+        raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")
+    res = check_study(study_dir, files=False)
+    if res.problems:
+        raise StudyCheckError(res.manifest, res.problems)
+    st = res.study
+    selected = _select(st, trials)
+    # a results folder of its own, or a new or empty one: never mixed with other files
+    check_output_dir(out, marker="run.json", what="results folder")
+    store = ResultsStore(out)
+    plans = []
+    for t in selected:
+        store.trial_dir(t.id)  # validates the id before anything runs
+        why = ["--force"] if force else _reasons(store, st, t, pdict, pdigest)
+        plans.append(TrialPlan(t.id, "compute" if why else "skip", "; ".join(why) or "unchanged"))
+    return AnalysisPlan(study=st, trials=tuple(plans), params=pdict, params_sha256=pdigest,
+                        index=res.index or {})
+
+
 def _versions() -> dict:
     out = {"python": sys.version.split()[0]}
     for name in _VERSIONED:
@@ -136,13 +285,6 @@ def _versions() -> dict:
     if out.get("fingerfriction") is None:  # running from a source tree
         out["fingerfriction"] = __version__
     return out
-
-
-def _load_study(study: str | os.PathLike) -> Study:
-    study_dir = Path(study)
-    if not study_dir.is_dir():
-        raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")
-    return load_manifest(study_dir)
 
 
 def _select(study: Study, selected: Sequence[str] | str | None) -> list[TrialRecord]:
@@ -236,35 +378,39 @@ def analyze(
         raise ValueError(f"n_workers must be a positive integer, got {n_workers!r}")
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
-    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
-    pdigest = params_digest(pdict)
-    st = _load_study(study)  # every manifest path resolves inside the study folder, or it is refused
+    plan = plan_analysis(study, out, params=params, force=force, trials=trials)
+    st, pdict, pdigest = plan.study, plan.params, plan.params_sha256
     study_dir = Path(st.root)
-    todo_trials = _select(st, trials)
+    todo_trials = [st.trial(p.trial_id) for p in plan.trials]
     store = ResultsStore(out)
-    for t in todo_trials:
-        store.trial_dir(t.id)  # validates the id before anything runs
     raw = {"video": dict(params.video), "forces": dict(params.forces)}
     t_start = time.perf_counter()
     started = now()
-    todo, skipped = [], []
-    for t in todo_trials:
-        if not force and store.is_finished(t.id, pdigest) and _inputs_unchanged(study_dir, t, store):
-            skipped.append(t.id)
-        else:
-            todo.append(t)
+    skipped = plan.skipped
+    # the recordings of the trials to compute are checked against their entries first (and
+    # the fields the manifest leaves to them read); a trial whose files do not match fails
+    # with the check's reason, the others go on
+    checked, file_problems = check_files(st, [st.trial(i) for i in plan.todo], index=plan.index)
+    bad: dict[str, list[str]] = {}
+    for p in file_problems:
+        bad.setdefault(p.trial, []).append(str(p))
+    todo = [checked[i] for i in plan.todo if i in checked]
     store.root.mkdir(parents=True, exist_ok=True)
     previous = _previous_runs(store)
     base_record = _base_record(st, pdict, pdigest)
     store.write_run({**base_record, "state": "running", "started": started, "runs": previous})
 
-    run = _Run(store, pdigest, callback)
+    entries = {t.id: trial_entry(st, t) for t in todo_trials}
+    run = _Run(store, pdigest, callback, pdict, entries)
     bar = ProgressBar(progress, len(todo_trials), "analyze")
     try:
         for tid in skipped:
             bar.advance(f"{tid} (done before)")
             if callback is not None:
                 callback(TrialOutcome(tid, "skipped"))
+        for tid, lines in bad.items():
+            run.record(st.trial(tid), {"ok": False, "reason": "check: " + " | ".join(lines),
+                                       "inputs": _input_stats(st, st.trial(tid))}, bar)
         if todo:
             run.on_dask([TrialInput(study_dir, t, dict(st.surfaces[t.surface])) for t in todo], raw,
                         scheduler, n_workers, bar)
@@ -292,15 +438,16 @@ def analyze(
     return AnalyzeResult(results=store.root, n_trials=len(todo_trials), n_computed=run.n_ok,
                          n_skipped=len(skipped), n_failed=run.n_fail, failures=tuple(run.failures),
                          elapsed_s=elapsed, scheduler=run.scheduler, n_workers=run.n_workers,
-                         compute_s=compute)
+                         compute_s=compute, plan=plan.trials)
 
 
 class _Run:
     """The trials of one :func:`analyze` run on a Dask cluster, each result written as it
     arrives (counts, failures and timings for the run record)."""
 
-    def __init__(self, store: ResultsStore, pdigest: str, callback):
+    def __init__(self, store: ResultsStore, pdigest: str, callback, params: dict, entries: dict):
         self.store, self.pdigest, self.callback = store, pdigest, callback
+        self.params, self.entries = params, entries
         self.n_ok = self.n_fail = 0
         self.failures: list[tuple[str, str]] = []
         self.scheduler, self.n_workers = "none", 0
@@ -347,7 +494,8 @@ class _Run:
 
     def record(self, t: TrialRecord, res: dict, bar: ProgressBar) -> None:
         """Write one trial's result (or failure) into the store; count it; report it."""
-        status = {"params_sha256": self.pdigest, "inputs": res.get("inputs", {}),
+        status = {"params_sha256": self.pdigest, "parameters": self.params, "entry": self.entries.get(t.id),
+                  "inputs": res.get("inputs", {}),
                   "elapsed_s": round(float(res.get("elapsed_s", 0.0)), 4),
                   "cpu_s": round(float(res.get("cpu_s", 0.0)), 4),
                   "finished": now(),
@@ -368,23 +516,37 @@ class _Run:
             self.callback(outcome)
 
 
-def _inputs_unchanged(study_dir: Path, trial: TrialRecord, store: ResultsStore) -> bool:
-    """True if the trial's input files have the size and modification time recorded when it
-    was analysed (a cheap check: hashing every video again would cost as much as reading it)."""
-    rec = (store.status(trial.id) or {}).get("inputs", {})
+def _inputs_changed(study_dir: Path, trial: TrialRecord, status: dict) -> list[str]:
+    """The input files (``'video'``, ``'force'``) whose size or modification time differ
+    from those recorded when the trial was analysed (a cheap check: hashing every video
+    again would cost as much as reading it)."""
+    rec = status.get("inputs", {})
+    out = []
     for key in ("video", "force"):
         r = rec.get(key) or {}
         rel = getattr(trial, key).path
-        if r.get("path") != rel:
-            return False
         try:
             st = resolve_path(study_dir, rel, where=f"{key}.path").stat()
         except (OSError, ValueError):
-            return False
-        if st.st_size != r.get("bytes") or st.st_mtime_ns != r.get("mtime_ns"):
-            logger.info("trial %s: %s changed since it was analysed; recomputing", trial.id, rel)
-            return False
-    return True
+            out.append(key)
+            continue
+        if r.get("path") != rel or st.st_size != r.get("bytes") or st.st_mtime_ns != r.get("mtime_ns"):
+            logger.info("trial %s: %s changed since it was analysed", trial.id, rel)
+            out.append(key)
+    return out
+
+
+def _input_stats(study: Study, trial: TrialRecord) -> dict:
+    """Size and modification time of a trial's files that exist (for a failed trial's status)."""
+    out = {}
+    for key in ("video", "force"):
+        rel = getattr(trial, key).path
+        try:
+            st = study.path(rel).stat()
+        except (OSError, ValueError):
+            continue
+        out[key] = {"path": rel, "bytes": st.st_size, "mtime_ns": st.st_mtime_ns}
+    return out
 
 
 def _previous_runs(store: ResultsStore) -> list:

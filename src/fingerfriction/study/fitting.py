@@ -203,8 +203,9 @@ def _validate_after_fit(store: ResultsStore, trials: Sequence, validate: bool):
     t0 = time.perf_counter()
     try:
         res = validate_results(store.root)
-    # RuntimeError: predict finds no successful training fit without a surface (a small study)
     except (ValueError, KeyError, OSError, RuntimeError, np.linalg.LinAlgError) as exc:
+        # RuntimeError: no training fit succeeded for a held-out surface (predict.loso);
+        # the fit itself stands, the validation is recorded as failed
         logger.warning("out-of-sample validation failed: %s", one_line(exc))
         return None, f"failed: {one_line(exc)}"
     logger.info("out-of-sample validation: %.1f s", time.perf_counter() - t0)

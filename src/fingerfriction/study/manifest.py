@@ -18,19 +18,36 @@ reads, validates and writes that manifest:
 
 from __future__ import annotations
 
+import dataclasses
 import json
-import math
 import os
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .._atomic import atomic_write_bytes
-from ..forces.readers import FORCE_FORMATS
-from ..surfaces import Surface, surface_from_spec
+from ..forces.readers import probe_force_file
+from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
+from ..video.readers import probe_video
+from .records import (
+    FORCE_FORMATS,
+    MANIFEST_NAME,
+    VIDEO_FORMATS,
+    ForceInfo,
+    ManifestError,
+    Problem,
+    VideoInfo,
+    _check_relpath,
+    _Collect,
+    _fail,
+    _num,
+    _obj,
+    _problem,
+    _str,
+    _within,
+    resolve_path,
+    validate_id,
+)
 
 __all__ = [
     "FORMAT_NAME",
@@ -38,6 +55,7 @@ __all__ = [
     "VIDEO_FORMATS",
     "FORCE_FORMATS",
     "ManifestError",
+    "Problem",
     "VideoInfo",
     "ForceInfo",
     "TrialRecord",
@@ -45,278 +63,14 @@ __all__ = [
     "validate_id",
     "resolve_path",
     "load_manifest",
+    "read_manifest_json",
+    "complete_from_files",
     "write_manifest",
     "manifest_bytes",
 ]
 
 FORMAT_NAME = "fingerfriction-study"
 SCHEMA_VERSION = 1
-VIDEO_FORMATS = ("ffv1-mkv", "tiff", "avi", "mp4", "mkv", "cine")
-MANIFEST_NAME = "manifest.json"
-
-_ID_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
-
-
-class ManifestError(ValueError):
-    """A malformed manifest or an invalid study record; the message names file and field."""
-
-
-def _fail(where: str, msg: str) -> ManifestError:
-    return ManifestError(f"{where}: {msg}")
-
-
-def validate_id(trial_id: Any, *, where: str = "id") -> str:
-    """Check a trial id: a non-empty string of letters, digits, ``-``, ``_`` and ``.``.
-
-    The id names a folder (``trials/<id>/``), so ``.`` and ``..`` alone are refused.
-
-    Raises
-    ------
-    ManifestError
-        Naming ``where``, the value and what is allowed.
-    """
-    if not isinstance(trial_id, str) or not _ID_RE.match(trial_id) or trial_id in (".", ".."):
-        raise _fail(
-            where, f"trial id must be letters, digits, '-', '_' or '.' (not '.' or '..'), got {trial_id!r}"
-        )
-    return trial_id
-
-
-def _check_relpath(path: Any, where: str) -> str:
-    """A manifest path: relative, POSIX separators, no component ``..``."""
-    if not isinstance(path, str) or not path:
-        raise _fail(where, f"must be a non-empty relative path string, got {path!r}")
-    if "\\" in path:
-        raise _fail(where, f"must use '/' separators, got {path!r}")
-    p = Path(path)
-    if p.is_absolute() or path.startswith("/"):
-        raise _fail(where, f"must be relative to the study folder, got absolute path {path!r}")
-    if any(part == ".." for part in p.parts):
-        raise ManifestError(f"{where} {path!r} escapes the study folder ('..' is not allowed)")
-    return path
-
-
-def resolve_path(root: str | os.PathLike, relpath: str, *, where: str = "path") -> Path:
-    """Absolute path of ``relpath`` inside the study folder ``root``.
-
-    Parameters
-    ----------
-    root : path-like
-        The study folder.
-    relpath : str
-        A path from the manifest, relative to ``root``.
-    where : str
-        Field name used in error messages.
-
-    Raises
-    ------
-    ManifestError
-        If ``relpath`` is absolute, contains ``..``, or resolves (through symbolic links)
-        outside ``root``.
-    """
-    _check_relpath(relpath, where)
-    base = Path(root).resolve()
-    full = (base / relpath).resolve()
-    if full != base and base not in full.parents:
-        raise _fail(where, f"path {relpath!r} resolves to {full}, outside the study folder {base}")
-    return full
-
-
-def _num(d: dict, key: str, where: str, *, positive: bool = False, integer: bool = False,
-         nonneg: bool = False, default: Any = ...) -> Any:
-    if key not in d:
-        if default is not ...:
-            return default
-        raise _fail(f"{where}.{key}", "missing required field")
-    v = d[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise _fail(f"{where}.{key}", f"must be a number, got {v!r}")
-    if integer and (not float(v).is_integer()):
-        raise _fail(f"{where}.{key}", f"must be an integer, got {v!r}")
-    if not math.isfinite(v):
-        raise _fail(f"{where}.{key}", f"must be finite, got {v!r}")
-    if positive and v <= 0:
-        raise _fail(f"{where}.{key}", f"must be positive, got {v!r}")
-    if nonneg and v < 0:
-        raise _fail(f"{where}.{key}", f"must be >= 0, got {v!r}")
-    return int(v) if integer else float(v)
-
-
-def _str(d: dict, key: str, where: str, *, allowed: tuple[str, ...] | None = None,
-         default: Any = ...) -> Any:
-    if key not in d:
-        if default is not ...:
-            return default
-        raise _fail(f"{where}.{key}", "missing required field")
-    v = d[key]
-    if not isinstance(v, str):
-        raise _fail(f"{where}.{key}", f"must be a string, got {v!r}")
-    if allowed is not None and v not in allowed:
-        raise _fail(f"{where}.{key}", f"must be one of {', '.join(allowed)}, got {v!r}")
-    return v
-
-
-def _obj(d: Any, where: str) -> dict:
-    if not isinstance(d, dict):
-        raise _fail(where, f"must be a JSON object, got {type(d).__name__}")
-    return d
-
-
-@dataclass(frozen=True)
-class VideoInfo:
-    """The video of one trial.
-
-    Parameters
-    ----------
-    path : str
-        Relative to the study folder.
-    format : str
-        One of :data:`VIDEO_FORMATS`.
-    fps : float
-        Frame rate in Hz (> 0).
-    width, height : int
-        Frame size in pixels (> 0).
-    n_frames : int
-        Number of frames (> 0).
-    t0_s : float
-        Time in s of frame 0 on the trial's common clock; frame k is at ``t0_s + k / fps``.
-    calibration_frame : int
-        Index of the finger-free frame used for calibration (Fig. 7A), ``0 <= . < n_frames``.
-    """
-
-    path: str
-    format: str
-    fps: float
-    width: int
-    height: int
-    n_frames: int
-    t0_s: float = 0.0
-    calibration_frame: int = 0
-
-    def __post_init__(self) -> None:
-        _check_relpath(self.path, "video.path")
-        d = {k: getattr(self, k) for k in ("fps", "width", "height", "n_frames", "t0_s", "calibration_frame")}
-        object.__setattr__(self, "fps", _num(d, "fps", "video", positive=True))
-        for k in ("width", "height", "n_frames"):
-            object.__setattr__(self, k, _num(d, k, "video", positive=True, integer=True))
-        object.__setattr__(self, "t0_s", _num(d, "t0_s", "video"))
-        cf = _num(d, "calibration_frame", "video", integer=True, nonneg=True)
-        if cf >= self.n_frames:
-            raise _fail("video.calibration_frame", f"must be < n_frames ({self.n_frames}), got {cf}")
-        object.__setattr__(self, "calibration_frame", cf)
-        if self.format not in VIDEO_FORMATS:
-            raise _fail("video.format", f"must be one of {', '.join(VIDEO_FORMATS)}, got {self.format!r}")
-
-    def frame_times(self):
-        """Times in s of every frame on the common clock, ``(n_frames,)`` ndarray."""
-        return self.t0_s + np.arange(self.n_frames) / self.fps
-
-    def to_dict(self) -> dict:
-        return {
-            "path": self.path, "format": self.format, "fps": self.fps, "width": self.width,
-            "height": self.height, "n_frames": self.n_frames, "t0_s": self.t0_s,
-            "calibration_frame": self.calibration_frame,
-        }
-
-    @classmethod
-    def from_dict(cls, d: Any, where: str = "video") -> VideoInfo:
-        d = _obj(d, where)
-        return cls(
-            path=_check_relpath(d.get("path"), f"{where}.path"),
-            format=_str(d, "format", where, allowed=VIDEO_FORMATS),
-            fps=_num(d, "fps", where, positive=True),
-            width=_num(d, "width", where, positive=True, integer=True),
-            height=_num(d, "height", where, positive=True, integer=True),
-            n_frames=_num(d, "n_frames", where, positive=True, integer=True),
-            t0_s=_num(d, "t0_s", where, default=0.0),
-            calibration_frame=_num(d, "calibration_frame", where, integer=True, nonneg=True, default=0),
-        )
-
-
-def _units(d: dict, where: str) -> str:
-    units = d.get("units", "N")
-    if units != "N":
-        raise ManifestError(f"{where}.units is {units!r}; only 'N' (newtons) is supported: scale the "
-                            "channels to newtons")
-    return units
-
-
-@dataclass(frozen=True)
-class ForceInfo:
-    """The force recording of one trial: the two transducer channels F1, F2.
-
-    Parameters
-    ----------
-    path : str
-        Relative to the study folder.
-    format : str
-        One of :data:`FORCE_FORMATS`.
-    fs_hz : float
-        Sampling frequency in Hz (> 0).
-    n_samples : int
-        Number of samples per channel (> 0).
-    channels : dict
-        Maps ``'F1'`` and ``'F2'`` (the paper's +-45 degree piezos, Fig. 1C) to the names of
-        the arrays/columns in the file.
-    units : str
-        ``'N'``.
-    t0_s : float
-        Time in s of sample 0 on the trial's common clock.
-    """
-
-    path: str
-    format: str
-    fs_hz: float
-    n_samples: int
-    channels: dict = field(default_factory=lambda: {"F1": "F1", "F2": "F2"})
-    units: str = "N"
-    t0_s: float = 0.0
-
-    def __post_init__(self) -> None:
-        _check_relpath(self.path, "force.path")
-        if self.format not in FORCE_FORMATS:
-            raise _fail("force.format", f"must be one of {', '.join(FORCE_FORMATS)}, got {self.format!r}")
-        d = {"fs_hz": self.fs_hz, "n_samples": self.n_samples, "t0_s": self.t0_s}
-        object.__setattr__(self, "fs_hz", _num(d, "fs_hz", "force", positive=True))
-        object.__setattr__(self, "n_samples", _num(d, "n_samples", "force", positive=True, integer=True))
-        object.__setattr__(self, "t0_s", _num(d, "t0_s", "force"))
-        ch = self.channels
-        if not isinstance(ch, dict) or set(ch) != {"F1", "F2"} or not all(
-            isinstance(v, str) and v for v in ch.values()
-        ):
-            raise _fail("force.channels", f"must map exactly 'F1' and 'F2' to column names, got {ch!r}")
-        object.__setattr__(self, "channels", {"F1": ch["F1"], "F2": ch["F2"]})
-        if self.units != "N":
-            raise _fail("force.units", f"must be 'N' (channels scaled to newtons), got {self.units!r}")
-
-    def sample_times(self):
-        """Times in s of every sample on the common clock, ``(n_samples,)`` ndarray."""
-        return self.t0_s + np.arange(self.n_samples) / self.fs_hz
-
-    def to_dict(self) -> dict:
-        return {
-            "path": self.path, "format": self.format, "fs_hz": self.fs_hz,
-            "n_samples": self.n_samples, "channels": dict(self.channels), "units": self.units,
-            "t0_s": self.t0_s,
-        }
-
-    @classmethod
-    def from_dict(cls, d: Any, where: str = "force") -> ForceInfo:
-        d = _obj(d, where)
-        ch = d.get("channels", {"F1": "F1", "F2": "F2"})
-        if not isinstance(ch, dict) or set(ch) != {"F1", "F2"} or not all(
-            isinstance(v, str) and v for v in ch.values()
-        ):
-            raise _fail(f"{where}.channels", f"must map exactly 'F1' and 'F2' to column names, got {ch!r}")
-        return cls(
-            path=_check_relpath(d.get("path"), f"{where}.path"),
-            format=_str(d, "format", where, allowed=FORCE_FORMATS),
-            fs_hz=_num(d, "fs_hz", where, positive=True),
-            n_samples=_num(d, "n_samples", where, positive=True, integer=True),
-            channels=ch,
-            units=_units(d, where),
-            t0_s=_num(d, "t0_s", where, default=0.0),
-        )
 
 
 @dataclass(frozen=True)
@@ -330,17 +84,18 @@ class TrialRecord:
     subject : str
         Subject label.
     surface : str
-        Key into :attr:`Study.surfaces`.
+        Key into :attr:`Study.surfaces` (a built-in name or a parametric spec need no
+        entry there).
     speed_mm_s : float
         Nominal sliding speed in mm/s (the condition, > 0).
     repetition : int
-        Repetition number (>= 1).
+        Repetition number (>= 1); 1 when the manifest does not say.
     video : VideoInfo
     force : ForceInfo
     calibration : dict or None
         ``{'surface_height_mm': H}``: the known feature height H in mm (> 0) used to
         calibrate the image scale; None (the field absent from the manifest): the
-        surface's own feature height (:meth:`Study.surface_height_mm`).
+        surface's own feature height.
     truth : str or None
         Relative path of the ground-truth file (simulated studies only).
     """
@@ -349,9 +104,9 @@ class TrialRecord:
     subject: str
     surface: str
     speed_mm_s: float
-    repetition: int
     video: VideoInfo
     force: ForceInfo
+    repetition: int = 1
     calibration: dict | None = None
     truth: str | None = None
 
@@ -388,39 +143,62 @@ class TrialRecord:
         return d
 
     @classmethod
-    def from_dict(cls, d: Any, where: str = "trial") -> TrialRecord:
-        d = _obj(d, where)
-        tid = d.get("id")
-        validate_id(tid, where=f"{where}.id")
+    def from_dict(cls, d: Any, where: str = "trial", problems: list | None = None,
+                  parts: list | None = None) -> TrialRecord | None:
+        """Parse one entry of the manifest's ``trials``; with ``problems`` (a list) every
+        mistake is appended as a :class:`Problem` and None returned for a bad entry, and
+        with ``parts`` (a list) ``(id, VideoInfo or None, ForceInfo or None)`` is appended
+        (what parsed of a bad entry, whose recordings can still be checked)."""
+        c = _Collect(problems)
+        d = c(_obj, d, where)
+        if d is None:
+            if parts is not None:
+                parts.append((None, None, None))
+            return None
+        tid = c(validate_id, d.get("id"), where=f"{where}.id")
+        c.trial = tid
         subject = d.get("subject")
         if isinstance(subject, int) and not isinstance(subject, bool):
             subject = str(subject)  # a lab may write subject numbers; labels are strings
         if not isinstance(subject, str) or not subject:
-            raise _fail(f"{where}.subject", f"must be a non-empty string, got {subject!r}")
+            c(_raise, f"{where}.subject", f"must be a non-empty string, got {subject!r}")
         truth = d.get("truth")
         if truth is not None:
-            _check_relpath(truth, f"{where}.truth")
+            c(_check_relpath, truth, f"{where}.truth")
         cal = d.get("calibration")
         if cal is not None:
-            cal = _obj(cal, f"{where}.calibration")
-            _num(cal, "surface_height_mm", f"{where}.calibration", positive=True)
+            cal = c(_obj, cal, f"{where}.calibration")
+            if cal is not None:
+                c(_num, cal, "surface_height_mm", f"{where}.calibration", positive=True)
+        kw = dict(
+            surface=c(_str, d, "surface", where),
+            speed_mm_s=c(_num, d, "speed_mm_s", where, positive=True),
+            repetition=c(_num, d, "repetition", where, positive=True, integer=True, default=1),
+        )
+        sub = problems if problems is not None else None
+        video = c(VideoInfo.from_dict, d.get("video"), f"{where}.video", sub, tid)
+        force = c(ForceInfo.from_dict, d.get("force"), f"{where}.force", sub, tid)
+        if parts is not None:
+            parts.append((tid, video, force))
+        if c.failed or video is None or force is None:
+            return None
+        return cls(id=tid, subject=subject, video=video, force=force, calibration=cal, truth=truth, **kw)
+
+
+def _raise(where: str, msg: str):
+    raise _fail(where, msg)
+
+
+def _surface_of_name(name: str) -> dict | None:
+    """The spec of a surface named directly in a trial (a built-in name or a parametric
+    spec such as ``'bump:W=3,H=0.5'``), or None. Profile files are not looked up here:
+    they belong in ``surfaces``, relative to no folder in particular."""
+    if name in SURFACE_NAMES or (":" in name and not name.lower().endswith(".csv")):
         try:
-            return cls(
-                id=tid,
-                subject=subject,
-                surface=_str(d, "surface", where),
-                speed_mm_s=_num(d, "speed_mm_s", where, positive=True),
-                repetition=_num(d, "repetition", where, positive=True, integer=True),
-                video=VideoInfo.from_dict(d.get("video"), f"{where}.video"),
-                force=ForceInfo.from_dict(d.get("force"), f"{where}.force"),
-                calibration=cal,
-                truth=truth,
-            )
-        except ManifestError as exc:
-            msg = str(exc)
-            if msg.startswith(f"{where}"):
-                raise
-            raise ManifestError(f"{where}.{msg}") from None
+            return surface_from_spec(name).to_dict()
+        except (ValueError, TypeError):
+            return None
+    return None
 
 
 @dataclass(frozen=True)
@@ -432,7 +210,9 @@ class Study:
     trials : tuple of TrialRecord
         Unique ids; each trial's surface is a key of ``surfaces``.
     surfaces : dict
-        Surface name -> spec dict as written by ``Surface.to_dict()``.
+        Surface name -> spec dict as written by ``Surface.to_dict()``. A built-in name
+        (``'bump-2mm'``) or a parametric spec (``'bump:W=3,H=0.5'``) used by a trial is
+        added to it.
     description : str
         Free text.
     created_by : str
@@ -442,7 +222,7 @@ class Study:
     """
 
     trials: tuple
-    surfaces: dict
+    surfaces: dict = field(default_factory=dict)
     description: str = ""
     created_by: str = ""
     root: Path | None = field(default=None, compare=False)
@@ -451,6 +231,7 @@ class Study:
         object.__setattr__(self, "trials", tuple(self.trials))
         if not isinstance(self.surfaces, dict):
             raise _fail("surfaces", f"must be a mapping of name -> spec, got {type(self.surfaces).__name__}")
+        surfaces = dict(self.surfaces)
         seen: set[str] = set()
         for i, t in enumerate(self.trials):
             if not isinstance(t, TrialRecord):
@@ -458,11 +239,12 @@ class Study:
             if t.id in seen:
                 raise _fail(f"trials[{i}].id", f"duplicate trial id {t.id!r}")
             seen.add(t.id)
-            if t.surface not in self.surfaces:
-                raise _fail(
-                    f"trials[{i}].surface",
-                    f"{t.surface!r} is not in 'surfaces' (known: {', '.join(self.surfaces) or 'none'})",
-                )
+            if t.surface not in surfaces:
+                spec = _surface_of_name(t.surface)
+                if spec is None:
+                    raise _fail(f"trials[{i}].surface", _unknown_surface(t.surface, surfaces))
+                surfaces[t.surface] = spec
+        object.__setattr__(self, "surfaces", surfaces)
 
     def trial(self, trial_id: str) -> TrialRecord:
         """The trial with this id (``KeyError`` naming the known ids if absent)."""
@@ -492,55 +274,79 @@ class Study:
         }
 
     @classmethod
-    def from_dict(cls, d: Any, *, root: Path | None = None) -> Study:
-        d = _obj(d, "manifest")
+    def from_dict(cls, d: Any, *, root: Path | None = None, problems: list | None = None,
+                  parts: list | None = None) -> Study | None:
+        """Parse a manifest. With ``problems`` (a list), every mistake is appended as a
+        :class:`Problem` and the study returned holds the trials without mistakes (None if
+        the manifest as a whole is unusable); ``parts``: see :meth:`TrialRecord.from_dict`,
+        one item per entry of ``trials``."""
+        c = _Collect(problems)
+        d = c(_obj, d, "manifest")
+        if d is None:
+            return None
         fmt = d.get("format")
         if fmt != FORMAT_NAME:
-            raise _fail("format", f"must be {FORMAT_NAME!r}, got {fmt!r}")
+            c(_raise, "format", f"must be {FORMAT_NAME!r}, got {fmt!r}")
         ver = d.get("schema_version")
         if ver != SCHEMA_VERSION:
-            raise _fail("schema_version", f"this version of fingerfriction reads schema 1, got {ver!r}")
-        surfaces = _obj(d.get("surfaces"), "surfaces")
+            c(_raise, "schema_version", f"this version of fingerfriction reads schema 1, got {ver!r}")
+        surfaces = c(_obj, d.get("surfaces", {}), "surfaces") or {}
+        good_surfaces = {}
         for name, spec in surfaces.items():
             try:
                 surface_from_spec(_obj(spec, f"surfaces.{name}"))
+                good_surfaces[name] = spec
+            except ManifestError as exc:
+                c(_raise, f"surfaces.{name}", str(exc).split(": ", 1)[-1])
             except (ValueError, TypeError, KeyError) as exc:
-                raise _fail(f"surfaces.{name}", f"invalid surface spec ({exc})") from None
+                c(_raise, f"surfaces.{name}", f"invalid surface spec ({exc})")
         trials = d.get("trials")
         if not isinstance(trials, list):
-            raise _fail("trials", f"must be a list, got {type(trials).__name__}")
-        recs = tuple(TrialRecord.from_dict(t, f"trials[{i}]") for i, t in enumerate(trials))
-        return cls(
-            trials=recs,
-            surfaces=surfaces,
-            description=_str(d, "description", "manifest", default=""),
-            created_by=_str(d, "created_by", "manifest", default=""),
-            root=root,
-        )
+            c(_raise, "trials", f"must be a list, got {type(trials).__name__}")
+            return None
+        description = c(_str, d, "description", "manifest", default="")
+        created_by = c(_str, d, "created_by", "manifest", default="")
+        if c.failed and problems is None:
+            return None
+        recs, seen = [], {}
+        for i, t in enumerate(trials):
+            rec = TrialRecord.from_dict(t, f"trials[{i}]", problems, parts)
+            if rec is None:
+                continue
+            if rec.id in seen:
+                c.trial = rec.id
+                c(_raise, f"trials[{i}].id", f"duplicate trial id {rec.id!r} (also trials[{seen[rec.id]}])")
+                continue
+            seen[rec.id] = i
+            if rec.surface not in good_surfaces and _surface_of_name(rec.surface) is None:
+                c.trial = rec.id
+                c(_raise, f"trials[{i}].surface", _unknown_surface(rec.surface, surfaces))
+                continue
+            recs.append(rec)
+        return cls(trials=recs, surfaces=good_surfaces, description=description or "",
+                   created_by=created_by or "", root=root)
 
 
-def load_manifest(path: str | os.PathLike) -> Study:
-    """Read and validate a study manifest.
+def _unknown_surface(name: str, surfaces: dict) -> str:
+    known = f"; 'surfaces' defines {', '.join(surfaces)}" if surfaces else ""
+    return (f"{name!r} is not in 'surfaces' and is not a built-in surface ({', '.join(SURFACE_NAMES)}) or a "
+            f"spec like 'bump:W=3,H=0.5'{known}")
 
-    Parameters
-    ----------
-    path : path-like
-        The ``manifest.json`` file, or the study folder holding it.
 
-    Returns
-    -------
-    Study
-        With ``root`` set to the folder of the manifest.
+def _manifest_file(path: str | os.PathLike) -> Path:
+    p = Path(path)
+    return p / MANIFEST_NAME if p.is_dir() else p
+
+
+def read_manifest_json(path: str | os.PathLike) -> Any:
+    """The parsed JSON of a manifest (the file, or the study folder holding it).
 
     Raises
     ------
     ManifestError
-        One line naming the file and the offending field, e.g.
-        ``study/manifest.json: trials[2].video.fps: must be positive, got 0``.
+        A missing or unreadable file, text that is not UTF-8 or not JSON, naming the file.
     """
-    p = Path(path)
-    if p.is_dir():
-        p = p / MANIFEST_NAME
+    p = _manifest_file(path)
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -550,11 +356,38 @@ def load_manifest(path: str | os.PathLike) -> Study:
     except UnicodeDecodeError:
         raise ManifestError(f"{p}: manifest is not UTF-8 text") from None
     try:
-        data = json.loads(text)
+        return json.loads(text)
     except json.JSONDecodeError as exc:
         raise ManifestError(
             f"{p}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
         ) from None
+
+
+def load_manifest(path: str | os.PathLike, *, complete: bool = True) -> Study:
+    """Read and validate a study manifest.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``manifest.json`` file, or the study folder holding it.
+    complete : bool
+        Read the fields a trial leaves to its files (frame rate, frame count, image size,
+        sample count, sampling rate) from the files (:func:`complete_from_files`).
+
+    Returns
+    -------
+    Study
+        With ``root`` set to the folder of the manifest.
+
+    Raises
+    ------
+    ManifestError
+        One line naming the file and the first offending field, e.g.
+        ``study/manifest.json: trials[2].video.fps: must be positive, got 0``
+        (``fingerfriction check`` lists them all: :func:`fingerfriction.study.check.check_study`).
+    """
+    p = _manifest_file(path)
+    data = read_manifest_json(p)
     try:
         study = Study.from_dict(data, root=p.parent.resolve())
     except ManifestError as exc:
@@ -566,7 +399,80 @@ def load_manifest(path: str | os.PathLike) -> Study:
                     resolve_path(study.root, rel, where=f"trials[{i}].{what}")
                 except ManifestError as exc:
                     raise ManifestError(f"{p}: {exc}") from None
+    if complete:
+        try:
+            study = complete_from_files(study)
+        except ManifestError as exc:
+            raise ManifestError(f"{p}: {exc}") from None
     return study
+
+
+def complete_from_files(study: Study, problems: list | None = None) -> Study:
+    """The study with every field a trial left to its files read from them.
+
+    Video: ``fps``, ``width``, ``height``, ``n_frames``
+    (:func:`~fingerfriction.video.readers.probe_video`); force: ``n_samples`` and
+    ``fs_hz`` (:func:`~fingerfriction.forces.readers.probe_force_file`; the file must
+    state its rate: TDMS, an HDF5 attribute, a time column). Trials that state them all
+    are not opened.
+
+    Parameters
+    ----------
+    study : Study
+        With its ``root``.
+    problems : list, optional
+        Append a :class:`Problem` per file that cannot answer and leave that trial out,
+        instead of raising.
+
+    Raises
+    ------
+    ManifestError
+        ``trials[i].video.fps: not given, and ... does not state it``, or a file that
+        cannot be read.
+    """
+    out = []
+    for i, t in enumerate(study.trials):
+        try:
+            out.append(_complete_trial(study, i, t))
+        except ManifestError as exc:
+            if problems is None:
+                raise
+            rel = t.video.path if ".video." in str(exc).split(":", 1)[0] else t.force.path
+            problems.append(_problem(exc, file=rel, trial=t.id, kind="file"))
+    return dataclasses.replace(study, trials=tuple(out))
+
+
+def _complete_trial(study: Study, i: int, t: TrialRecord) -> TrialRecord:
+    video, force = t.video, t.force
+    if video.missing:
+        where = f"trials[{i}].video"
+        try:
+            info = probe_video(study.path(video.path, where=f"{where}.path"))
+        except (ValueError, OSError) as exc:
+            msg = f"not given, and the video cannot be read: {exc}"
+            raise _fail(f"{where}.{video.missing[0]}", msg) from None
+        found = {"fps": info.fps, "width": info.width, "height": info.height, "n_frames": info.n_frames}
+        if found["fps"] is None and video.fps is None:
+            raise _fail(f"{where}.fps", f"not given, and {video.path} does not state its frame rate; give it")
+        video = _within(where, VideoInfo, **{**video.to_dict(), **{k: found[k] for k in video.missing}})
+    if force.missing:
+        where = f"trials[{i}].force"
+        opts = force.reader_options()
+        try:
+            info = probe_force_file(study.path(force.path, where=f"{where}.path"), channels=opts["channels"],
+                                    format=opts["format"], time=opts.get("time"),
+                                    delimiter=opts.get("delimiter"))
+        except (ValueError, OSError) as exc:
+            raise _fail(f"{where}.{force.missing[0]}", f"not given, and the force file cannot be read: "
+                                                       f"{' '.join(str(exc).split())}") from None
+        if force.fs_hz is None and info.fs_hz is None:
+            raise _fail(f"{where}.fs_hz", f"not given, and {force.path} does not state its sampling rate "
+                                          "(no time column, no TDMS/HDF5 rate); give it")
+        found = {"fs_hz": float(f"{info.fs_hz:.12g}") if info.fs_hz else None, "n_samples": info.n_samples}
+        force = _within(where, ForceInfo, **{**force.to_dict(), **{k: found[k] for k in force.missing}})
+    if video is t.video and force is t.force:
+        return t
+    return dataclasses.replace(t, video=video, force=force)
 
 
 def manifest_bytes(study: Study) -> bytes:

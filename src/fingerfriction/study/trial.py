@@ -253,8 +253,7 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRec
     if isinstance(trial, TrialRecord):
         f = trial.force
         return read_force_file(resolve_path(study_dir, f.path, where=f"trial {trial.id!r}: force.path"),
-                               fs_hz=f.fs_hz, channels=f.channels, format=f.format, t0_s=f.t0_s,
-                               n_samples=f.n_samples)
+                               **f.reader_options())
     tid = trial.get("id", "?") if isinstance(trial, Mapping) else "?"
     force = trial.get("force") if isinstance(trial, Mapping) else None
     if not isinstance(force, Mapping):

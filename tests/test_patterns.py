@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from fingerfriction.filepatterns import (
+from fingerfriction.study.patterns import (
     FilePattern,
     PatternError,
     list_candidates,

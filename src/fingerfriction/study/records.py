@@ -1,0 +1,463 @@
+"""The fields of a study manifest's trial entries: the checks every manifest field goes
+through, the ``video`` and ``force`` records, and how a mistake is reported.
+
+Part of the manifest parser (:mod:`fingerfriction.study.manifest` re-exports every public
+name): :class:`VideoInfo` and :class:`ForceInfo` are validated in ``__post_init__``, and
+their ``from_dict`` either raises a :class:`ManifestError` at the first mistake or, given
+a list, appends every mistake to it as a :class:`Problem` (what ``fingerfriction check``
+prints, one line each naming the file and the field). :func:`resolve_path` is the only
+resolver of manifest paths.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..forces.readers import FORCE_FORMATS, FORCE_UNITS, channel_scale, infer_force_format
+
+__all__ = [
+    "MANIFEST_NAME",
+    "VIDEO_FORMATS",
+    "VIDEO_SUFFIXES",
+    "FORCE_FORMATS",
+    "ManifestError",
+    "Problem",
+    "VideoInfo",
+    "ForceInfo",
+    "validate_id",
+    "resolve_path",
+]
+
+VIDEO_FORMATS = ("ffv1-mkv", "tiff", "avi", "mp4", "mkv", "mov", "cine")
+MANIFEST_NAME = "manifest.json"
+
+_ID_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
+
+
+class ManifestError(ValueError):
+    """A malformed manifest or an invalid study record; the message names file and field."""
+
+
+def _fail(where: str, msg: str) -> ManifestError:
+    return ManifestError(f"{where}: {msg}")
+
+
+def validate_id(trial_id: Any, *, where: str = "id") -> str:
+    """Check a trial id: a non-empty string of letters, digits, ``-``, ``_`` and ``.``.
+
+    The id names a folder (``trials/<id>/``), so ``.`` and ``..`` alone are refused.
+
+    Raises
+    ------
+    ManifestError
+        Naming ``where``, the value and what is allowed.
+    """
+    if not isinstance(trial_id, str) or not _ID_RE.match(trial_id) or trial_id in (".", ".."):
+        raise _fail(
+            where, f"trial id must be letters, digits, '-', '_' or '.' (not '.' or '..'), got {trial_id!r}"
+        )
+    return trial_id
+
+
+def _check_relpath(path: Any, where: str) -> str:
+    """A manifest path: relative, POSIX separators, no component ``..``."""
+    if not isinstance(path, str) or not path:
+        raise _fail(where, f"must be a non-empty relative path string, got {path!r}")
+    if "\\" in path:
+        raise _fail(where, f"must use '/' separators, got {path!r}")
+    p = Path(path)
+    if p.is_absolute() or path.startswith("/"):
+        raise _fail(where, f"must be relative to the study folder, got absolute path {path!r}")
+    if any(part == ".." for part in p.parts):
+        raise ManifestError(f"{where} {path!r} escapes the study folder ('..' is not allowed)")
+    return path
+
+
+def resolve_path(root: str | os.PathLike, relpath: str, *, where: str = "path") -> Path:
+    """Absolute path of ``relpath`` inside the study folder ``root``.
+
+    Parameters
+    ----------
+    root : path-like
+        The study folder.
+    relpath : str
+        A path from the manifest, relative to ``root``.
+    where : str
+        Field name used in error messages.
+
+    Raises
+    ------
+    ManifestError
+        If ``relpath`` is absolute, contains ``..``, or resolves (through symbolic links)
+        outside ``root``.
+    """
+    _check_relpath(relpath, where)
+    base = Path(root).resolve()
+    full = (base / relpath).resolve()
+    if full != base and base not in full.parents:
+        raise _fail(where, f"path {relpath!r} resolves to {full}, outside the study folder {base}")
+    return full
+
+
+def _num(d: dict, key: str, where: str, *, positive: bool = False, integer: bool = False,
+         nonneg: bool = False, default: Any = ...) -> Any:
+    if key not in d:
+        if default is not ...:
+            return default
+        raise _fail(f"{where}.{key}", "missing required field")
+    v = d[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise _fail(f"{where}.{key}", f"must be a number, got {v!r}")
+    if integer and (not float(v).is_integer()):
+        raise _fail(f"{where}.{key}", f"must be an integer, got {v!r}")
+    if not math.isfinite(v):
+        raise _fail(f"{where}.{key}", f"must be finite, got {v!r}")
+    if positive and v <= 0:
+        raise _fail(f"{where}.{key}", f"must be positive, got {v!r}")
+    if nonneg and v < 0:
+        raise _fail(f"{where}.{key}", f"must be >= 0, got {v!r}")
+    return int(v) if integer else float(v)
+
+
+def _str(d: dict, key: str, where: str, *, allowed: tuple[str, ...] | None = None,
+         default: Any = ...) -> Any:
+    if key not in d:
+        if default is not ...:
+            return default
+        raise _fail(f"{where}.{key}", "missing required field")
+    v = d[key]
+    if not isinstance(v, str):
+        raise _fail(f"{where}.{key}", f"must be a string, got {v!r}")
+    if allowed is not None and v not in allowed:
+        raise _fail(f"{where}.{key}", f"must be one of {', '.join(allowed)}, got {v!r}")
+    return v
+
+
+def _obj(d: Any, where: str) -> dict:
+    if not isinstance(d, dict):
+        raise _fail(where, f"must be a JSON object, got {type(d).__name__}")
+    return d
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with a study, on one line: the file, the field, what is wrong.
+
+    Attributes
+    ----------
+    file : str
+        The file the problem is in: the manifest, or a recording (its manifest path).
+    field : str
+        The manifest field (``trials[3].video.fps``), or ``''`` for the file as a whole.
+    message : str
+        What is wrong and what is allowed.
+    trial : str or None
+        The trial's id, when the problem belongs to one trial.
+    kind : {'manifest', 'file'}
+        A mistake in the manifest's text, or a recording that does not match it (missing,
+        unreadable, other frame count...).
+    """
+
+    file: str
+    field: str
+    message: str
+    trial: str | None = None
+    kind: str = "manifest"
+
+    def __str__(self) -> str:
+        return f"{self.file}: {self.field}: {self.message}" if self.field else f"{self.file}: {self.message}"
+
+
+_FIELD_RE = re.compile(r"^[A-Za-z_][\w.\[\]]*$")
+
+
+def _problem(exc: Exception, *, file: str = MANIFEST_NAME, trial: str | None = None,
+             kind: str = "manifest", field: str = "") -> Problem:
+    """A Problem from a ``'<field>: <message>'`` error."""
+    text = " ".join(str(exc).split())
+    head, sep, rest = text.partition(": ")
+    if sep and not field and _FIELD_RE.match(head):
+        field, text = head, rest
+    return Problem(file=file, field=field, message=text, trial=trial, kind=kind)
+
+
+class _Collect:
+    """Runs parsing steps and keeps their :class:`ManifestError` instead of raising at the
+    first one, so that ``fingerfriction check`` lists every problem of a manifest."""
+
+    def __init__(self, problems: list | None, trial: str | None = None):
+        self.problems = problems
+        self.trial = trial
+        self.failed = False
+
+    def __call__(self, fn, *args, **kw):
+        try:
+            return fn(*args, **kw)
+        except ManifestError as exc:
+            if self.problems is None:
+                raise
+            self.failed = True
+            self.problems.append(_problem(exc, trial=self.trial))
+            return None
+
+
+#: Video suffix -> manifest ``video.format`` (a path without suffix is a folder of TIFF frames).
+VIDEO_SUFFIXES = {".cine": "cine", ".tif": "tiff", ".tiff": "tiff", ".mkv": "mkv", ".avi": "avi",
+                  ".mp4": "mp4", ".mov": "mov"}
+
+
+def _video_format(path: str, where: str) -> str:
+    suffix = Path(path).suffix.lower()
+    if not suffix:
+        return "tiff"
+    if suffix not in VIDEO_SUFFIXES:
+        raise _fail(f"{where}.format", f"not given, and the suffix {suffix!r} of {path!r} does not tell it; "
+                                       f"give one of {', '.join(VIDEO_FORMATS)}")
+    return VIDEO_SUFFIXES[suffix]
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """The video of one trial.
+
+    Fields the file itself answers (``format``, ``fps``, ``width``, ``height``,
+    ``n_frames``) may be None in the manifest; :func:`load_manifest` reads them from the
+    file.
+
+    Parameters
+    ----------
+    path : str
+        Relative to the study folder.
+    format : str
+        One of :data:`VIDEO_FORMATS`; default from the suffix (none: a folder of TIFF frames).
+    fps : float or None
+        Frame rate in Hz (> 0).
+    width, height : int or None
+        Frame size in pixels (> 0).
+    n_frames : int or None
+        Number of frames (> 0).
+    t0_s : float
+        Time in s of frame 0 on the trial's common clock; frame k is at ``t0_s + k / fps``.
+    calibration_frame : int
+        Index of the finger-free frame used for calibration (Fig. 7A), ``0 <= . < n_frames``.
+    """
+
+    path: str
+    format: str | None = None
+    fps: float | None = None
+    width: int | None = None
+    height: int | None = None
+    n_frames: int | None = None
+    t0_s: float = 0.0
+    calibration_frame: int = 0
+
+    def __post_init__(self) -> None:
+        _check_relpath(self.path, "video.path")
+        d = {k: getattr(self, k) for k in ("fps", "width", "height", "n_frames", "t0_s", "calibration_frame")}
+        if self.fps is not None:
+            object.__setattr__(self, "fps", _num(d, "fps", "video", positive=True))
+        for k in ("width", "height", "n_frames"):
+            if d[k] is not None:
+                object.__setattr__(self, k, _num(d, k, "video", positive=True, integer=True))
+        object.__setattr__(self, "t0_s", _num(d, "t0_s", "video"))
+        cf = _num(d, "calibration_frame", "video", integer=True, nonneg=True)
+        if self.n_frames is not None and cf >= self.n_frames:
+            raise _fail("video.calibration_frame", f"must be < n_frames ({self.n_frames}), got {cf}")
+        object.__setattr__(self, "calibration_frame", cf)
+        fmt = _video_format(self.path, "video") if self.format is None else self.format
+        if fmt not in VIDEO_FORMATS:
+            raise _fail("video.format", f"must be one of {', '.join(VIDEO_FORMATS)}, got {fmt!r}")
+        object.__setattr__(self, "format", fmt)
+
+    @property
+    def missing(self) -> tuple[str, ...]:
+        """The fields left for the file to answer."""
+        return tuple(k for k in ("fps", "width", "height", "n_frames") if getattr(self, k) is None)
+
+    def frame_times(self):
+        """Times in s of every frame on the common clock, ``(n_frames,)`` ndarray."""
+        if self.fps is None or self.n_frames is None:
+            raise ValueError(f"video {self.path}: fps and n_frames are not known; read the manifest with "
+                             "load_manifest, which takes them from the file")
+        return self.t0_s + np.arange(self.n_frames) / self.fps
+
+    def to_dict(self) -> dict:
+        d = {"path": self.path, "format": self.format, "fps": self.fps, "width": self.width,
+             "height": self.height, "n_frames": self.n_frames, "t0_s": self.t0_s,
+             "calibration_frame": self.calibration_frame}
+        return {k: v for k, v in d.items() if v is not None}
+
+    @classmethod
+    def from_dict(cls, d: Any, where: str = "video", problems: list | None = None,
+                  trial: str | None = None) -> VideoInfo | None:
+        """Parse a manifest ``video`` object; with ``problems`` (a list), every mistake is
+        appended as a :class:`Problem` and None returned instead of raising at the first."""
+        c = _Collect(problems, trial)
+        d = c(_obj, d, where)
+        if d is None:
+            return None
+        opt = {"default": None}
+        kw = dict(
+            path=c(_check_relpath, d.get("path"), f"{where}.path"),
+            format=c(_str, d, "format", where, allowed=VIDEO_FORMATS, **opt),
+            fps=c(_num, d, "fps", where, positive=True, **opt),
+            width=c(_num, d, "width", where, positive=True, integer=True, **opt),
+            height=c(_num, d, "height", where, positive=True, integer=True, **opt),
+            n_frames=c(_num, d, "n_frames", where, positive=True, integer=True, **opt),
+            t0_s=c(_num, d, "t0_s", where, default=0.0),
+            calibration_frame=c(_num, d, "calibration_frame", where, integer=True, nonneg=True, default=0),
+        )
+        if c.failed:
+            return None
+        return c(_within, where, cls, **kw)
+
+
+def _within(where: str, cls, **kw):
+    """``cls(**kw)`` with the ``__post_init__`` field names put under ``where``."""
+    try:
+        return cls(**kw)
+    except ManifestError as exc:
+        raise ManifestError(re.sub(r"^(video|force)(?=[.:])", where, str(exc))) from None
+
+
+def _channel_name(v) -> bool:
+    return (isinstance(v, str) and v != "") or (isinstance(v, int) and not isinstance(v, bool) and v >= 0)
+
+
+@dataclass(frozen=True)
+class ForceInfo:
+    """The force recording of one trial: the two transducer channels F1, F2.
+
+    Fields the file itself answers (``format``, ``fs_hz`` when the file states its rate,
+    ``n_samples``) may be None in the manifest; :func:`load_manifest` reads them from the
+    file.
+
+    Parameters
+    ----------
+    path : str
+        Relative to the study folder.
+    format : str
+        One of :data:`FORCE_FORMATS`; default from the suffix.
+    fs_hz : float or None
+        Sampling frequency in Hz (> 0).
+    n_samples : int or None
+        Number of samples per channel (> 0).
+    channels : dict
+        Maps ``'F1'`` and ``'F2'`` (the paper's +-45 degree piezos, Fig. 1C) to the names of
+        the channels in the file (a CSV column may be given by its 0-based index).
+    units : {'N', 'V', 'mV'}
+        Units of the channels in the file.
+    t0_s : float
+        Time in s on the trial's common clock of sample 0 (of the file's time zero when it
+        has a time column: sample n at ``t0_s + time[n]``).
+    sensitivity_n_per_v, gain_v_per_n : float or dict, optional
+        For channels in volts, exactly one: N/V, or V/N; one number or ``{'F1', 'F2'}``.
+    time : str or int, optional
+        A time column in s.
+    delimiter : str, optional
+        CSV delimiter (detected when omitted).
+    """
+
+    path: str
+    format: str | None = None
+    fs_hz: float | None = None
+    n_samples: int | None = None
+    channels: dict = field(default_factory=lambda: {"F1": "F1", "F2": "F2"})
+    units: str = "N"
+    t0_s: float = 0.0
+    sensitivity_n_per_v: Any = None
+    gain_v_per_n: Any = None
+    time: str | int | None = None
+    delimiter: str | None = None
+
+    def __post_init__(self) -> None:
+        _check_relpath(self.path, "force.path")
+        fmt = self.format
+        if fmt is None:
+            try:
+                fmt = infer_force_format(self.path)
+            except ValueError:
+                raise _fail("force.format", f"not given, and the suffix of {self.path!r} does not tell it; "
+                                            f"give one of {', '.join(FORCE_FORMATS)}") from None
+        if fmt not in FORCE_FORMATS:
+            raise _fail("force.format", f"must be one of {', '.join(FORCE_FORMATS)}, got {fmt!r}")
+        object.__setattr__(self, "format", fmt)
+        d = {"fs_hz": self.fs_hz, "n_samples": self.n_samples, "t0_s": self.t0_s}
+        if self.fs_hz is not None:
+            object.__setattr__(self, "fs_hz", _num(d, "fs_hz", "force", positive=True))
+        if self.n_samples is not None:
+            object.__setattr__(self, "n_samples", _num(d, "n_samples", "force", positive=True, integer=True))
+        object.__setattr__(self, "t0_s", _num(d, "t0_s", "force"))
+        ch = self.channels
+        if not isinstance(ch, dict) or set(ch) != {"F1", "F2"} or not all(map(_channel_name, ch.values())):
+            raise _fail("force.channels", "must map exactly 'F1' and 'F2' to channel names (or CSV column "
+                                          f"indices), got {ch!r}")
+        object.__setattr__(self, "channels", {"F1": ch["F1"], "F2": ch["F2"]})
+        try:
+            channel_scale(self.units, self.sensitivity_n_per_v, self.gain_v_per_n)
+        except ValueError as exc:
+            raise _fail("force.units" if str(exc).startswith("units") else "force", str(exc)) from None
+        if self.time is not None and not _channel_name(self.time):
+            raise _fail("force.time", f"must be a channel name or a CSV column index, got {self.time!r}")
+        if self.delimiter is not None and (not isinstance(self.delimiter, str) or not self.delimiter):
+            raise _fail("force.delimiter", f"must be a non-empty string, got {self.delimiter!r}")
+
+    @property
+    def missing(self) -> tuple[str, ...]:
+        """The fields left for the file to answer."""
+        return tuple(k for k in ("fs_hz", "n_samples") if getattr(self, k) is None)
+
+    def reader_options(self) -> dict:
+        """Keywords of :func:`fingerfriction.forces.read_force_file` for this file."""
+        kw = {"fs_hz": self.fs_hz, "channels": dict(self.channels), "format": self.format,
+              "t0_s": self.t0_s, "n_samples": self.n_samples, "units": self.units,
+              "sensitivity_n_per_v": self.sensitivity_n_per_v, "gain_v_per_n": self.gain_v_per_n,
+              "time": self.time, "delimiter": self.delimiter}
+        return {k: v for k, v in kw.items() if v is not None}
+
+    def sample_times(self):
+        """Times in s of every sample on the common clock, ``(n_samples,)`` ndarray."""
+        if self.fs_hz is None or self.n_samples is None:
+            raise ValueError(f"force file {self.path}: fs_hz and n_samples are not known; read the manifest "
+                             "with load_manifest, which takes them from the file")
+        return self.t0_s + np.arange(self.n_samples) / self.fs_hz
+
+    def to_dict(self) -> dict:
+        d = {"path": self.path, "format": self.format, "fs_hz": self.fs_hz, "n_samples": self.n_samples,
+             "channels": dict(self.channels), "units": self.units, "t0_s": self.t0_s,
+             "sensitivity_n_per_v": self.sensitivity_n_per_v, "gain_v_per_n": self.gain_v_per_n,
+             "time": self.time, "delimiter": self.delimiter}
+        return {k: v for k, v in d.items() if v is not None}
+
+    @classmethod
+    def from_dict(cls, d: Any, where: str = "force", problems: list | None = None,
+                  trial: str | None = None) -> ForceInfo | None:
+        """Parse a manifest ``force`` object (``problems``: as :meth:`VideoInfo.from_dict`)."""
+        c = _Collect(problems, trial)
+        d = c(_obj, d, where)
+        if d is None:
+            return None
+        opt = {"default": None}
+        kw = dict(
+            path=c(_check_relpath, d.get("path"), f"{where}.path"),
+            format=c(_str, d, "format", where, allowed=FORCE_FORMATS, **opt),
+            fs_hz=c(_num, d, "fs_hz", where, positive=True, **opt),
+            n_samples=c(_num, d, "n_samples", where, positive=True, integer=True, **opt),
+            channels=d.get("channels", {"F1": "F1", "F2": "F2"}),
+            units=c(_str, d, "units", where, allowed=FORCE_UNITS, default="N"),
+            t0_s=c(_num, d, "t0_s", where, default=0.0),
+            sensitivity_n_per_v=d.get("sensitivity_n_per_v"),
+            gain_v_per_n=d.get("gain_v_per_n"),
+            time=d.get("time"),
+            delimiter=d.get("delimiter"),
+        )
+        if c.failed:
+            return None
+        return c(_within, where, cls, **kw)
