@@ -519,8 +519,9 @@ def analyze_cmd(
         return
     _grouped_failures(res.failures, "analysis", verbosity)
     _summary(summary_line(
-        "analyze", [_n(res.n_trials, "trial"), f"{res.n_computed} computed", f"{res.n_skipped} already done",
-                    f"{res.n_failed} failed", f"{res.scheduler} scheduler, {res.n_workers} workers"],
+        "analyze", [f"{res.n_computed} computed", f"{res.n_skipped} already done",
+                    f"{res.n_failed} failed of {_n(res.n_trials, 'trial')}",
+                    f"{res.scheduler} scheduler, {res.n_workers} workers"],
         elapsed_s=res.elapsed_s, output=str(res.results), log=log))
 
 
