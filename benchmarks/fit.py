@@ -18,7 +18,8 @@ import time
 
 import numpy as np
 
-from fingerfriction.fit import FitOptions, _Design, fit_trials, mu_grid
+from fingerfriction.fit import FitOptions, fit_trials, mu_grid
+from fingerfriction.fit.paper import _Design
 from fingerfriction.testing import synthetic_trials
 
 

@@ -120,3 +120,42 @@ def test_command_line_values():
                          allow_default=True) == {None: 0.4, "bump-4mm": 0.8}
     with pytest.raises(ValueError, match=r"--surface takes KEY=VALUE, got 'SU4'"):
         parse_mapping(["SU4"], "--surface")
+
+
+def test_init_command_refusals_and_skip_bad(lab):
+    import json
+
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+
+    runner = CliRunner()
+    args = ["init", str(lab), "--video", V, "--video", VT, "--forces", F, "--surface", "SU4=step-up-4mm",
+            "--fps", "500", "--channels", "csv:1,2", "--time", "csv:0", "--units", "V",
+            "--sensitivity", "10,20"]
+    (lab / "raw" / "S2_bump-2mm_40mms_1.cine").write_bytes(b"not a cine")
+    _csv(lab / "raw" / "S2_bump-2mm_40mms_1.csv")
+
+    def run(*extra):
+        r = runner.invoke(app, [*args, *extra])
+        return r.exit_code, " ".join(r.output.split())
+
+    code, out = run()
+    assert code == 2 and "raw/S2_bump-2mm_40mms_1.cine" in out
+    assert "1 of 3 trials have problems (listed above); fix them, or give --skip-bad to write the 2 " in out
+    assert not (lab / "manifest.json").exists()
+    code, out = run("--skip-bad", "--dry-run")
+    assert code == 0 and "would hold 2 trials (1 with problems left out); nothing was written" in out
+    assert not (lab / "manifest.json").exists()
+    code, out = run("--skip-bad")
+    assert code == 0 and "manifest.json: 2 trials (1 with problems left out)" in out, out
+    assert len(json.loads((lab / "manifest.json").read_text())["trials"]) == 2
+    code, out = run("--skip-bad")
+    assert code == 2 and "manifest.json exists; give --overwrite to replace it" in out
+    code, out = run("--skip-bad", "--overwrite")
+    assert code == 0
+    r = runner.invoke(app, ["init", str(lab), "--video", "raw/{subject}_{surface}_{speed}.avi",
+                            "--forces", F])
+    assert r.exit_code == 2 and "different fields" in " ".join(r.output.split())
+    r = runner.invoke(app, ["init", str(lab), "--video", "nope/" + V.split("/", 1)[1], "--forces", F])
+    assert r.exit_code == 2 and "no trial found" in " ".join(r.output.split())

@@ -95,7 +95,8 @@ def test_init_analyze_fit_on_lab_files(analysed):
     assert code == 0, out
     assert "fit: 8 trials," in out
     fitted = pd.read_csv(base / "lab-results" / "fit" / "trials.csv")
-    assert sorted(fitted["trial"]) == sorted(t["id"] for t in entries.values())
+    assert sorted(set(fitted["trial"])) == sorted(t["id"] for t in entries.values())
+    assert set(fitted["model"]) == {"load", "paper"}  # one row per trial and model
 
 
 def test_edits_recompute_only_what_changed(analysed, tmp_path):
@@ -144,3 +145,28 @@ def test_edits_recompute_only_what_changed(analysed, tmp_path):
     assert code == 0 and "0 computed, 8 already done, 0 failed of 8 trials" in out, out
     x = pd.read_parquet(results / "trials" / m["trials"][0]["id"] / "forces.parquet")["x_mm"]
     assert x.iloc[0] == pytest.approx(-12.0) and x.iloc[-1] == pytest.approx(12.0)
+
+
+def test_a_minimal_manifest_gives_the_same_results(analysed, tmp_path):
+    """An entry with only what the files cannot say (no format, rate, size, counts,
+    repetition, calibration, surfaces block) is analysed as the full one."""
+    base, source, study, names, *_ = analysed
+    full = json.loads((study / "manifest.json").read_text())
+    t = next(e for e in full["trials"] if e["force"]["format"] == "csv" and e["video"]["format"] == "tiff")
+    mine = tmp_path / "study"
+    for rel in (t["video"]["path"], t["force"]["path"]):
+        (mine / rel).parent.mkdir(parents=True, exist_ok=True)
+        os.link(study / rel, mine / rel)
+    f = t["force"]
+    minimal = {"format": "fingerfriction-study", "schema_version": 1, "trials": [{
+        "id": t["id"], "subject": t["subject"], "surface": t["surface"], "speed_mm_s": t["speed_mm_s"],
+        "video": {"path": t["video"]["path"], "fps": 250, "t0_s": 0.08},
+        "force": {k: f[k] for k in ("path", "channels", "time", "units", "sensitivity_n_per_v")}}]}
+    (mine / "manifest.json").write_text(json.dumps(minimal))
+    code, out = _run("check", mine)
+    assert code == 0 and "1 trials, no problem found" in out, out
+    code, out = _run("analyze", mine, "--out", tmp_path / "results", "-j", 1)
+    assert code == 0 and "1 computed" in out, out
+    a = pd.read_parquet(tmp_path / "results" / "trials" / t["id"] / "forces.parquet")
+    b = pd.read_parquet(base / "lab-results" / "trials" / t["id"] / "forces.parquet")
+    pd.testing.assert_frame_equal(a, b)

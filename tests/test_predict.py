@@ -12,7 +12,7 @@ import pytest
 
 from fingerfriction.blindspots import blind_spots
 from fingerfriction.mechanics import SUBJECTS, solve_contact, sweep
-from fingerfriction.model import FrictionParams
+from fingerfriction.model import FrictionParams, LoadParams
 from fingerfriction.predict import (
     MAX_SLOPE_ANGLE,
     PAPER_MU,
@@ -266,7 +266,8 @@ def test_loso_exact_on_forward_generated_study(forward_study, tmp_path):
     from fingerfriction.predict import leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=2, noise=0.0, param_sd=0.0)
-    res = leave_one_surface_out(trials, options=FitOptions(median_kernel=1), forward_step=LOSO_STEP)
+    res = leave_one_surface_out(trials, model="paper", options=FitOptions(median_kernel=1),
+                                forward_step=LOSO_STEP)
     t = res.table
     assert len(t) == 3 * 3  # (S1, S2, both) x held-out surfaces
     assert list(t["subject"]) == ["S1"] * 3 + ["S2"] * 3 + ["Both subjects"] * 3
@@ -291,7 +292,7 @@ def test_loso_absolute_forces(forward_study):
     from fingerfriction.predict import leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0, drift_correct=False)
-    res = leave_one_surface_out(trials, options=FitOptions(median_kernel=1, detrend=False),
+    res = leave_one_surface_out(trials, model="paper", options=FitOptions(median_kernel=1, detrend=False),
                                 forward_step=LOSO_STEP)
     np.testing.assert_allclose(res.table["rho_out_of_sample"], 1.0, atol=1e-9)
     _, measured, predicted = res.estimates["S2", "step-up-4mm"][0]
@@ -310,15 +311,57 @@ def test_loso_noisy_study_and_wrong_finger(forward_study):
 
     trials = _study_trials(forward_study, reps=2, noise=0.1, param_sd=0.15, seed=3)
     opts = FitOptions(median_kernel=1)
-    good = leave_one_surface_out(trials, options=opts, forward_step=LOSO_STEP).table
+    good = leave_one_surface_out(trials, model="paper", options=opts, forward_step=LOSO_STEP).table
     # measured with the calibrated fingers: 0.88..0.995 (mu poorly identified from 2 surfaces)
     assert np.all(good["rho_out_of_sample"] > 0.85)
     np.testing.assert_allclose(good["rho_out_of_sample"], good["rho_heldout_params_video"], atol=1e-6)
     wrong = {s: dataclasses.replace(SUBJECTS[int(s[-1])], modulus=10 * SUBJECTS[int(s[-1])].modulus)
              for s in LOSO_MU}
-    bad = leave_one_surface_out(trials, options=opts, forward_step=LOSO_STEP, fingers=wrong).table
+    bad = leave_one_surface_out(trials, model="paper", options=opts, forward_step=LOSO_STEP,
+                                fingers=wrong).table
     # measured: 0.62..0.73 against 0.88..0.995
     assert np.all(bad["rho_out_of_sample"] < good["rho_out_of_sample"] - 0.15)
+
+
+def _load_study_trials(forward_study, *, reps, noise, seed=0):
+    """Trials made by the load-consistent model on the forward regions: a finger pressing
+    with 0.3 N (+-2 mN of slow wander), known (mu, p1), absolute forces."""
+    from fingerfriction.fit import Trial
+    from fingerfriction.model import FrictionModel
+
+    rng = np.random.default_rng(seed)
+    trials = []
+    for (subj, _name), (s, x, reg, _B) in forward_study.items():
+        for r in range(reps):
+            fn = 0.3 + 0.002 * np.sin(x / 3.0 + r)
+            F = FrictionModel(s).load_forces(reg, fn, LoadParams(LOSO_MU[subj], 0.04)).total
+            F = F + rng.normal(scale=noise * F.std(), size=F.size)
+            labels = {"rep": str(r), "trial": f"{subj}-{_name}-{r}"}
+            trials.append(Trial(x, F - F.mean(), reg, s, subj, labels, force_abs=F, normal_abs=fn))
+    return trials
+
+
+def test_loso_load_model_exact_on_forward_generated_study(forward_study):
+    """The load-consistent model on data it made: mu from flat ground, p1 and the
+    (default-fitted) load-bearing contact come back, the prediction at the nominal load of
+    a held-out surface matches up to the +-2 mN load wander."""
+    from fingerfriction.fit import LoadFitOptions
+    from fingerfriction.predict import leave_one_surface_out
+
+    trials = _load_study_trials(forward_study, reps=2, noise=0.0)
+    opts = LoadFitOptions(median_kernel=1, inset=0.0, kappa=0.0)
+    res = leave_one_surface_out(trials, model="load", load_options=opts, forward_step=LOSO_STEP)
+    t = res.table
+    assert set(t["model"]) == {"load"}
+    np.testing.assert_allclose(t["rho_in_sample"], 1.0, atol=1e-9)
+    np.testing.assert_allclose(t["rho_out_of_sample_measured_load"], 1.0, atol=1e-6)
+    np.testing.assert_allclose(t["rho_heldout_params_video"], 1.0, atol=1e-6)
+    assert np.all(t["rho_out_of_sample"] > 0.95)  # the nominal load misses only the wander
+    per = t[t["subject"] != "Both subjects"]
+    for row in per.itertuples():
+        assert row.mu == pytest.approx(LOSO_MU[row.subject], rel=1e-9)
+        assert row.p1 == pytest.approx(0.04, rel=1e-6)
+        assert row.inset_mm == 0.0 and row.kappa_per_mm == 0.0 and np.isnan(row.p0)
 
 
 def test_loso_bad_input(forward_study):
@@ -327,12 +370,15 @@ def test_loso_bad_input(forward_study):
     trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0)
     one = [t for t in trials if t.surface.name == "bump-2mm"]
     with pytest.raises(ValueError, match="at least 2 surfaces"):
-        leave_one_surface_out(one)
+        leave_one_surface_out(one, model="paper")
+    with pytest.raises(ValueError, match="model must be one of"):
+        leave_one_surface_out(trials, model="hertz")
     with pytest.raises(ValueError, match="cannot map subject 'Alice'"):
         from fingerfriction.fit import Trial
 
         t0 = trials[0]
-        leave_one_surface_out([Trial(t0.x, t0.force, t0.regions, t0.surface, "Alice")] + trials[1:])
+        leave_one_surface_out([Trial(t0.x, t0.force, t0.regions, t0.surface, "Alice")] + trials[1:],
+                              model="paper")
     with pytest.raises(TypeError, match=r"trials\[0\] must be a fingerfriction.fit.Trial"):
         leave_one_surface_out([object()])
 
@@ -378,10 +424,15 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     fit(root, progress=False, median_kernel=1)
     trials = pd.read_csv(root / "fit" / "trials.csv", dtype={"subject": str})
     fj = json.loads((root / "fit" / "fit.json").read_text())
+    assert fj["model"] == "load"
     for src in (root, root / "fit", root / "fit" / "fit.json"):
-        p = load_params(src, "2")
-        sel = trials[trials["subject"] == "2"]
-        assert p == FrictionParams(fj["mu"]["2"], sel["p0"].median(), sel["p1"].median())
+        sel = trials[(trials["subject"] == "2") & (trials["model"] == "load")]
+        load = fj["models"]["load"]
+        assert load_params(src, "2") == LoadParams(fj["mu"]["2"], sel["p1"].median(), load["inset_mm"]["2"],
+                                                   load["kappa_per_mm"]["2"])
+        sel = trials[(trials["subject"] == "2") & (trials["model"] == "paper")]
+        assert load_params(src, "2", model="paper") == FrictionParams(
+            fj["models"]["paper"]["mu"]["2"], sel["p0"].median(), sel["p1"].median())
     with pytest.raises(ValueError, match=r"no fitted mu for subject '3'"):
         load_params(root, "3")
     from typer.testing import CliRunner
@@ -394,7 +445,9 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     df = pd.read_csv(root / "fit" / "loso.csv", dtype={"subject": str})
     with open(root / "fit" / "loso.png", "rb") as fh:
         assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
-    assert len(df) == 2 * 3 and set(df["surface"]) == {"bump-2mm", "step-down-4mm"}
+    assert len(df) == 2 * 2 * 3 and set(df["surface"]) == {"bump-2mm", "step-down-4mm"}
+    assert list(dict.fromkeys(df["model"])) == ["load", "paper"]
+    df = df[df["model"] == "paper"]
     assert np.all(np.isfinite(df["rho_in_sample"])) and np.all(np.isfinite(df["rho_out_of_sample"]))
     # in-sample rho is the study's Table 1 (same grid and options as the recorded fit)
     from fingerfriction.fit import FitOptions, fit_trials, mu_grid
@@ -435,7 +488,7 @@ def test_loso_short_window_without_forward_flat_segment():
             F = flat_detrend(x, F, flat_segment_mask(reg, s))
             trials.append(Trial(x, F, reg, s, subj))
             assert np.count_nonzero(flat_segment_mask(forward_regions(s, f, x), s)) < 2  # the premise
-    res = leave_one_surface_out(trials, options=FitOptions(median_kernel=1), forward_step=0.2)
+    res = leave_one_surface_out(trials, model="paper", options=FitOptions(median_kernel=1), forward_step=0.2)
     t = res.table
     assert np.all(np.isfinite(t["rho_out_of_sample"]))
     # the footing is the exact flat level, not a line: predicted - (Eq. 4 - mu p0 L_flat) = 0
@@ -445,3 +498,20 @@ def test_loso_short_window_without_forward_flat_segment():
     eq4 = FrictionModel(get_surface("bump-2mm")).forces(reg, FrictionParams(row.mu, row.p0, row.p1)).total
     level = row.mu * row.p0 * flat_contact_length(1)
     np.testing.assert_allclose(predicted, eq4 - level, rtol=0, atol=1e-6)
+
+
+def test_predict_uses_the_load_consistent_model_by_default():
+    """Without parameters: the load-consistent model (its pressure carries the 0.3 N), the
+    paper's on request; both are Amontons' law on flat ground, they differ on the relief."""
+    load_pred = predict("bump:W=3,H=0.5", 1, step=0.05)
+    paper_pred = predict("bump:W=3,H=0.5", 1, step=0.05, model="paper")
+    assert load_pred.model == "load" and isinstance(load_pred.params, LoadParams)
+    assert paper_pred.model == "paper" and isinstance(paper_pred.params, FrictionParams)
+    assert load_pred.flat_level == pytest.approx(0.55 * 0.3, rel=1e-6)
+    assert paper_pred.flat_level == pytest.approx(0.55 * 0.3, rel=1e-3)  # p0 = F_N / L_flat
+    assert np.max(np.abs(load_pred.F_T - paper_pred.F_T)) > 1e-3  # N: the load is conserved in one
+    s = load_pred.summary()
+    assert s["model"] == "load" and set(s["params"]) == {"mu", "p1", "inset", "kappa"}
+    assert "load-consistent" in load_pred.params_text and "paper" in paper_pred.params_text
+    with pytest.raises(ValueError, match="model must be one of"):
+        predict("bump:W=3,H=0.5", 1, step=0.05, model="hertz")

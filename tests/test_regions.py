@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fingerfriction.regions import as_regions, n_regions, region_lengths, regions_from_mask
+from fingerfriction.regions import as_regions, inset_regions, n_regions, region_lengths, regions_from_mask
 
 
 def test_single_frame_and_ragged_lists():
@@ -43,3 +43,16 @@ def test_regions_from_mask_runs():
     assert np.isnan(r[1]).all()
     with pytest.raises(ValueError, match=r"3 contact regions, more than n_max=2"):
         regions_from_mask(x, m, n_max=2)
+
+
+def test_inset_regions_shortens_drops_and_compacts():
+    r = np.array([[[0.0, 1.0], [2.0, 2.5], [3.0, 5.0]],
+                  [[0.0, 0.6], [np.nan, np.nan], [np.nan, np.nan]]])
+    out = inset_regions(r, 0.3)
+    np.testing.assert_allclose(out[0, :2], [[0.3, 0.7], [3.3, 4.7]])
+    assert np.isnan(out[0, 2]).all()
+    assert np.isnan(out[1]).all()  # 0.6 mm is not longer than 2 x 0.3 mm
+    as_regions(out)  # still a valid regions array: survivors first, in order
+    np.testing.assert_array_equal(inset_regions(r, 0.0), r)
+    with pytest.raises(ValueError, match=r"inset must be a finite length >= 0 in mm, got -1"):
+        inset_regions(r, -1)

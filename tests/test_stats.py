@@ -5,12 +5,14 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from scipy import signal
 from scipy import stats as sps
 
 from fingerfriction.fit import FitOptions, TrialFit, fit_trials
 from fingerfriction.stats import (
     BOTH,
     blind_spot_table,
+    bootstrap_correlation_ci,
     correlation_table,
     ensemble_correlation,
     table1_wide,
@@ -61,8 +63,8 @@ def test_table1_layout_and_values():
         tf("S1", "Step Down", "4 mm", *A),
     ]
     t = correlation_table(fits)
-    assert list(t.columns) == ["subject", "scale", "shape", "rho", "p", "significant", "n_trials",
-                               "n_samples"]
+    assert list(t.columns) == ["subject", "scale", "shape", "rho", "rho_lo", "rho_hi", "p", "significant",
+                               "n_trials", "n_samples"]
     keys = list(zip(t.subject, t.scale, t["shape"], strict=True))
     assert keys == [
         ("S1", "2 mm", "Bump"), ("S1", "4 mm", "Step Down"),
@@ -124,3 +126,24 @@ def test_end_to_end_synthetic_table1():
     t = correlation_table(fits)
     assert len(t) == 6  # 2 subjects + both, x 2 conditions
     assert (t.rho > 0.9).all() and t.significant.all()
+
+
+def test_bootstrap_ci_matches_a_brute_force_resampling():
+    """The moment-sum bootstrap equals resampling the trials and concatenating them."""
+    rng = np.random.default_rng(3)
+    meas, est = [], []
+    for _ in range(7):
+        g = np.cumsum(rng.normal(size=60))
+        meas.append(g + rng.normal(scale=3.0, size=60))
+        est.append(g)
+    lo, hi = bootstrap_correlation_ci(meas, est, n_boot=300, level=0.9, seed=11)
+    idx = np.random.default_rng(11).integers(0, 7, size=(300, 7))
+    det = [(signal.detrend(m), signal.detrend(e)) for m, e in zip(meas, est, strict=True)]
+    rhos = [np.corrcoef(np.concatenate([det[k][0] for k in row]),
+                        np.concatenate([det[k][1] for k in row]))[0, 1] for row in idx]
+    assert (lo, hi) == pytest.approx((np.percentile(rhos, 5), np.percentile(rhos, 95)), rel=1e-10)
+    rho = ensemble_correlation(meas, est)[0]
+    assert lo < rho < hi
+    assert math.isnan(bootstrap_correlation_ci(meas[:1], est[:1])[0])  # one trial: no interval
+    with pytest.raises(ValueError, match="n_boot must be an integer >= 100, got 5"):
+        bootstrap_correlation_ci(meas, est, n_boot=5)

@@ -19,6 +19,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from . import __version__
+from ._cli_help import readable_help_types
 from ._console import console_log, one_line, summary_line
 from ._outputs import check_output_dir, output_dir, output_file
 from .surfaces import surface_from_spec
@@ -32,36 +33,7 @@ console = Console()
 err_console = Console(stderr=True)
 
 
-def _readable_help_types() -> None:
-    """Show parameter types in ``--help`` as words (TEXT, INTEGER, FLOAT; nothing for a flag).
-
-    typer 0.2x prints them as Python annotations, ``<str>``, ``<bool>``, ``<int range>``,
-    ``<list[str]>``; this wraps its one formatting method (``_TyperParameter.display_type``)
-    and leaves every other typer version untouched. An option's own ``metavar`` still wins.
-    """
-    base = getattr(getattr(typer, "core", None), "_TyperParameter", None)
-    original = getattr(base, "display_type", None)
-    if original is None or getattr(original, "_readable", False):
-        return
-    names = {"str": "TEXT", "int": "INTEGER", "float": "FLOAT", "bool": "BOOLEAN", "Path": "PATH"}
-
-    def display_type(self, ctx):
-        if getattr(self, "is_flag", False):
-            return ""
-        text = original(self, ctx)
-        if not (isinstance(text, str) and text.startswith("<") and text.endswith(">")):
-            return text
-        inner = text[1:-1].replace(" range", "")
-        repeat = inner.startswith("list[") and inner.endswith("]")
-        inner = inner[5:-1] if repeat else inner
-        word = inner if "|" in inner else names.get(inner, inner.upper())
-        return f"{word} (repeatable)" if repeat else word
-
-    display_type._readable = True
-    base.display_type = display_type
-
-
-_readable_help_types()
+readable_help_types()
 
 
 class UserError(Exception):
@@ -72,6 +44,16 @@ def fail(message: str) -> None:
     """Print a one-line error and exit with status 2."""
     err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
     raise typer.Exit(2)
+
+
+def _finger_file(path: str | None = None, items: list[str] | None = None):
+    """``--finger FILE`` (a finger) or ``--finger SUBJECT=FILE`` items (a dict), one-line errors."""
+    from .mechanics import finger_file  # small, but only when --finger is given
+
+    try:
+        return finger_file.read_subject_fingers(items) if path is None else finger_file.read_finger_file(path)
+    except ValueError as exc:
+        fail(str(exc))
 
 
 # ---------------------------------------------------------------------------------------
@@ -172,6 +154,7 @@ def demo(
     """Simulate the built-in default study, analyze it, fit the model, write the report;
     print Table 1 and the blind-spot table."""
     from .demo import demo as run_demo  # heavy (every stage); imported when the command runs
+    from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
     verbosity = _verbosity(verbose, quiet)
     try:
@@ -193,14 +176,15 @@ def demo(
         fail(str(exc))
     a, f = res.analysis, res.fit
     _grouped_failures(a.failures, "analysis", verbosity)
-    _fit_warnings(f, res.results, verbosity)
+    _fit_warnings(f, ResultsStore(res.results), verbosity)
     if verbosity >= 0:
         _print_tables(res.report)
     t = res.elapsed_s
     _summary(summary_line(
         "demo", [_n(a.n_trials, "trial"), f"simulate {t['simulate']:.0f} s",
                  f"analyze {t['analyze']:.0f} s ({a.n_computed} computed, {a.n_skipped} already done, "
-                 f"{a.n_failed} failed)", f"fit {t['fit']:.0f} s ({f.n_failed} failed, {_mu_text(f)})",
+                 f"{a.n_failed} failed)", f"fit {t['fit']:.0f} s ({f.n_failed} failed, {f.model} model: mu "
+                 + ", ".join(f"{m:.2f} (subject {s})" for s, m in f.mu.items()) + ")",
                  f"report {t['report']:.0f} s ({_n(len(res.report.pages), 'trial page')})"],
         elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
 
@@ -224,6 +208,9 @@ def predict_contact(
     out: str = typer.Option(
         "predict-contact", "--out", help="Folder for the occupancy figure (PNG); created if missing."
     ),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Predict tactile blind spots and simultaneous contacts of a finger sliding over a surface."""
     from .mechanics import default_positions, get_subject, sweep  # heavy (numba); when the command runs
@@ -236,7 +223,7 @@ def predict_contact(
         owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
                 "what": "folder of occupancy figures"}
         check_output_dir(out, **owns)
-        finger = get_subject(subject)
+        finger = get_subject(subject) if finger_path is None else _finger_file(finger_path)
         positions = default_positions(surf, step=step)
         with console.status(f"solving the contact at {positions.size} finger positions..."):
             res = sweep(surf, finger, positions, load=load)
@@ -246,7 +233,8 @@ def predict_contact(
     except (ValueError, TypeError, OSError) as exc:
         fail(str(exc))
         return
-    table = Table(title=f"Tactile blind spots: {surf.name}, subject {subject}, {load:g} N ({kind} contact)")
+    who = f"subject {subject}" if finger_path is None else f"finger {finger.name or finger_path}"
+    table = Table(title=f"Tactile blind spots: {surf.name}, {who}, {load:g} N ({kind} contact)")
     table.add_column("#", justify="right")
     table.add_column("start (mm)", justify="right")
     table.add_column("end (mm)", justify="right")
@@ -300,14 +288,30 @@ def simulate_cmd(
     contact_model: Annotated[
         str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
     ] = "mechanics-bem",
+    realism: Annotated[bool, typer.Option(
+        "--realism", help="A harder study: friction drawn per trial (10 % SD), falling with load, and the "
+                          "normal force wandering over +-50 mN (fingerfriction.sim.RealismParams).")] = False,
+    finger: Annotated[
+        list[str] | None,
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger, a finger JSON file (repeat)."),
+    ] = None,
+    finger_seed: Annotated[
+        int | None,
+        typer.Option("--finger-seed", help="Draw the other subjects' fingers around the calibrated ones "
+                     "(radius, modulus, flat length +-25 %) with this seed."),
+    ] = None,
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
-    from .sim import SimOptions, simulate_study  # heavy (video encoder, mechanics); when the command runs
+    from .sim import (  # heavy (video encoder, mechanics); when the command runs
+        RealismParams,
+        SimOptions,
+        simulate_study,
+    )
 
     kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
-                "contact_model": contact_model}
+                "contact_model": contact_model, "realism": RealismParams() if realism else None}
     if _split_list(surfaces):
         kw["surfaces"] = tuple(_split_list(surfaces))
     if _split_list(subjects):
@@ -322,6 +326,10 @@ def simulate_cmd(
         kw["speeds"] = tuple(sp)
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
+    if finger:
+        kw["fingers"] = _finger_file(items=finger)
+    if finger_seed is not None:
+        kw["finger_seed"] = finger_seed
     try:
         opts = SimOptions(**kw)
     except ValueError as exc:
@@ -552,15 +560,18 @@ def check_cmd(
 @app.command("fit")
 def fit_cmd(
     results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
-    method: str = typer.Option("lstsq", help="p0, p1 fit: lstsq (closed form) or nelder-mead (paper)."),
-    mu_min: float = typer.Option(0.30, help="Smallest mu of the grid."),
-    mu_max: float = typer.Option(0.90, help="Largest mu of the grid."),
-    mu_step: float = typer.Option(0.01, help="Step of the mu grid."),
-    median: int = typer.Option(11, help="Median filter window on the model, samples (odd; 1 = off)."),
+    model: str = typer.Option("load", help="Default model, load (load-consistent Eq. 4) or paper (as "
+                                           "printed); both are fitted, this one is used downstream."),
+    method: str = typer.Option("lstsq", help="Paper model's p0, p1 fit: lstsq or nelder-mead (the paper's)."),
+    mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid."),
+    mu_max: float = typer.Option(0.90, help="Largest mu of the paper model's grid."),
+    mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid."),
+    median: int = typer.Option(11, help="Median filter window on the models, samples (odd; 1 = off)."),
+    seed: int = typer.Option(0, help="Seed of the bootstrap confidence intervals."),
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
-    """mu per subject (grid search), p0 and p1 per trial, model forces with F_int and F_def."""
+    """Both model variants: mu per subject, per-trial parameters, Table 1 with CIs, flags."""
     from .study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
     from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
@@ -568,52 +579,60 @@ def fit_cmd(
     t0 = time.perf_counter()
     try:
         with console_log(verbosity, _echo) as log:
-            res = fit(results, mu_grid=(mu_min, mu_max, mu_step), method=method, median_kernel=median,
-                      progress=_show_progress(verbosity))
+            res = fit(results, model=model, mu_grid=(mu_min, mu_max, mu_step), method=method,
+                      median_kernel=median, progress=_show_progress(verbosity), seed=seed)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     store = ResultsStore(results)
-    _fit_warnings(res, results, verbosity)
+    _fit_warnings(res, store, verbosity)
+    _summary(summary_line("fit", _fit_facts(res), elapsed_s=time.perf_counter() - t0,
+                          output=str(store.fit_dir), log=log))
+
+
+def _fit_facts(res) -> list[str]:
+    """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
+    n_err = sum(f.level == "error" for f in res.flags)
+    mu = ", ".join(f"{m:.3f}" + (f" [{res.mu_ci[s][0]:.3f}, {res.mu_ci[s][1]:.3f}]"
+                                 if s in res.mu_ci and all(v == v for v in res.mu_ci[s]) else "")
+                   + f" (subject {s})" for s, m in res.mu.items())
     val = ("validated (leave one surface out)" if res.loso is not None
            else f"not validated: {res.loso_message}")
-    _summary(summary_line("fit", [_n(res.n_trials, "trial"), f"{res.n_failed} failed", _mu_text(res), val],
-                          elapsed_s=time.perf_counter() - t0, output=str(store.fit_dir), log=log))
+    return [_n(res.n_trials, "trial"), f"both models, {res.model} the default", f"mu {mu}",
+            f"{res.n_failed} failed", f"{n_err} error flags, {len(res.flags) - n_err} warnings", val]
 
 
-def _mu_text(res) -> str:
-    return "mu " + ", ".join(f"{mu:.2f} (subject {s})" for s, mu in res.mu.items())
-
-
-def _fit_warnings(res, results, verbosity: int) -> None:
-    """One warning line per subject whose trial fits failed or whose mu sits at an end of its
-    grid (each failure and the grid-search message with --verbose)."""
-    from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
-
+def _fit_warnings(res, store, verbosity: int) -> None:
+    """One warning line per subject: its flags of both models grouped by kind, each with a
+    count and one example (with --verbose: each subject's and model's summary line and every
+    flag); trials that could not be prepared for the fit, one line."""
     if verbosity < 0:
         return
-    labels = {t["id"]: str(t.get("subject")) for t in ResultsStore(results).read_run().get("trials", [])}
+    unread = [(t, r) for t, r in res.failures if not any(f.trial == t for f in res.flags)]
+    if verbosity > 0:
+        for line in res.lines:
+            _echo(line)
+        for f in res.flags:
+            where = f.trial or (f"subject {f.subject}" if f.subject else "study")
+            _warn(f"{f.level} {f.code} ({f.model} model) {where}: {one_line(f.message, 300)}")
+        for tid, reason in unread:
+            _warn(f"not fitted: {tid}: {one_line(reason, 300)}")
+        return
+    if unread:
+        _warn(f"{_n(len(unread), 'trial')} could not be prepared for the fit (e.g. {unread[0][0]}: "
+              f"{one_line(unread[0][1], 100)})")
     by_subject: dict = {}
-    for tid, reason in res.failures:
-        by_subject.setdefault(labels.get(tid, "?"), []).append((tid, reason))
-    for subj in sorted(set(by_subject) | set(res.mu)):
-        msg = res.messages.get(subj, "")
-        at_end = "end of the grid" in msg
-        items = by_subject.get(subj, [])
-        if verbosity > 0:
-            _echo(f"subject {subj}: {msg}")
-            for tid, reason in items:
-                _warn(f"fit failed: {tid}: {one_line(reason, 300)}")
-            continue
+    for f in res.flags:
+        if f.level in ("error", "warning"):
+            by_subject.setdefault(f.subject or "", {}).setdefault((f.model, f.code), []).append(f)
+    for subj, groups in by_subject.items():
         parts = []
-        if items:
-            tid, reason = items[0]
-            parts.append(f"{len(items)} trial fit{'s' if len(items) != 1 else ''} failed "
-                         f"(e.g. {tid}: {one_line(reason, 100)})")
-        if at_end:
-            mu = res.mu.get(subj, float("nan"))
-            parts.append(f"mu = {mu:.2f} is at an end of its grid: widen the grid")
-        if parts:
-            _warn(f"subject {subj}: " + "; ".join(parts))
+        for (model, code), fs in groups.items():
+            n_tr = len({f.trial for f in fs if f.trial})
+            first = fs[0]
+            where = f"{first.trial}: " if first.trial else ""
+            parts.append(f"{model} model {code}" + (f" in {_n(n_tr, 'trial')}" if n_tr else "")
+                         + f" (e.g. {where}{one_line(first.message, 90)})")
+        _warn((f"subject {subj}: " if subj else "") + "; ".join(parts))
 
 
 def _print_tables(rep) -> None:
@@ -697,7 +716,7 @@ def report_cmd(
 
 
 def _predict_inputs(params):
-    """--params: None or a JSON path (FrictionParams JSON or a fit output)."""
+    """--params: None or a JSON path (parameters, a fit's fit.json or its RESULTS folder)."""
     return None if params is None else str(params)
 
 
@@ -710,29 +729,34 @@ PREDICTION_FILES = {"forces.csv", "regions.csv", "occupancy.csv", "blind_spots.c
 def predict_cmd(
     surface: str = typer.Option(..., "--surface", help="Name (bump-4mm), spec (bump:W=3,H=0.5) or CSV."),
     subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger)."),
-    params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
+    params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
+    model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
     out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files "
                             "(created if missing)."),
     load: float = typer.Option(0.3, "--load", help="Normal force in N."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
     contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Predict F_T(x), F_int, F_def, contact occupancy and blind spots on any relief."""
     from .predict import predict  # heavy (the forward model); imported when the command runs
 
+    finger = None if finger_path is None else _finger_file(finger_path)
     try:
         owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
         check_output_dir(out, **owns)
-        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact)
+        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact,
+                       model=model, finger=finger)
         paths = pred.write(output_dir(out, **owns), figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
-    p = pred.params
     t = Table(title=f"prediction: {pred.surface.name}, subject {pred.subject} ({pred.contact} contact)")
     t.add_column("quantity")
     t.add_column("value", justify="right")
-    t.add_row("mu, p0, p1", f"{p.mu:.3g}, {p.p0:.4g} N/mm, {p.p1:.4g} N/mm")
+    t.add_row("parameters", pred.params_text)
     t.add_row("parameters from", pred.params_source)
     t.add_row("F_T on flat ground", f"{1e3 * pred.flat_level:.1f} mN")
     t.add_row("F_T max / min", f"{1e3 * pred.F_T.max():.1f} / {1e3 * pred.F_T.min():.1f} mN")
@@ -750,7 +774,8 @@ def render_cmd(
     surface: str = typer.Option(..., "--surface", help="Paper surface name, spec or CSV profile."),
     subject: int = typer.Option(..., "--subject", help="Subject 1 or 2."),
     out: str = typer.Option(..., "--out", help="Command signal file: .wav (float32) or .csv."),
-    params: str = typer.Option(None, "--params", help="JSON parameters: FrictionParams or a fit output."),
+    params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
+    model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
     speed: float = typer.Option(80.0, "--speed", help="Sliding speed in mm/s."),
     rate: float = typer.Option(2000.0, "--rate", help="Display update rate in Hz."),
     normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N."),
@@ -759,14 +784,19 @@ def render_cmd(
     mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce."),
     table: str = typer.Option(None, "--table", help="Also write the table CSV (x_mm, F_T_N, mu_cmd)."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
 ) -> None:
     """Friction command for a flat friction-modulating display, as a signal in time."""
     from .render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
+    finger = None if finger_path is None else _finger_file(finger_path)
     try:
         output_file(out, create=False), table and output_file(table, option="--table", create=False)
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
-                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max))
+                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max),
+                                       model=model, finger=finger)
         files = r.write_command(output_file(out), speed, rate)
         if table:
             files["table"] = r.write_table(output_file(table, option="--table"))
@@ -776,7 +806,7 @@ def render_cmd(
     console.print(
         f"{r.prediction.surface.name}, subject {r.prediction.subject}: "
         f"mu_cmd {r.mu_cmd.min():.3f}..{r.mu_cmd.max():.3f}"
-        f" (lateral force = mu_cmd x {d.effective_normal_force:.3f} N = p0 x L_flat; "
+        f" (lateral force = mu_cmd x {d.effective_normal_force:.3f} N; "
         f"{r.n_clipped} table entries clipped to [{d.mu_min:g}, {d.mu_max:g}])",
         highlight=False,
     )
@@ -789,21 +819,27 @@ def validate_cmd(
     results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
     out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
     step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps."),
+    finger: Annotated[
+        list[str] | None,
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger); repeat."),
+    ] = None,
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from .predict import validate_results  # heavy (the forward model); imported when the command runs
 
+    fingers = _finger_file(items=finger)
     try:
-        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step)
+        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step,
+                               fingers=fingers)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
-    for col in ("subject", "surface", "trials", "rho in sample", "rho held-out params, video",
+    for col in ("model", "subject", "surface", "trials", "rho in sample", "rho held-out params, video",
                 "rho out of sample"):
         t.add_column(col, justify="right" if col.startswith(("rho", "trials")) else "left")
     for r in res.table.itertuples():
-        t.add_row(str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
+        t.add_row(r.model, str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
                   f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}")
     console.print(t)
 
@@ -909,6 +945,49 @@ def _print_init_table(res) -> None:
         t.add_row(r.id, r.surface, os.path.basename(r.video), frames, os.path.basename(r.force), samples,
                   style="red" if r.problem else None)
     console.print(t)
+
+
+@app.command("calibrate-finger")
+def calibrate_finger_cmd(
+    results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze'."),
+    subject: str = typer.Option(..., "--subject", help="Subject label as in the study's manifest."),
+    out: str = typer.Option(None, "--out", help="Finger JSON to write (default finger-s<SUBJECT>.json)."),
+    initial: str = typer.Option(None, "--initial", help="Starting finger JSON (default: the subject's "
+                                "default finger, or subject 1's)."),
+    load: float = typer.Option(None, "--load", help="Assume this constant normal force in N (studies "
+                               "without an absolute F_N; the modulus is then relative to it)."),
+    surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap uncertainties."),
+) -> None:
+    """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
+    and write it as a finger JSON that predict, predict-contact, validate and render accept."""
+    from .mechanics.calibrate import CalibrationOptions  # heavy (numba); when the command runs
+    from .study.finger_calibration import calibrate_results  # heavy (the forward model); likewise
+
+    start = None if initial is None else _finger_file(initial)
+    target = out or f"finger-s{subject}.json"
+    try:
+        output_file(target, create=False)  # a folder given as the file fails before the work
+        opts = CalibrationOptions(seed=seed)
+        t0 = time.process_time()
+        with console.status(f"calibrating the finger of subject {subject}..."):
+            res = calibrate_results(results, subject, initial=start, options=opts, load=load,
+                                    surfaces=_csv(surfaces))
+        cpu = time.process_time() - t0
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    console.print(escape(res.summary()), highlight=False)
+    console.print(f"CPU {cpu:.1f} s ({res.n_solves} contact solves)", highlight=False)
+    if not res.success:
+        fail(f"the calibration of subject {subject} did not succeed: {res.message}; no finger written")
+    from .mechanics.finger_file import write_finger_file  # small; only once there is a finger
+
+    try:
+        path = write_finger_file(output_file(target), res.finger, calibration={
+            "results": os.path.abspath(results), "subject": subject, **res.to_dict()})
+    except OSError as exc:
+        fail(f"cannot write {target}: {exc}")
+    console.print(f"[green]wrote[/] {path}", highlight=False)
 
 
 def main(argv: list[str] | None = None) -> int:

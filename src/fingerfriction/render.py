@@ -42,6 +42,7 @@ the same arithmetic vectorised for batches.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -146,7 +147,8 @@ class HapticRenderer:
                     "the prediction carries no finger to compute the flat contact length; give a DisplayModel"
                 )
             L = flat_contact_length(prediction.finger, load=prediction.load)
-            display = DisplayModel(normal_force=prediction.load, p0=prediction.params.p0, flat_length=L)
+            display = DisplayModel(normal_force=prediction.load, p0=prediction.display_p0(prediction.load, L),
+                                   flat_length=L)
         if not isinstance(display, DisplayModel):
             raise TypeError(f"display must be a DisplayModel, got {type(display).__name__}")
         self.prediction = prediction
@@ -188,12 +190,13 @@ class HapticRenderer:
     @classmethod
     def for_surface(cls, surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
                     normal_force: float | None = None, step: float = 0.01, resolution: float = 0.01,
-                    mu_range: tuple[float, float] = (0.0, 5.0)) -> HapticRenderer:
+                    mu_range: tuple[float, float] = (0.0, 5.0), model: str | None = None,
+                    finger=None) -> HapticRenderer:
         """Predict a relief for a subject and precompute its renderer.
 
         Parameters
         ----------
-        surface_spec, subject, params, load, step
+        surface_spec, subject, params, load, step, model, finger
             As :func:`fingerfriction.predict.predict`.
         normal_force : float, optional
             Normal force on the display in N (default: ``load``).
@@ -202,10 +205,10 @@ class HapticRenderer:
         mu_range : (float, float), optional
             The display's attainable friction coefficients.
         """
-        pred = predict(surface_spec, subject, params, load=load, step=step)
+        pred = predict(surface_spec, subject, params, load=load, step=step, model=model, finger=finger)
         fn = load if normal_force is None else float(normal_force)
         L = flat_contact_length(pred.finger, load=fn)
-        disp = DisplayModel(normal_force=fn, p0=pred.params.p0, flat_length=L,
+        disp = DisplayModel(normal_force=fn, p0=pred.display_p0(fn, L), flat_length=L,
                             mu_min=mu_range[0], mu_max=mu_range[1])
         return cls(pred, disp, resolution=resolution)
 
@@ -361,7 +364,8 @@ class HapticRenderer:
             },
             "surface": pred.surface.name,
             "subject": str(pred.subject),
-            "params": {"mu": pred.params.mu, "p0": pred.params.p0, "p1": pred.params.p1},
+            "model": pred.model,
+            "params": dataclasses.asdict(pred.params),
             "n_clipped_table_entries": self.n_clipped,
         }
         mp = p + ".json"

@@ -27,7 +27,7 @@ import numpy as np
 
 from .fit import Trial, flat_detrend, flat_segment_mask
 from .model import FrictionModel
-from .regions import regions_from_mask
+from .regions import inset_regions, regions_from_mask
 from .surfaces import SURFACE_NAMES, Surface, get_surface, surface_from_spec
 
 __all__ = ["finger_contact_regions", "synthetic_trial", "synthetic_trials", "PAPER_MU"]
@@ -121,6 +121,9 @@ def synthetic_trial(
     indentation_sd: float = 0.05,
     subject: str = "S1",
     labels: dict | None = None,
+    absolute: bool = False,
+    inset: float = 0.0,
+    noise_normal: float | None = None,
 ):
     """One synthetic trial (see module docstring) as a :class:`fingerfriction.fit.Trial`.
 
@@ -146,6 +149,15 @@ def synthetic_trial(
         Subject label.
     labels : dict, optional
         Extra condition labels (e.g. speed, repetition).
+    absolute : bool
+        Also give the trial forces on the absolute footing: ``force_abs`` is the noisy
+        Eq. (4) force before the detrend, and ``normal_abs`` the normal force of the same
+        constant pressure, ``F_N = p0 sum int (cos alpha - mu sin alpha) dx`` (the vertical
+        resultant of Eq. 2's stresses), with noise of ``noise_normal`` (default ``noise``)
+        times its own standard deviation.
+    inset : float
+        The forces come from the contact regions inset by this many mm at each end (the
+        load-bearing contact), while the trial carries the regions as seen (default 0).
     """
     surf = surface_from_spec(surface)
     lo, hi = surf.feature_extent
@@ -156,15 +168,22 @@ def synthetic_trial(
     delta = np.clip(indentation + walk, 0.2 * indentation, None)
     regions = finger_contact_regions(surf, x, delta)
     model = FrictionModel(surf)
-    B = model.basis(regions, mu)
-    clean = p0 * B[:, 0] + p1 * B[:, 1]
+    S, K, Q = model.integrals(inset_regions(regions, inset)).T
+    clean = p0 * (S + mu * K) + p1 * (Q + mu * S)
     sd = float(np.std(clean))
-    f = clean + rng.normal(scale=noise * sd if sd > 0 else noise, size=n)
+    f_abs = clean + rng.normal(scale=noise * sd if sd > 0 else noise, size=n)
     # Drift-correct like the measurement: subtract the best line over the flat segment.
     flat = flat_segment_mask(regions, surf)
-    f = flat_detrend(x, f, flat)
+    f = flat_detrend(x, f_abs, flat)
+    extra = {}
+    if absolute:
+        fn = p0 * (K - mu * S)
+        sd_n = float(np.std(fn))
+        rel = noise if noise_normal is None else noise_normal
+        extra = {"force_abs": f_abs, "normal_abs": fn + rng.normal(scale=rel * sd_n if sd_n > 0 else rel,
+                                                                     size=n)}
     return Trial(x=x, force=f, regions=regions, surface=surf, subject=subject,
-                 labels=dict(labels or {}))
+                 labels=dict(labels or {}), **extra)
 
 
 def synthetic_trials(

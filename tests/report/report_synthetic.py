@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from fingerfriction.model import FrictionParams, friction_force
+from fingerfriction.model import FrictionModel, FrictionParams, friction_force
 from fingerfriction.study.store import ResultsStore, frames_table
 from fingerfriction.surfaces import get_surface
 
@@ -38,6 +38,7 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
     ``subjects`` (subject -> mu) defaults to :data:`SUBJECTS`.
     """
     rng = np.random.default_rng(seed)
+    rng_abs = np.random.default_rng(seed + 1000)  # the absolute footing's own draws
     store = ResultsStore(root)
     trials, truth = [], {"gaps": {}, "p": {}}
     subjects = SUBJECTS if subjects is None else subjects
@@ -62,11 +63,16 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
                     xg = np.round(np.arange(-13.0, 13.0 + 1e-9, 0.01), 2)
                     xv, rv = x[1:], reg[1:]
                     idx = np.clip(np.searchsorted(xv, xg), 0, xv.size - 1)
-                    F = friction_force(surf, rv[idx], p).total
-                    F = F - F[:200].mean() + 0.002 * rng.standard_normal(xg.size)
+                    F_abs = friction_force(surf, rv[idx], p).total
+                    F = F_abs - F_abs[:200].mean() + 0.002 * rng.standard_normal(xg.size)
                     import pandas as pd
 
-                    forces = pd.DataFrame({"x_mm": xg, "F_T_N": F, "F_N_N": np.full(xg.size, 0.3),
+                    # the absolute footing: the same force with its flat level, and the normal
+                    # force of the same constant pressure (the vertical resultant of Eq. 2)
+                    S, K, _ = FrictionModel(surf).integrals(rv[idx]).T
+                    F_N = p.p0 * (K - mu * S) + 0.001 * rng_abs.standard_normal(xg.size)
+                    forces = pd.DataFrame({"x_mm": xg, "F_T_N": F, "F_N_N": np.full(xg.size, 0.0),
+                                           "F_T_abs_N": F + F_abs[:200].mean(), "F_N_abs_N": F_N,
                                            "n_samples": np.ones(xg.size, dtype=np.int64)})
                     store.write_trial(tid, frames, forces, {"params_sha256": "synthetic", "inputs": {},
                                                            "elapsed_s": 0.0})

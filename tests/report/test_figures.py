@@ -152,7 +152,12 @@ def test_fig4_labels_n_per_curve_and_bands_only_where_n_above_1(data):
 
 
 def test_fig4_says_which_footing_it_shows(data):
-    assert "the paper's" in fig4_forces(data)._suptitle.get_text()  # synthetic forces: no absolute level
+    # the fixture has absolute forces
+    assert "Footing: absolute" in fig4_forces(data)._suptitle.get_text()
+    paper_only = dataclasses.replace(data, trials=[
+        dataclasses.replace(t, forces=t.forces.drop(columns=["F_T_abs_N", "F_N_abs_N"]))
+        for t in data.trials])
+    assert "the paper's" in fig4_forces(paper_only)._suptitle.get_text()  # no absolute level
     trials = []
     for t in data.trials:
         f = t.forces.copy()
@@ -175,7 +180,7 @@ def test_fig4_says_which_footing_it_shows(data):
 def test_fig6_names_its_footing_and_marks_region_events(data):
     fig = fig6_model(data)
     title = fig._suptitle.get_text()
-    assert "Footing: detrended" in title and "steps where" in title
+    assert "Footing: absolute" in title and "steps where" in title  # the load-consistent default
     panels = [ax for ax in fig.axes if ax.get_title()]
     assert all(re.search(r"\(n = \d+\)$", ax.get_title()) for ax in panels)
     # the synthetic regions split continuously at the gap (no finite jump in contact): no event

@@ -56,20 +56,32 @@ def test_table1_and_truth_tables(report):
     rep, results, truth = report
     t1 = rep.table1
     assert t1 is not None
-    # 2 subjects + both, x 2 surfaces; forces are Eq. (4) plus 2 mN noise: strong correlation.
-    assert len(t1) == 6
+    # both models, the default (load-consistent) first; per model 2 subjects + both, x 2
+    # surfaces; forces are Eq. (4) plus 2 mN noise: strong correlation.
+    assert list(dict.fromkeys(t1["model"])) == ["load", "paper"]
+    for _, m in t1.groupby("model"):
+        assert len(m) == 6
     assert (t1["rho"] > 0.9).all() and t1["significant"].all()
+    assert (t1["rho_lo"] <= t1["rho"]).all() and (t1["rho"] <= t1["rho_hi"]).all()
     for ext in ("csv", "md", "tex"):
         assert (results / "report" / f"table1.{ext}").stat().st_size > 0
-    mu = rep.truth["mu"].set_index("subject")
-    assert mu.loc["1", "mu_true"] == 0.55 and mu.loc["2", "mu_true"] == 0.60
+    mu = rep.truth["mu"]
+    assert list(dict.fromkeys(mu["model"])) == ["load", "paper"]
+    mu = mu.set_index(["model", "subject"])
+    assert mu.loc[("load", "1"), "mu_true"] == 0.55 and mu.loc[("load", "2"), "mu_true"] == 0.60
     assert np.all(np.abs(mu["error"]) <= 0.03)
+    # the load-consistent model measures mu on flat ground: within 0.5 %, with a CI (its
+    # coverage is tested on larger samples in tests/test_fit_load.py: 8 trials per subject here)
+    load = mu.loc["load"]
+    assert np.all(np.abs(load["error"] / load["mu_true"]) < 0.005)
+    assert (load["ci95_lo"] < load["mu_fitted"]).all() and (load["mu_fitted"] < load["ci95_hi"]).all()
 
 
 def test_fit_recovers_parameters(synthetic_results):
     results, truth = synthetic_results
     df = pd.read_csv(results / "fit" / "trials.csv", dtype={"subject": str})
     assert df["success"].all()
+    df = df[df["model"] == "paper"]  # the fixture's forces are the paper's Eq. (4)
     for row in df[df["surface"] == "bump-2mm"].itertuples():  # p1 is well identified on a bump
         p = truth["p"][row.trial]
         assert row.p1 == pytest.approx(p.p1, rel=0.1), row.trial
@@ -113,8 +125,9 @@ def test_out_of_sample_validation_next_to_table1(report):
     rep, results, _ = report
     loso = rep.loso
     assert loso is not None
-    # 2 subjects + both subjects pooled, x 2 held-out surfaces
-    assert len(loso) == 6 and set(loso["surface"]) == {"bump-2mm", "step-down-4mm"}
+    # both models; per model 2 subjects + both subjects pooled, x 2 held-out surfaces
+    assert list(dict.fromkeys(loso["model"])) == ["load", "paper"]
+    assert len(loso) == 12 and set(loso["surface"]) == {"bump-2mm", "step-down-4mm"}
     assert set(loso["subject"]) == {"1", "2", "Both subjects"}
     assert np.isfinite(loso["rho_out_of_sample"]).all() and np.isfinite(loso["rho_in_sample"]).all()
     # the CSV next to the report is the fit's table (3 significant digits)
@@ -122,11 +135,12 @@ def test_out_of_sample_validation_next_to_table1(report):
     fit_csv = pd.read_csv(results / "fit" / "loso.csv", dtype={"subject": str})
     assert list(csv["surface"]) == list(fit_csv["surface"])
     np.testing.assert_allclose(csv["rho_out_of_sample"], fit_csv["rho_out_of_sample"], rtol=5e-3)
-    # rho_in_sample is the report's Table 1 (same fit): one per (subject, shape)
-    t1 = rep.table1.set_index(["subject", "shape"])["rho"]
+    # rho_in_sample is the report's Table 1 (same fit): one per (model, subject, shape)
+    t1 = rep.table1.set_index(["model", "subject", "shape"])["rho"]
     shapes = {"bump-2mm": "Bump", "step-down-4mm": "Step Down"}
     for row in fit_csv.itertuples():
-        assert row.rho_in_sample == pytest.approx(t1[row.subject, shapes[row.surface]], abs=1e-6), row
+        ref = t1[row.model, row.subject, shapes[row.surface]]
+        assert row.rho_in_sample == pytest.approx(ref, abs=1e-6), row
     html = rep.html.read_text()
     i, j = html.index("Table 1"), html.index("leave one surface out")
     assert i < j < html.index("Tactile blind spots")

@@ -13,7 +13,7 @@ the defaults are anchored: ``docs/predict.md``.
 
 from __future__ import annotations
 
-from .defaults import PAPER_FORCE_RISE_N, PAPER_MU, default_params, load_params
+from .defaults import PAPER_FORCE_RISE_N, PAPER_MU, default_load_params, default_params, load_params
 from .forward import (
     DEFAULT_LOAD_N,
     GEOM_TOL_MM,
@@ -37,6 +37,7 @@ __all__ = [
     "check_profile",
     "sweep_window",
     "default_params",
+    "default_load_params",
     "flat_contact_length",
     "forward_regions",
     "load_params",

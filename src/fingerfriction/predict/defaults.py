@@ -11,12 +11,13 @@ import os
 
 import numpy as np
 
-from ..model import FrictionModel, FrictionParams
+from ..mechanics import FingerParams
+from ..model import MODELS, FrictionModel, FrictionParams, LoadParams
 from ..study.store import ResultsStore, read_fit_table
 from ..surfaces import Surface, get_surface
 from .forward import DEFAULT_LOAD_N, _flat_length, _resolve_finger, forward_regions, sweep_window
 
-__all__ = ["PAPER_MU", "PAPER_FORCE_RISE_N", "default_params", "load_params"]
+__all__ = ["PAPER_MU", "PAPER_FORCE_RISE_N", "default_params", "default_load_params", "load_params"]
 
 #: Per-subject coefficients of friction found by the paper's grid search.
 PAPER_MU = {1: 0.55, 2: 0.60}
@@ -56,7 +57,8 @@ def _default_params_cached(key, finger, load: float, step: float) -> FrictionPar
     return FrictionParams(mu, p0, PAPER_FORCE_RISE_N / m)
 
 
-def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05) -> FrictionParams:
+def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05,
+                   finger: FingerParams | None = None) -> FrictionParams:
     """Documented default Eq. (4) parameters of subject 1 or 2 (``docs/predict.md``).
 
     ``mu`` from the paper; ``p0 = F_N / L_flat`` (flat-ground friction ``mu F_N``);
@@ -71,8 +73,12 @@ def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05)
         Normal force in N (default 0.3).
     step : float
         Finger step in mm of the calibration sweeps (default 0.05).
+    finger : FingerParams, optional
+        The subject's own finger (e.g. from ``calibrate-finger``) instead of its default:
+        the paper's ``mu`` of the subject, ``p0`` and ``p1`` from this finger's sweeps.
     """
-    key, finger = _resolve_finger(subject)
+    key, default = _resolve_finger(subject)
+    finger = default if finger is None else finger
     if key not in PAPER_MU:
         raise ValueError(
             f"no default friction parameters for subject {subject!r}: give params "
@@ -120,10 +126,19 @@ def _params_from_mapping(d: dict, subject, where: str) -> FrictionParams:
     raise ValueError(f"{where}: subject {subject!r} entry needs 'p0' and 'p1' or a non-empty 'trials' list")
 
 
-def _params_from_pipeline_fit(d: dict, subject, path: str) -> FrictionParams:
+def _params_from_pipeline_fit(d: dict, subject, path: str, model: str | None = None):
     """``fingerfriction fit`` output: mu per subject in fit.json, p0/p1 per trial in the
-    trials.csv beside it; the subject's medians over its successful trials are used."""
-    mus = d["mu"]
+    trials.csv beside it; the subject's medians over its successful trials are used.
+
+    ``model`` picks the variant (default: the fit's default model, ``fit.json`` ``model``;
+    a fit written before the load-consistent model has only the paper's)."""
+    model = model or d.get("model", "paper")
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    per_model = (d.get("models") or {}).get(model)
+    if per_model is None and model != d.get("model", "paper"):
+        raise ValueError(f"{path}: the fit has no {model!r} model (it has {d.get('model', 'paper')!r})")
+    mus = per_model["mu"] if per_model else d["mu"]
     key = next((k for k in _subject_keys(subject) if k in mus), None)
     if key is None:
         raise ValueError(f"{path}: no fitted mu for subject {subject!r}; the fit has subjects {sorted(mus)}")
@@ -133,14 +148,20 @@ def _params_from_pipeline_fit(d: dict, subject, path: str) -> FrictionParams:
     if missing:
         raise ValueError(f"{tcsv}: missing column(s) {sorted(missing)}")
     sel = t[t["subject"] == key]
+    if "model" in sel.columns:
+        sel = sel[sel["model"] == model]
     if "success" in sel.columns:
         sel = sel[sel["success"].astype(str).str.lower() == "true"]
     if sel.empty:
-        raise ValueError(f"{tcsv}: no successful trial fit for subject {subject!r}")
+        raise ValueError(f"{tcsv}: no successful {model!r} trial fit for subject {subject!r}")
+    if model == "load":
+        return LoadParams(mu=float(mus[key]), p1=float(sel["p1"].median()),
+                          inset=float(per_model["inset_mm"][key]),
+                          kappa=float(per_model["kappa_per_mm"][key]))
     return FrictionParams(mu=float(mus[key]), p0=float(sel["p0"].median()), p1=float(sel["p1"].median()))
 
 
-def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
+def load_params(path: str | os.PathLike, subject=None, *, model: str | None = None):
     """Read Eq. (4) parameters from a JSON file.
 
     Accepted forms: ``FrictionParams.to_json()`` (``{"mu", "p0", "p1"}``); a per-subject
@@ -149,7 +170,16 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
     "trials": [{"p0": ..., "p1": ...}, ...]}}}``, whose subject-level ``p0, p1`` are the
     medians over trials (a prediction has no trial of its own to fit); or the output of
     ``fingerfriction fit`` (``RESULTS``, ``RESULTS/fit`` or ``RESULTS/fit/fit.json``: mu
-    per subject, p0 and p1 medians over the subject's successful trials in ``trials.csv``).
+    per subject, p0 and p1 medians over the subject's successful trials in ``trials.csv``):
+    the fit's default model, or ``model`` (``'load'``: :class:`~fingerfriction.model.LoadParams`
+    with the subject's flat-ground mu, load-bearing inset, pressure rise kappa and median p1;
+    ``'paper'``: :class:`~fingerfriction.model.FrictionParams`). A JSON object with
+    ``"model": "load"`` and ``mu, p1`` (optionally ``inset``, ``kappa``) gives LoadParams
+    (``LoadParams.to_json()``).
+
+    Returns
+    -------
+    FrictionParams or LoadParams
 
     Raises
     ------
@@ -174,18 +204,42 @@ def load_params(path: str | os.PathLike, subject=None) -> FrictionParams:
     if not isinstance(d, dict):
         raise ValueError(f"{path}: expected a JSON object, got {type(d).__name__}")
     if isinstance(d.get("mu"), dict):
-        return _params_from_pipeline_fit(d, subject, path)
+        return _params_from_pipeline_fit(d, subject, path, model)
     try:
+        if d.get("model") == "load":
+            return LoadParams(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0),
+                              kappa=d.get("kappa", 0.0))
         return _params_from_mapping(d, subject, path)
     except (TypeError, KeyError) as exc:
         raise ValueError(f"{path}: malformed parameters ({exc})") from None
 
 
-def _resolve_params(params, subject, load: float) -> tuple[FrictionParams, str]:
+def _resolve_params(params, subject, load: float, model: str | None = None,
+                    finger: FingerParams | None = None):
+    if model is not None and model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     if params is None:
-        return default_params(subject, load=load), "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)"
-    if isinstance(params, FrictionParams):
+        if (model or "load") == "paper":
+            return (default_params(subject, load=load, finger=finger),
+                    "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)")
+        return (default_load_params(subject, load=load, finger=finger),
+                "default (paper mu; one uniform pressure carrying F_N; p1: 50 mN peak F_def)")
+    if isinstance(params, (LoadParams, FrictionParams)):
         return params, "given"
     if isinstance(params, (str, os.PathLike)):
-        return load_params(params, subject), f"file {os.fspath(params)}"
-    raise TypeError(f"params must be None, FrictionParams or a JSON path, got {type(params).__name__}")
+        return load_params(params, subject, model=model), f"file {os.fspath(params)}"
+    raise TypeError("params must be None, LoadParams, FrictionParams or a JSON path, got "
+                    f"{type(params).__name__}")
+
+
+def default_load_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05,
+                        finger: FingerParams | None = None) -> LoadParams:
+    """Documented default parameters of the load-consistent model for subject 1 or 2.
+
+    The paper's ``mu``; the paper's pressure assumption, one uniform pressure over the
+    geometric contact (``inset = 0``, ``kappa = 0``), here carrying the normal force;
+    ``p1`` as :func:`default_params` (the deformation term is the same in both variants).
+    A fit of a lab's own study gives the subject's inset and ``kappa``: prefer it.
+    """
+    p = default_params(subject, load=load, step=step, finger=finger)
+    return LoadParams(mu=p.mu, p1=p.p1)

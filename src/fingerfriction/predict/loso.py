@@ -16,14 +16,25 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write
-from ..fit import FitOptions, Trial, fit_trials, flat_detrend, flat_segment_mask, median_filter
-from ..model import FrictionModel, FrictionParams
+from ..fit import (
+    FitOptions,
+    LoadFitOptions,
+    Trial,
+    fit_load_trials,
+    fit_trials,
+    flat_detrend,
+    flat_segment_mask,
+    median_filter,
+)
+from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, load_terms
 from ..stats import BOTH, correlation_table, ensemble_correlation
 from ..study.store import ResultsStore
 from ..surfaces import Surface
 from .forward import DEFAULT_LOAD_N, _finger_for_label, _flat_length_kind, check_profile, forward_regions
 
-__all__ = ["OutOfSample", "leave_one_surface_out", "trials_from_results", "validate_results"]
+__all__ = [
+    "OutOfSample", "leave_one_surface_out", "trials_from_results", "validate_results", "load_prediction",
+]
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +83,50 @@ def _predicted_estimate(surface: Surface, force: np.ndarray, regions: np.ndarray
     if not getattr(options, "detrend", True):  # absolute forces: keep the flat level
         flat_level = 0.0
     return np.asarray(force, dtype=float), est - flat_level
+
+
+def load_prediction(model: FrictionModel, regions: np.ndarray, f_n, params: LoadParams, *,
+                    median_kernel: int = 11) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The load-consistent Eq. (4) along a sweep, processed as the fit processes its model.
+
+    Parameters
+    ----------
+    model : FrictionModel
+        The surface's model.
+    regions : (n, n_max, 2) ndarray
+        Geometric contact regions in mm (video or forward model); inset by ``params.inset``.
+    f_n : float or (n,) array_like
+        Normal force in N (the nominal load for a prediction, or a measured one).
+    params : LoadParams
+    median_kernel : int
+        Median filter window in positions on the load-independent parts, as the fit's.
+
+    Returns
+    -------
+    total, interfacial, deformation : (n,) ndarray
+        ``F_T``, ``F_int`` (Eq. 2) and ``F_def`` (Eq. 3) in N; NaN where the load-bearing
+        contact is empty.
+    """
+    R = model.region_integrals(regions, inset=params.inset)
+    g, b, _ = load_terms(R, params.mu, params.kappa)
+    ok = np.isfinite(g)
+    if median_kernel > 1 and ok.any():
+        idx = np.arange(g.size)
+        g = np.where(ok, median_filter(np.interp(idx, idx[ok], g[ok]), median_kernel), np.nan)
+        b = median_filter(b, median_kernel)
+    f_int = np.broadcast_to(np.asarray(f_n, dtype=float), g.shape) * g
+    f_def = np.where(ok, params.p1 * b, np.nan)
+    return f_int + f_def, f_int, f_def
+
+
+def _finite_pairs(meas: list, pred: list) -> tuple[list, list]:
+    """Drop the positions where a prediction is undefined (no load-bearing contact)."""
+    out_m, out_p = [], []
+    for m, g in zip(meas, pred, strict=True):
+        ok = np.isfinite(g) & np.isfinite(m)
+        out_m.append(np.asarray(m)[ok])
+        out_p.append(np.asarray(g)[ok])
+    return out_m, out_p
 
 
 @dataclass(frozen=True)
@@ -140,51 +195,66 @@ class OutOfSample:
         return p
 
 
-def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load: float = DEFAULT_LOAD_N,
-                          forward_step: float = 0.01, contact: str = "geometric") -> OutOfSample:
+def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=None, options=None,
+                          load_options: LoadFitOptions | None = None, load: float = DEFAULT_LOAD_N,
+                          forward_step: float = 0.01, contact: str = "geometric",
+                          forward_cache: dict | None = None, in_sample=None) -> OutOfSample:
     """Out-of-sample validation: fit on all surfaces but one, predict the held-out one.
 
-    For each surface ``s`` of the study: ``mu`` per subject (grid search) and ``p0, p1``
-    per trial are fitted on the trials of the *other* surfaces
-    (:func:`fingerfriction.fit.fit_trials`); the held-out trials are then predicted from
-    the geometry of ``s`` alone: forward-model contact regions along the trial's finger
-    positions (no video) into Eq. (4) with the subject's ``mu`` and the **median** of its
-    training trials' ``p0`` and ``p1`` (a held-out trial cannot have its own ``p0, p1``:
-    fitting them would need its contact, i.e. its video). Measured and predicted forces
-    are correlated per condition as in Table 1
-    (:func:`fingerfriction.stats.ensemble_correlation`, which detrends every trial).
+    For each surface ``s`` of the study the model is fitted on the trials of the *other*
+    surfaces, then the held-out trials are predicted from the geometry of ``s`` alone:
+    forward-model contact regions along the trial's finger positions (no video) with the
+    subject's parameters. A held-out trial cannot have its own per-trial parameter (that
+    would need its contact, i.e. its video), so the subject's **median** over its training
+    trials is used. Measured and predicted forces are correlated per condition as in
+    Table 1 (:func:`fingerfriction.stats.ensemble_correlation`, which detrends every trial).
 
-    How the two are put on the same footing: the measured force is taken as the
-    analysis delivers it (drift-corrected, near zero on flat ground); the prediction is
-    Eq. (4) on the forward regions, median-filtered like the fit's basis, minus its exact
-    flat-ground level ``mu p0 L_flat`` (forward model on flat ground). The fit's own
-    footing, a line fitted over the positions where all contact lies before the feature,
-    is not used for the prediction: with the forward finger that stretch can be empty or a
-    fraction of a millimetre (the 70 um contact reaches a raised feature several mm ahead
-    of the finger), which either fails or extrapolates a meaningless line into the
-    predicted series. (rho itself does not depend on any linear footing: the Table 1
-    correlation detrends every trial linearly; the footing matters for the series that
-    are stored and plotted.) The ``rho_heldout_params_video`` column keeps the fit's
-    footing (video regions and their flat segment).
+    ``model='load'`` (default): the load-consistent Eq. (4) (:mod:`fingerfriction.model`)
+    with the subject's flat-ground ``mu``, load-bearing inset and pressure rise with height, and the
+    median ``p1``; the pressure comes from the **nominal load** (``load``, the prescribed
+    0.3 N), as for any surface never recorded. Measured and predicted forces are both on
+    the absolute footing. Two more columns separate the losses: the same prediction with
+    the trial's measured normal force (``rho_out_of_sample_measured_load``), and the
+    training parameters on the trial's own video regions with its measured normal force
+    (``rho_heldout_params_video``).
+
+    ``model='paper'``: Eq. (4) as printed, ``mu`` by grid search and the median ``p0, p1``
+    (:func:`fingerfriction.fit.fit_trials`). The measured force is taken on the paper's
+    footing (drift-corrected, near zero on flat ground) and the prediction minus its exact
+    flat-ground level ``mu p0 L_flat`` (forward model on flat ground): the fit's own footing,
+    a line over the positions where all contact lies before the feature, can be empty or a
+    fraction of a millimetre with the forward finger, whose 70 um contact reaches a raised
+    feature several mm ahead (rho itself does not depend on any linear footing).
 
     Parameters
     ----------
     trials : sequence of fingerfriction.fit.Trial
-        Per-trial data: finger positions ``x`` (mm), measured drift-corrected ``F_T``
-        (N), video contact regions (used for fitting only), surface, subject.
+        Per-trial data: finger positions ``x`` (mm), measured ``F_T`` (N) on the paper's
+        footing and, for the load-consistent model, on the absolute one with ``F_N``;
+        video contact regions (used for fitting only), surface, subject.
+    model : {'load', 'paper'}
+        The model variant (:data:`fingerfriction.model.MODELS`).
     fingers : dict, optional
         Subject label -> FingerParams (or 1/2) of the forward model. Default: the digits
         of the label ('S1', '1') select :data:`fingerfriction.mechanics.SUBJECTS`.
     grid : array_like, optional
-        ``mu`` grid (default :func:`fingerfriction.fit.mu_grid`).
+        ``mu`` grid of the paper variant (default :func:`fingerfriction.fit.mu_grid`).
     options : fingerfriction.fit.FitOptions, optional
+        Options of the paper variant.
+    load_options : fingerfriction.fit.LoadFitOptions, optional
+        Options of the load-consistent variant.
     load : float
-        Normal force in N of the forward model.
+        Normal force in N of the forward model and of the load-consistent prediction.
     forward_step : float
         Finger step in mm of the forward sweeps; trial positions take the regions of the
         nearest sweep position (exact when trials are on the same 0.01 mm grid).
     contact : {'geometric', 'mechanical'}
         Forward-model contact definition (default geometric, as the fitted regions).
+    forward_cache : dict, optional
+        Forward sweeps already computed (shared between calls for the two variants).
+    in_sample : pandas.DataFrame, optional
+        The Table 1 of the same model on all trials (:func:`fingerfriction.stats.correlation_table`)
+        when the caller has it; computed otherwise.
 
     Returns
     -------
@@ -195,15 +265,19 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
     Eq. (4) is exactly invariant under ``(mu, p0, p1) -> (p0/p1, p1 mu, p1)``: expanding
     ``p0 (S + mu K) + p1 (Q + mu S)`` gives the coefficients ``(p0 + p1 mu, p0 mu, p1)``
     of ``(S, K, Q)``, which both parameter sets share. When ``p0/p1`` falls inside the
-    ``mu`` grid the grid search has two equally good minima; the subject's ``mu`` (and
-    with it ``p0``) is then not identifiable from forces alone, although the predicted
-    forces are the same either way.
+    ``mu`` grid the paper variant's grid search has two equally good minima; its ``mu``
+    (and with it ``p0``) is then not identifiable from forces alone, although the predicted
+    forces are the same either way. The load-consistent variant measures ``mu`` on flat
+    ground instead, where it is identified.
     """
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
     trials = list(trials)
     for i, t in enumerate(trials):
         if not isinstance(t, Trial):
             raise TypeError(f"trials[{i}] must be a fingerfriction.fit.Trial, got {type(t).__name__}")
     options = options or FitOptions()
+    load_options = load_options or LoadFitOptions()
     surfaces: dict[str, Surface] = {}
     for t in trials:
         surfaces.setdefault(t.surface.name, t.surface)
@@ -215,8 +289,15 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
     for surf in surfaces.values():
         check_profile(surf)
 
-    in_sample = correlation_table(fit_trials(trials, grid=grid, options=options))
+    def fit_all(ts):
+        if model == "load":
+            return fit_load_trials(ts, load_options)
+        return fit_trials(ts, grid=grid, options=options)
+
+    if in_sample is None:
+        in_sample = correlation_table(fit_all(trials), n_boot=None)
     ins = {(r.subject, r.scale, r.shape): (r.rho, r.p) for r in in_sample.itertuples()}
+    cache = {} if forward_cache is None else forward_cache
 
     rows = []
     estimates: dict = {}
@@ -224,59 +305,101 @@ def leave_one_surface_out(trials, *, fingers=None, grid=None, options=None, load
         train = [t for t in trials if t.surface.name != name]
         test = [t for t in trials if t.surface.name == name]
         train_subjects = {t.subject for t in train}
-        fits = fit_trials(train, grid=grid, options=options)
-        model = FrictionModel(surf)
-        pooled_m, pooled_g, pooled_v, pooled_vm = [], [], [], []
+        fits = fit_all(train)
+        fmodel = FrictionModel(surf)
+        pooled: dict[str, list] = {"m": [], "g": [], "vm": [], "vg": [], "lm": [], "lg": []}
         for subj in sorted({t.subject for t in test}):
             ttest = [t for t in test if t.subject == subj]
             if subj not in train_subjects:
                 raise ValueError(f"subject {subj!r} has trials only on {name!r}: nothing to train on")
             sf = fits[subj]
             ok = [f for f in sf.trials if f.success]
-            if not ok:
-                raise RuntimeError(f"no successful training fit for subject {subj!r} without {name!r}")
-            params = FrictionParams(sf.mu, float(np.median([f.p0 for f in ok])),
-                                    float(np.median([f.p1 for f in ok])))
+            if not ok:  # nothing to predict with: said in the row, the other surfaces go on
+                note = f"no successful training fit for subject {subj} without {name}: {sf.message}"
+                log.warning("leave-one-surface-out (%s model): %s", model, note)
+                rows.append({**_loso_row(model, subj, surf, ttest, ins, {k: [] for k in pooled}, None),
+                             "note": note})
+                continue
+            params = _training_params(model, sf, ok)
             finger = _finger_for_label(subj, fingers)
             lo = min(float(t.x[0]) for t in ttest)
             hi = max(float(t.x[-1]) for t in ttest)
-            xs = lo + forward_step * np.arange(int(math.ceil((hi - lo) / forward_step - 1e-9)) + 1)
-            fwd = forward_regions(surf, finger, xs, load=load, contact=contact)
-            flat_level = params.mu * params.p0 * _flat_length_kind(finger, float(load), contact)
-            meas, pred, vmeas, vpred, per = [], [], [], [], []
+            key = (name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(forward_step))
+            if key not in cache:
+                xs = lo + forward_step * np.arange(int(math.ceil((hi - lo) / forward_step - 1e-9)) + 1)
+                cache[key] = (xs, forward_regions(surf, finger, xs, load=load, contact=contact))
+            xs, fwd = cache[key]
+            flat_level = 0.0
+            if model == "paper":
+                flat_level = params.mu * params.p0 * _flat_length_kind(finger, float(load), contact)
+            per, got = [], {k: [] for k in pooled}
             for t in ttest:
                 idx = np.clip(np.rint((t.x - lo) / forward_step).astype(int), 0, xs.size - 1)
-                m, g = _predicted_estimate(surf, t.force, fwd[idx], params, options, flat_level, model)
-                vm, vg = _compared_estimate(surf, t.x, t.force, t.regions, params, options, model)
-                meas.append(m)
-                pred.append(g)
-                vmeas.append(vm)
-                vpred.append(vg)
-                per.append((t.x, m, g))
+                series = _heldout_series(model, t, fwd[idx], params, fmodel, options=options,
+                                         kernel=load_options.median_kernel, load=load, flat_level=flat_level)
+                for k, v in series.items():
+                    got[k].append(v)
+                per.append((t.x, series["m"], series["g"]))
             estimates[(subj, name)] = per
-            pooled_m += meas
-            pooled_g += pred
-            pooled_v += vpred
-            pooled_vm += vmeas
-            rows.append(_loso_row(subj, surf, ttest, ins, ensemble_correlation(meas, pred),
-                                  ensemble_correlation(vmeas, vpred), params))
-        rows.append(_loso_row(BOTH, surf, test, ins, ensemble_correlation(pooled_m, pooled_g),
-                              ensemble_correlation(pooled_vm, pooled_v), None))
-    table = pd.DataFrame(rows)
-    # Table 1's order: subjects then both pooled; scale; Bump, Step Up, Step Down.
+            for k in pooled:
+                pooled[k] += got[k]
+            rows.append(_loso_row(model, subj, surf, ttest, ins, got, params))
+        rows.append(_loso_row(model, BOTH, surf, test, ins, pooled, None))
+    return OutOfSample(table=_in_table1_order(pd.DataFrame(rows), subjects), estimates=estimates)
+
+
+def _in_table1_order(table: pd.DataFrame, subjects: list) -> pd.DataFrame:
+    """Table 1's order: subjects then both pooled; scale; Bump, Step Up, Step Down."""
     sub_order = {s: i for i, s in enumerate(subjects + [BOTH])}
     shape_order = {"Bump": 0, "Step Up": 1, "Step Down": 2}
     key = table.apply(lambda r: (sub_order[r.subject], r.scale_mm, shape_order.get(r["shape"], 9), r.surface),
                       axis=1)
-    table = table.iloc[sorted(range(len(table)), key=lambda i: key.iloc[i])].reset_index(drop=True)
-    return OutOfSample(table=table, estimates=estimates)
+    return table.iloc[sorted(range(len(table)), key=lambda i: key.iloc[i])].reset_index(drop=True)
 
 
-def _loso_row(subject, surf: Surface, trials, ins, out, video, params) -> dict:
+def _training_params(model: str, sf, ok: list):
+    """A subject's parameters for its held-out trials: the medians of its training trials'."""
+    if model == "load":
+        return LoadParams(sf.mu, float(np.median([f.p1 for f in ok])), sf.inset, sf.kappa)
+    return FrictionParams(sf.mu, float(np.median([f.p0 for f in ok])), float(np.median([f.p1 for f in ok])))
+
+
+def _heldout_series(model: str, t: Trial, fwd: np.ndarray, params, fmodel: FrictionModel, *, options,
+                    kernel: int, load: float, flat_level: float) -> dict:
+    """Measured and predicted series of one held-out trial: ``m, g`` the prediction from the
+    forward regions; ``vm, vg`` the training parameters on the trial's video regions;
+    ``lm, lg`` the load-consistent prediction with the trial's measured normal force."""
+    if model == "load":
+        meas = t.force_abs if t.has_absolute else t.force
+        fn = t.normal_abs if t.has_absolute else load
+        g = load_prediction(fmodel, fwd, load, params, median_kernel=kernel)[0]
+        lg = load_prediction(fmodel, fwd, fn, params, median_kernel=kernel)[0]
+        vg = load_prediction(fmodel, t.regions, fn, params, median_kernel=kernel)[0]
+        if not t.has_absolute:  # the paper's footing: compare shapes only (rho detrends)
+            g, lg, vg = g - np.nanmean(g), lg - np.nanmean(lg), vg - np.nanmean(vg)
+        return {"m": meas, "g": g, "vm": meas, "vg": vg, "lm": meas, "lg": lg}
+    m, g = _predicted_estimate(t.surface, t.force, fwd, params, options, flat_level, fmodel)
+    vm, vg = _compared_estimate(t.surface, t.x, t.force, t.regions, params, options, fmodel)
+    return {"m": m, "g": g, "vm": vm, "vg": vg, "lm": m, "lg": np.full(m.shape, np.nan)}
+
+
+def _rho(meas: list, pred: list) -> tuple[float, float]:
+    """Ensemble rho and p over the positions where the prediction is defined (NaN when the
+    series are all undefined, e.g. the paper variant has no measured-load prediction)."""
+    m, g = _finite_pairs(meas, pred)
+    if not m or any(v.size < 3 for v in m):
+        return math.nan, math.nan
+    return ensemble_correlation(m, g)[:2]
+
+
+def _loso_row(model: str, subject, surf: Surface, trials, ins, got: dict, params) -> dict:
     t0 = trials[0]
     scale, shape = t0.scale, t0.shape
     rho_in, p_in = ins.get((subject, scale, shape), (math.nan, math.nan))
+    out = _rho(got["m"], got["g"])
+    nan = math.nan
     return {
+        "model": model,
         "subject": subject,
         "surface": surf.name,
         "scale": scale,
@@ -285,12 +408,16 @@ def _loso_row(subject, surf: Surface, trials, ins, out, video, params) -> dict:
         "n_trials": len(trials),
         "rho_in_sample": rho_in,
         "p_in_sample": p_in,
-        "rho_heldout_params_video": video[0],
+        "rho_heldout_params_video": _rho(got["vm"], got["vg"])[0],
         "rho_out_of_sample": out[0],
         "p_out_of_sample": out[1],
-        "mu": params.mu if params else math.nan,
-        "p0": params.p0 if params else math.nan,
-        "p1": params.p1 if params else math.nan,
+        "rho_out_of_sample_measured_load": _rho(got["lm"], got["lg"])[0],
+        "mu": params.mu if params else nan,
+        "p0": getattr(params, "p0", nan) if params else nan,
+        "p1": params.p1 if params else nan,
+        "inset_mm": getattr(params, "inset", nan) if params else nan,
+        "kappa_per_mm": getattr(params, "kappa", nan) if params else nan,
+        "note": "",
     }
 
 
@@ -326,21 +453,57 @@ def trials_from_results(results: str | os.PathLike) -> list:
 
 
 def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | None = None,
-                     forward_step: float = 0.01) -> OutOfSample:
+                     forward_step: float = 0.01, models: tuple[str, ...] | None = None,
+                     trials: list | None = None, fingers: dict | None = None) -> OutOfSample:
     """Leave-one-surface-out validation of an analysed study; writes ``loso.csv``.
 
-    Uses the ``mu`` grid and fit options recorded by ``fingerfriction fit`` in
-    ``RESULTS/fit/fit.json`` when present (so ``rho_in_sample`` is the study's Table 1),
-    else the defaults. The table goes to ``out`` (default ``RESULTS/fit/loso.csv``) and a
-    figure of the held-out trials beside it (``loso.png``).
-    This is the function the report calls.
+    Validates each model variant of ``models`` (default: the fit's default model first,
+    then the other; both share the forward-model sweeps), with the ``mu`` grid and the
+    options recorded by ``fingerfriction fit`` in ``RESULTS/fit/fit.json`` when present (so
+    ``rho_in_sample`` is the study's Table 1), else the defaults. The table, one block of
+    rows per model (column ``model``), goes to ``out`` (default ``RESULTS/fit/loso.csv``)
+    and a figure of the first model's held-out trials beside it (``loso.png``). This is
+    the function the fit stage and ``fingerfriction validate`` call. ``fingers``
+    (subject label -> FingerParams, e.g. from ``calibrate-finger``) replaces the default
+    finger of those subjects.
+
+    Returns
+    -------
+    OutOfSample
+        ``table`` with the rows of every model; ``estimates`` of the first model.
     """
     root = os.fspath(results)
-    grid, options = ResultsStore(root).fit_settings()
-    res = leave_one_surface_out(trials_from_results(root), grid=grid, options=options,
-                                forward_step=forward_step)
-    target = os.fspath(out) if out is not None else os.fspath(ResultsStore(root).loso_path)
+    store = ResultsStore(root)
+    grid, options = store.fit_settings()
+    record = store.read_fit_record() or {}
+    load_options = _load_options(record.get("load_options"))
+    if models is None:
+        first = record.get("model", "load")
+        models = (first, *[m for m in MODELS if m != first])
+    for m in models:
+        if m not in MODELS:
+            raise ValueError(f"models must be among {MODELS}, got {m!r}")
+    trials = trials_from_results(root) if trials is None else trials
+    if fingers is not None:  # the other subjects keep their default finger
+        fingers = {**{t.subject: _finger_for_label(t.subject, None) for t in trials
+                      if t.subject not in fingers}, **fingers}
+    cache: dict = {}
+    results_by_model = [leave_one_surface_out(trials, model=m, fingers=fingers, grid=grid, options=options,
+                                              load_options=load_options, forward_step=forward_step,
+                                              forward_cache=cache) for m in models]
+    res = OutOfSample(table=pd.concat([r.table for r in results_by_model], ignore_index=True),
+                      estimates=results_by_model[0].estimates)
+    target = os.fspath(out) if out is not None else os.fspath(store.loso_path)
     os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
     res.write_csv(target)
-    res.write_figure(os.path.splitext(target)[0] + ".png")
+    OutOfSample(table=results_by_model[0].table, estimates=res.estimates).write_figure(
+        os.path.splitext(target)[0] + ".png")
     return res
+
+
+def _load_options(d) -> LoadFitOptions:
+    """The load-consistent fit's options recorded in ``fit.json`` (defaults otherwise)."""
+    if not isinstance(d, dict):
+        return LoadFitOptions()
+    known = set(LoadFitOptions.__dataclass_fields__)
+    return LoadFitOptions(**{k: v for k, v in d.items() if k in known})

@@ -10,14 +10,15 @@ import logging
 import math
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write
 from ..blindspots import BlindSpots, Occupancy, blind_spots, occupancy
-from ..model import FrictionModel, FrictionParams
+from ..mechanics import FingerParams
+from ..model import FrictionModel, FrictionParams, LoadParams
 from ..regions import as_regions, n_regions, region_lengths
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from .defaults import _resolve_params
@@ -45,8 +46,10 @@ class Prediction:
     surface : Surface
     subject : int or str
         Subject label.
-    params : FrictionParams
-        Eq. (4) parameters used.
+    params : LoadParams or FrictionParams
+        Eq. (4) parameters used: the load-consistent model's (``LoadParams``, the pressure
+        from the normal force ``load``) or the paper's (``FrictionParams``, a constant
+        ``p0``).
     params_source : str
         Where they came from.
     load : float
@@ -67,7 +70,7 @@ class Prediction:
 
     surface: Surface
     subject: object
-    params: FrictionParams
+    params: LoadParams | FrictionParams
     params_source: str
     load: float
     contact: str
@@ -79,6 +82,29 @@ class Prediction:
     occupancy: Occupancy = field(repr=False)
     blind_spots: BlindSpots = field(repr=False)
     finger: object = field(default=None, repr=False)
+
+    @property
+    def model(self) -> str:
+        """``'load'`` (the load-consistent Eq. 4) or ``'paper'``."""
+        return "load" if isinstance(self.params, LoadParams) else "paper"
+
+    @property
+    def params_text(self) -> str:
+        """The parameters in one line with their units."""
+        p = self.params
+        if isinstance(p, LoadParams):
+            return (f"mu={p.mu:.3g}, p1={p.p1:.3g} N/mm, inset={p.inset:.3g} mm, kappa={p.kappa:.3g}/mm "
+                    f"(load-consistent, F_N={self.load:g} N)")
+        return f"mu={p.mu:.3g}, p0={p.p0:.3g} N/mm, p1={p.p1:.3g} N/mm (paper's Eq. 4)"
+
+    def display_p0(self, normal_force: float, flat_length: float) -> float:
+        """The ``p0`` (N/mm) of a flat friction display for this prediction: the paper's
+        constant pressure, or for the load-consistent model the pressure that carries
+        ``normal_force`` on the finger's flat contact ``flat_length`` (mm), so that the
+        display's lateral force per unit command is the normal force (Amontons)."""
+        if isinstance(self.params, LoadParams):
+            return float(normal_force) / float(flat_length)
+        return self.params.p0
 
     @property
     def max_contacts(self) -> int:
@@ -96,7 +122,8 @@ class Prediction:
             "surface": self.surface.name,
             "surface_spec": _surface_dict(self.surface),
             "subject": str(self.subject),
-            "params": {"mu": self.params.mu, "p0": self.params.p0, "p1": self.params.p1},
+            "model": self.model,
+            "params": asdict(self.params),
             "params_source": self.params_source,
             "load_N": self.load,
             "contact": self.contact,
@@ -192,11 +219,7 @@ class Prediction:
         ax0.plot(x, 1e3 * self.F_def, "C3", lw=1, label="$F_{def}$ (Eq. 3)")
         ax0.set_ylabel("force (mN)")
         ax0.legend(loc="upper right", fontsize=8)
-        p = self.params
-        ax0.set_title(
-            f"{self.surface.name}, subject {self.subject}: mu={p.mu:.3g}, p0={p.p0:.3g} N/mm, "
-            f"p1={p.p1:.3g} N/mm", fontsize=9,
-        )
+        ax0.set_title(f"{self.surface.name}, subject {self.subject}: {self.params_text}", fontsize=9)
         xs = np.linspace(x[0], x[-1], 2000)
         ax1.fill_between(xs, 0, self.surface.h(xs), color="0.6")
         for a, b in self.blind_spots.intervals:
@@ -248,10 +271,13 @@ def predict_from_regions(surface: Surface, positions, regions, params: FrictionP
         Finger positions in mm.
     regions : (n, n_max, 2) array_like
         Contact regions in mm at each position.
-    params : FrictionParams
+    params : LoadParams or FrictionParams
+        The load-consistent model's (the pressure from ``load``) or the paper's.
+    load : float
+        Normal force in N (the load-consistent model's pressure carries it).
     """
-    if not isinstance(params, FrictionParams):
-        raise TypeError(f"params must be FrictionParams, got {type(params).__name__}")
+    if not isinstance(params, (LoadParams, FrictionParams)):
+        raise TypeError(f"params must be LoadParams or FrictionParams, got {type(params).__name__}")
     x = np.asarray(positions, dtype=float)
     reg = as_regions(regions)
     if x.ndim != 1 or x.size != reg.shape[0]:
@@ -261,7 +287,10 @@ def predict_from_regions(surface: Surface, positions, regions, params: FrictionP
         )
     if not np.all(np.isfinite(x)):
         raise ValueError("positions must be finite (mm)")
-    f = FrictionModel(surface).forces(reg, params)
+    if isinstance(params, LoadParams):  # the pressure carries the normal force ``load``
+        f = FrictionModel(surface).load_forces(reg, float(load), params)
+    else:
+        f = FrictionModel(surface).forces(reg, params)
     occ = occupancy(reg)
     bs = blind_spots(reg)
     return Prediction(
@@ -273,7 +302,8 @@ def predict_from_regions(surface: Surface, positions, regions, params: FrictionP
 
 def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N, step: float = 0.01,
             contact: str = "geometric", window: Sequence[float] | None = None,
-            max_slope_angle: float = MAX_SLOPE_ANGLE) -> Prediction:
+            max_slope_angle: float = MAX_SLOPE_ANGLE, model: str | None = None,
+            finger=None) -> Prediction:
     """Predict F_T(x), F_int, F_def, occupancy and blind spots on any relief.
 
     The forward contact model (:mod:`fingerfriction.mechanics`) is swept over the surface
@@ -288,9 +318,12 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
     subject : int or FingerParams
         Subject 1 or 2 (the calibrated fingers of :mod:`fingerfriction.mechanics`), or a
         custom finger (then ``params`` is required).
-    params : None, FrictionParams or path, optional
+    params : None, LoadParams, FrictionParams or path, optional
         Eq. (4) parameters; ``None`` uses :func:`default_params`; a path is read by
-        :func:`load_params`.
+        :func:`load_params` (a fit's results: its default model, or ``model``).
+    model : {'load', 'paper'}, optional
+        The model variant when ``params`` is None (default ``'load'``, the load-consistent
+        Eq. 4 with the pressure from ``load``) or a fit's results folder.
     load : float, optional
         Normal force in N (default 0.3, the paper's).
     step : float, optional
@@ -300,6 +333,10 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
         First and last finger positions in mm (default :func:`sweep_window`).
     max_slope_angle : float, optional
         Slope limit in rad (:func:`check_profile`).
+    finger : FingerParams, optional
+        The subject's own finger (``calibrate-finger``'s, read with
+        :func:`fingerfriction.mechanics.finger_file.read_finger_file`) instead of its
+        default one; default parameters then keep the subject's paper ``mu``.
 
     Returns
     -------
@@ -319,8 +356,12 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
         raise ValueError(f"step must be a finger step in mm in (0, 1], got {step!r}")
     if not (isinstance(load, (int, float)) and math.isfinite(load) and load > 0):
         raise ValueError(f"load must be a positive normal force in N, got {load!r}")
-    label, finger = _resolve_finger(subject)
-    p, source = _resolve_params(params, label, float(load))
+    label, default_finger = _resolve_finger(subject)
+    if finger is None:
+        finger = default_finger
+    elif not isinstance(finger, FingerParams):
+        raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
+    p, source = _resolve_params(params, label, float(load), model, finger=finger)
     lo, hi = sweep_window(surface) if window is None else (float(window[0]), float(window[1]))
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise ValueError(

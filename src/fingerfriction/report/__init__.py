@@ -13,6 +13,7 @@ from __future__ import annotations
 import base64
 import html
 import logging
+import math
 import os
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -183,15 +184,52 @@ def _write_tables(data: ReportData, out: Path, has_fit: bool, files: list[Path])
     return t1, loso, bs, truth, fit_parameter_table(data)
 
 
-def _mu_notes(fit: dict) -> dict:
-    """Per subject, a note when the fitted mu sits at an end of the search grid."""
+MODEL_TITLES = {"load": "Load-consistent Eq. 4", "paper": "The paper's Eq. 4"}
+
+
+def _models(fit: dict) -> list[str]:
+    """The fit's model variants, its default first (a fit of one model: that one)."""
+    default = fit.get("model", "paper")
+    return [default, *[m for m in (fit.get("models") or {}) if m != default]]
+
+
+def _mu_rows(fit: dict) -> list[dict]:
+    """Per model and subject: mu with its confidence interval, or a warning when it sits at
+    an end of the paper variant's search grid."""
     grid = fit.get("mu_grid") or {}
-    notes = {}
-    for s, m in (fit.get("mu") or {}).items():
-        if grid and (abs(m - grid.get("start", -1)) < 1e-9 or abs(m - grid.get("stop", -1)) < 1e-9):
-            notes[s] = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
+    per_model = fit.get("models") or {fit.get("model", "paper"): {"mu": fit.get("mu", {})}}
+    rows = []
+    for m in _models(fit):
+        rec = per_model.get(m, {})
+        for s, mu in (rec.get("mu") or {}).items():
+            text, warn = f"subject {s}: &mu; = {mu:.4g}", ""
+            lo, hi = ((rec.get("mu_ci") or {}).get(s) or [None, None])
+            if lo is not None and hi is not None and math.isfinite(lo):
+                text += f" (95 % CI {lo:.4f}-{hi:.4f})"
+            if m == "paper" and grid and (abs(mu - grid.get("start", -1)) < 1e-9
+                                          or abs(mu - grid.get("stop", -1)) < 1e-9):
+                warn = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
                         "not a minimum inside the grid, the true value may lie beyond it")
-    return notes
+            rows.append({"model": MODEL_TITLES.get(m, m) + (" (default)" if m == _models(fit)[0] else ""),
+                         "text": Markup(text), "warn": warn})
+    return rows
+
+
+def _by_model(df: pd.DataFrame | None, fit: dict, render) -> list[dict]:
+    """One block per model of a table with a ``model`` column (the fit's default first)."""
+    if df is None:
+        return []
+    notes = fit.get("model_notes") or {}
+    if "model" not in df.columns:
+        return [{"title": "", "note": "", "html": render(df)}]
+    out = []
+    for m in _models(fit):
+        sel = df[df["model"] == m].drop(columns="model")
+        if sel.empty:
+            continue
+        title = MODEL_TITLES.get(m, m) + (" - the default model" if m == _models(fit)[0] else "")
+        out.append({"title": title, "note": notes.get(m, ""), "html": render(sel)})
+    return out
 
 
 def make_report(results: str | os.PathLike, *, progress: bool = False, sample: int | None = 6,
@@ -293,12 +331,19 @@ def _render_index(data: ReportData, *, has_fit, figures, tables, loso_img, flags
         resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
     run = data.run
     record = run_record(data)
-    n_neg_p0 = int((data.fit_trials["p0"] < 0).sum()) if data.fit_trials is not None else 0
+    fit = data.fit or {}
+    ft = data.fit_trials
+    n_neg_p0 = 0
+    if ft is not None:
+        paper_rows = ft[ft["model"] == "paper"] if "model" in ft.columns else ft
+        n_neg_p0 = int((paper_rows["p0"] < 0).sum())
     return template.render(
         flag_groups=group_flags(flags), n_flagged=len(flagged), links=links, all_flags=flags,
         trials_table=Markup(_html_table(_trial_table(data, flags), links=links)),
         n_pages=n_pages,
-        notices=notices, mu_notes=_mu_notes(data.fit or {}), n_neg_p0=n_neg_p0,
+        notices=notices, mu_rows=_mu_rows(fit), n_neg_p0=n_neg_p0,
+        table1_models=_by_model(t1, fit, lambda d: Markup(_html_table(table1_display(d)))),
+        loso_models=_by_model(loso, fit, lambda d: Markup(_html_table(with_formatted_p(d)))),
         subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
         table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
                      if t1 is not None else None),
@@ -310,9 +355,8 @@ def _render_index(data: ReportData, *, has_fit, figures, tables, loso_img, flags
         n_ok=len(data.trials), n_trials=len(data.trials) + len(data.failed),
         subjects=data.subjects, surfaces=data.surface_names,
         speeds=", ".join(f"{v:g}" for v in data.speeds),
-        mu=(data.fit or {}).get("mu", {}), has_fit=has_fit, failed=data.failed, notes=data.notes,
-        table1=Markup(_html_table(table1_display(t1))) if t1 is not None else None,
-        loso=Markup(_html_table(with_formatted_p(loso))) if loso is not None else None,
+        has_fit=has_fit, failed=data.failed, notes=data.notes,
+        table1=t1 is not None, loso=loso is not None,
         loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
         blindspots=Markup(_html_table(bs)),
         truth=[(_TRUTH_TITLES.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],

@@ -110,6 +110,9 @@ class ReportData:
         ``fit/trials.csv`` if present.
     loso : pandas.DataFrame or None
         ``fit/loso.csv`` (the out-of-sample validation written by ``fit``) if present.
+    fit_table1 : pandas.DataFrame or None
+        ``fit/table1.csv`` (Table 1 of each model variant with bootstrap confidence
+        intervals, written by ``fit``) if present.
     truth : dict or None
         ``truth/study.json`` of a simulated study, if the study folder is reachable.
     truth_dir : Path or None
@@ -126,6 +129,7 @@ class ReportData:
     truth_dir: Path | None = None
     notes: list[str] = field(default_factory=list)
     loso: pd.DataFrame | None = None
+    fit_table1: pd.DataFrame | None = None
 
     @property
     def surface_names(self) -> list[str]:
@@ -182,10 +186,11 @@ def load_report_data(results) -> ReportData:
     if not trials:
         raise ValueError(f"{str(store.root)!r}: no trial finished OK; nothing to report")
     fit = store.read_fit_record()
-    fit_trials = loso = None
+    fit_trials = loso = fit_table1 = None
     if fit is not None:
         fit_trials = store.read_fit_table()
         loso = store.read_loso()
+        fit_table1 = store.read_fit_csv("table1")
     truth = truth_dir = None
     notes = []
     if run.get("truth"):
@@ -196,4 +201,5 @@ def load_report_data(results) -> ReportData:
             notes.append(f"ground truth not readable ({exc}); the comparison with the truth is left out")
             truth_dir = None
     return ReportData(root=store.root, run=run, surfaces=surfaces, trials=trials, failed=failed, fit=fit,
-                      fit_trials=fit_trials, truth=truth, truth_dir=truth_dir, notes=notes, loso=loso)
+                      fit_trials=fit_trials, truth=truth, truth_dir=truth_dir, notes=notes, loso=loso,
+                      fit_table1=fit_table1)

@@ -461,29 +461,46 @@ def figS1_lengths(data: ReportData) -> Figure:
 
 
 def figS3_components(data: ReportData) -> Figure:
-    """Fig. S3: model F_int (Eq. 2) and F_def (Eq. 3), mean +- 1 SD over all trials."""
+    """Fig. S3: model F_int (Eq. 2) and F_def (Eq. 3), mean +- 1 SD over all trials, for
+    each model variant side by side (a column per model, the fit's default first)."""
+    default = (data.fit or {}).get("model", "paper")
+    models = [default] + [m for m in ("load", "paper") if m != default]
+    models = [m for m in models
+              if any(t.model is not None and f"{m}_F_int_N" in t.model for t in data.trials)]
+    if not models:  # a fit written before the two variants: its own columns
+        models = [None]
+    names = data.surface_names
     with figure_style():
-        fig, panels = _surface_panels(data)
-        for ax, name in panels:
+        width = FULL_WIDTH_IN if len(models) > 1 else FULL_WIDTH_IN / 2 + 0.3
+        fig = new_figure(width, 0.9 + 1.45 * len(names))
+        axes = fig.subplots(len(names), len(models), squeeze=False, sharex=True)
+        for i, name in enumerate(names):
             ts = [t for t in data.select(surface=name) if t.model is not None]
-            drawn = False
-            for col, c in (("F_int_N", F_INT), ("F_def_N", F_DEF)):
-                ms = _mean_sd([(t.model["x_mm"], t.model[col]) for t in ts])
-                if ms is None:
-                    continue
-                _curve(ax, ms, c)
-                drawn = True
-            if not drawn:
-                _empty(ax)
-            ax.set_title(f"{_label(data, name)} ({len(ts)} trials)")
+            for j, m in enumerate(models):
+                ax = axes[i, j]
+                drawn = False
+                for col, c in (("F_int_N", F_INT), ("F_def_N", F_DEF)):
+                    key = col if m is None else f"{m}_{col}"
+                    ms = _mean_sd([(t.model["x_mm"], t.model[key]) for t in ts if key in t.model])
+                    if ms is None:
+                        continue
+                    _curve(ax, ms, c)
+                    drawn = True
+                if not drawn:
+                    _empty(ax)
+                what = "" if m is None else (" - load-consistent" if m == "load" else " - paper's Eq. 4")
+                ax.set_title(f"{_label(data, name)}{what}" + (" (default)" if m == default and len(models) > 1
+                                                            else ""))
+                if j == 0:
+                    ax.set_ylabel("force (mN)")
+        for ax in axes[-1]:
             ax.set_xlabel("finger position x (mm)")
-            ax.set_ylabel("force (mN)")
         handles = [Line2D([], [], color=F_INT, label="interfacial F_int (Eq. 2)"),
                    Line2D([], [], color=F_DEF, label="deformation F_def (Eq. 3)"),
                    Patch(color="0.5", alpha=0.35, label="+- 1 SD (where n > 1)")]
         fig.legend(handles=handles, loc="outside lower center", ncols=len(handles))
-        fig.suptitle("Fig. S3 - Model components with the fitted p0, p1, mu: mean over all trials of a "
-                     "surface")
+        fig.suptitle("Fig. S3 - Model components with the fitted parameters: mean over all trials of a "
+                     "surface" + (", each model variant" if len(models) > 1 else ""))
     return fig
 
 

@@ -73,7 +73,19 @@ def _condition(data: ReportData, surface: str) -> tuple[str, str]:
 
 def table1(data: ReportData) -> pd.DataFrame | None:
     """Table 1 (long format): Pearson rho and p of detrended measured vs model per
-    subject x scale x shape, plus both subjects pooled; None before the fit."""
+    subject x scale x shape, plus both subjects pooled; None before the fit.
+
+    From ``fit/table1.csv`` when the fit wrote it (each model variant, column ``model``,
+    the fit's default model first, with bootstrap confidence intervals of rho); else
+    computed from the stored model forces of the fit's one model."""
+    if data.fit_table1 is not None and not data.fit_table1.empty:
+        out = data.fit_table1.copy()
+        default = (data.fit or {}).get("model", "paper")
+        out["_o"] = (out["model"] != default).astype(int)
+        out = out.sort_values("_o", kind="stable").drop(columns="_o").reset_index(drop=True)
+        if out[out["subject"] != BOTH]["subject"].nunique() < 2:
+            out = out[out["subject"] != BOTH].reset_index(drop=True)
+        return out[["model", *[c for c in out.columns if c != "model"]]]
     series = []
     for t in data.trials:
         if t.model is None:
@@ -107,7 +119,8 @@ def fit_parameter_table(data: ReportData) -> pd.DataFrame | None:
     ft = data.fit_trials
     if ft is None or ft.empty:
         return None
-    g = ft.groupby(["subject", "surface"], sort=False)
+    keys = ["model", "subject", "surface"] if "model" in ft.columns else ["subject", "surface"]
+    g = ft.groupby(keys, sort=False)
     out = g.agg(n_trials=("trial", "size"), mu=("mu", "first"), p0_mean=("p0", "mean"), p0_sd=("p0", "std"),
                 p1_mean=("p1", "mean"), p1_sd=("p1", "std"), objective_mean=("objective", "mean"),
                 n_failed=("success", lambda s: int((~s.astype(bool)).sum())))
@@ -153,12 +166,22 @@ def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
     if data.truth is None:
         return out
     true_mu = _truth_mu(data.truth)
-    fitted = (data.fit or {}).get("mu", {})
+    fit = data.fit or {}
+    default = fit.get("model", "paper")
+    per_model = fit.get("models") or {default: {"mu": fit.get("mu", {}), "mu_ci": fit.get("mu_ci", {})}}
     if true_mu:
         rows = []
-        for s in sorted(set(true_mu) | set(fitted)):
-            t, f = true_mu.get(s, math.nan), fitted.get(s, math.nan)
-            rows.append({"subject": s, "mu_true": t, "mu_fitted": f, "error": f - t})
+        for m in [default, *[k for k in per_model if k != default]]:
+            fitted = per_model.get(m, {}).get("mu", {})
+            ci = per_model.get(m, {}).get("mu_ci") or {}
+            for s in sorted(set(true_mu) | set(fitted)):
+                t, f = true_mu.get(s, math.nan), fitted.get(s, math.nan)
+                lo, hi = (ci.get(s) or [math.nan, math.nan])
+                lo = math.nan if lo is None else lo
+                hi = math.nan if hi is None else hi
+                rows.append({"model": m, "subject": s, "mu_true": t, "mu_fitted": f, "ci95_lo": lo,
+                             "ci95_hi": hi, "error": f - t,
+                             "truth_in_ci": bool(lo <= t <= hi) if math.isfinite(lo) else None})
         out["mu"] = pd.DataFrame(rows)
     if data.truth_dir is not None:
         rows, track = [], []
@@ -211,13 +234,17 @@ def _x_rms(x: np.ndarray, x_true: np.ndarray) -> float:
 
 def table1_display(table: pd.DataFrame) -> pd.DataFrame:
     """Table 1 in a compact wide form for HTML: one row per (subject, scale), shapes as columns
-    with ``rho`` and a star where p < 0.01."""
+    with ``rho``, its 95 % confidence interval when known and a star where p < 0.01 (one
+    model: select its rows first)."""
     rows = []
     for (subj, scale), g in table.groupby(["subject", "scale"], sort=False):
         row = {"subject": subj, "scale": scale}
         for _, r in g.iterrows():
             star = "*" if r["significant"] else ""
-            row[r["shape"]] = "" if not np.isfinite(r["rho"]) else f"{r['rho']:.2f}{star}"
+            ci = ""
+            if "rho_lo" in r and np.isfinite(r["rho_lo"]) and np.isfinite(r["rho_hi"]):
+                ci = f" [{r['rho_lo']:.2f}, {r['rho_hi']:.2f}]"
+            row[r["shape"]] = "" if not np.isfinite(r["rho"]) else f"{r['rho']:.2f}{star}{ci}"
         rows.append(row)
     df = pd.DataFrame(rows).fillna("")
     order = {s: i for i, s in enumerate([*sorted(set(df["subject"]) - {BOTH}), BOTH])}
@@ -243,7 +270,8 @@ def loso_table(data: ReportData) -> pd.DataFrame | None:
     missing = [c for c in LOSO_COLUMNS if c not in data.loso.columns]
     if missing:
         raise ValueError(f"{data.root / 'fit' / 'loso.csv'}: missing columns {missing}")
-    out = data.loso.loc[:, list(LOSO_COLUMNS)].reset_index(drop=True)
+    cols = [c for c in ("model", *LOSO_COLUMNS, "rho_out_of_sample_measured_load") if c in data.loso.columns]
+    out = data.loso.loc[:, cols].reset_index(drop=True)
     if out["subject"].nunique() == 2 and BOTH in set(out["subject"]):  # one subject + its copy
         out = out[out["subject"] != BOTH].reset_index(drop=True)
     return out

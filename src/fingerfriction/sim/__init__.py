@@ -14,7 +14,7 @@ Modules, in the order a simulated trial is produced:
 from .camera import Camera, CameraParams
 from .contact import SIM_SUBJECTS, ContactTable, SimFinger, build_table
 from .kinematics import KinematicsParams, simulate_kinematics
-from .physics import SUBJECT_FORCE_LAWS, ForceLaw, true_forces
+from .physics import SUBJECT_FORCE_LAWS, ForceLaw, RealismParams, true_forces
 from .sensor import SensorParams, apply_sensor, from_channels, to_channels
 from .writer import SimOptions, StudyFolderError, plan_trial, simulate_study, simulate_trial
 
@@ -24,6 +24,7 @@ __all__ = [
     "ContactTable",
     "ForceLaw",
     "KinematicsParams",
+    "RealismParams",
     "SIM_SUBJECTS",
     "SUBJECT_FORCE_LAWS",
     "SensorParams",

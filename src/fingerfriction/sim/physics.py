@@ -24,7 +24,10 @@ and ``g(d) = minjerk(d / 0.1 mm)`` the build-up of friction as the finger starts
 * ``mu_eff(d) = mu (1 + transient exp(-d / transient_mm))``: an initial static-to-sliding
   peak that decays with the distance ``d`` slid since the slide started (Discussion:
   "static to sliding contact transitions");
-* per subject ``mu`` = 0.55 and 0.60 (the paper's estimates).
+* per subject ``mu`` = 0.55 and 0.60 (the paper's estimates);
+* with :class:`RealismParams` (``SimOptions.realism``, off by default): a friction
+  coefficient drawn per trial around the subject's, a mild fall of friction with load,
+  and a normal force wandering over the paper's full +-50 mN.
 
 ``int p w dx`` for the weights ``1, sin a, cos a, s sin a, s cos a`` are tabulated with the
 contact table, so the law costs a bilinear interpolation per force sample.
@@ -44,7 +47,7 @@ import numpy as np
 from .contact import ContactTable
 from .kinematics import min_jerk
 
-__all__ = ["ForceLaw", "SUBJECT_FORCE_LAWS", "true_forces"]
+__all__ = ["ForceLaw", "SUBJECT_FORCE_LAWS", "RealismParams", "true_forces"]
 
 
 @dataclass(frozen=True)
@@ -87,6 +90,54 @@ class ForceLaw:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class RealismParams:
+    """A harder virtual experiment (``SimOptions.realism``; off in the default study).
+
+    Parameters
+    ----------
+    mu_sd : float
+        Relative standard deviation of each trial's friction coefficient around the
+        subject's (default 0.10: trial-to-trial changes such as skin hydration). The
+        trial's coefficient is ``mu (1 + mu_sd z)``, ``z`` standard normal clipped to +-3.
+    mu_load_exponent : float
+        Friction falls with load as ``mu (F_N / f_ref_n)^-n`` (default 0.2: 15 % more
+        friction when the load halves, 13 % less when it doubles, inside the paper's
+        "less than 20 % change if the force is doubled or halved", Discussion).
+    f_ref_n : float
+        Load in N at which the trial's coefficient applies (default 0.3 N, the prescribed
+        force).
+    force_sd_trial, force_sd : float
+        Standard deviations in N of the trial's normal-force target and of its wander
+        within the trial (default 0.025 N each), so that the normal force wanders over the
+        paper's full +-50 mN (the kinematics' soft limit), instead of the default
+        0.012 N each.
+    """
+
+    mu_sd: float = 0.10
+    mu_load_exponent: float = 0.2
+    f_ref_n: float = 0.3
+    force_sd_trial: float = 0.025
+    force_sd: float = 0.025
+
+    def __post_init__(self) -> None:
+        for k, v in asdict(self).items():
+            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise ValueError(f"RealismParams.{k} must be a finite number >= 0, got {v!r}")
+        if self.mu_sd > 0.3:
+            raise ValueError(f"RealismParams.mu_sd must be <= 0.3 (relative), got {self.mu_sd!r}")
+        if self.f_ref_n <= 0:
+            raise ValueError(f"RealismParams.f_ref_n must be a positive force in N, got {self.f_ref_n!r}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    def trial_mu_scale(self, rng: np.random.Generator) -> float:
+        """The trial's friction factor ``1 + mu_sd z`` (one draw from ``rng``)."""
+        z = float(np.clip(rng.standard_normal(), -3.0, 3.0))
+        return 1.0 + self.mu_sd * z
+
+
 SUBJECT_FORCE_LAWS: dict[str, ForceLaw] = {
     "1": ForceLaw(mu=0.55, beta0=0.5),
     "2": ForceLaw(mu=0.60, beta0=0.6),
@@ -94,7 +145,8 @@ SUBJECT_FORCE_LAWS: dict[str, ForceLaw] = {
 
 
 def true_forces(table: ContactTable, law: ForceLaw, x_c: np.ndarray, f_n: np.ndarray,
-                sliding_distance: np.ndarray, speed_mm_s: float, in_contact: np.ndarray):
+                sliding_distance: np.ndarray, speed_mm_s: float, in_contact: np.ndarray, *,
+                mu_scale: float = 1.0, load_exponent: float = 0.0, f_ref_n: float = 0.3):
     """True tangential force of a trial on the force clock.
 
     Parameters
@@ -106,6 +158,10 @@ def true_forces(table: ContactTable, law: ForceLaw, x_c: np.ndarray, f_n: np.nda
     speed_mm_s : float
         The trial's mean speed in mm/s (for ``beta(v)``).
     in_contact : (n,) bool ndarray
+    mu_scale : float
+        The trial's friction factor (:class:`RealismParams`; 1 by default).
+    load_exponent, f_ref_n : float
+        Load dependence of friction, ``mu (F_N / f_ref_n)^-load_exponent`` (0: none).
 
     Returns
     -------
@@ -115,7 +171,9 @@ def true_forces(table: ContactTable, law: ForceLaw, x_c: np.ndarray, f_n: np.nda
     I = table.interp_integrals(x_c, np.maximum(f_n, 1e-9))
     i_n, i_sin, i_cos, i_ssin, i_scos = I.T
     scale = np.where(in_contact & (i_n > 0), f_n / np.where(i_n > 0, i_n, 1.0), 0.0)
-    mu = law.mu * (1.0 + law.transient * np.exp(-np.asarray(sliding_distance) / law.transient_mm))
+    mu = law.mu * mu_scale * (1.0 + law.transient * np.exp(-np.asarray(sliding_distance) / law.transient_mm))
+    if load_exponent:
+        mu = mu * (np.maximum(f_n, 1e-6) / f_ref_n) ** (-load_exponent)
     beta = law.beta0 * (1.0 + law.beta_speed * (speed_mm_s / law.v_ref - 1.0))
     f_int = scale * (i_sin + mu * i_cos)
     f_def = scale * beta * (i_ssin + mu * i_scos)

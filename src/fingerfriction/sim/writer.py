@@ -21,7 +21,7 @@ import shutil
 import zlib
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -35,9 +35,10 @@ from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from ..video.writers import VideoWriter
 from ._io import write_npz
 from .camera import Camera, CameraParams
-from .contact import ContactTable, SimFinger, build_table, get_provider
+from .contact import ContactTable, MechanicsProvider, SimFinger, build_table, get_provider
+from .fingers import check_finger_options, study_fingers
 from .kinematics import Kinematics, KinematicsParams, simulate_kinematics
-from .physics import SUBJECT_FORCE_LAWS, ForceLaw, true_forces
+from .physics import SUBJECT_FORCE_LAWS, ForceLaw, RealismParams, true_forces
 from .sensor import SensorParams, apply_sensor
 
 __all__ = ["SimOptions", "TrialSpec", "simulate_study", "simulate_trial", "plan_trial", "StudyFolderError"]
@@ -80,6 +81,16 @@ class SimOptions:
         Normal loads of the contact tables in N.
     video_end_mm : float
         The video stops at the first frame where the finger centre is past this position.
+    realism : RealismParams, optional
+        A harder experiment (:class:`~fingerfriction.sim.physics.RealismParams`): friction
+        drawn per trial, friction falling with load, the normal force wandering over the
+        full +-50 mN. None (default) keeps the default study's figures comparable.
+    fingers : dict, optional
+        Subject label -> finger (``FingerParams``, its dict or a finger file's object):
+        overrides the calibrated finger of that subject (:mod:`~fingerfriction.sim.fingers`).
+    finger_seed : int, optional
+        Draw every subject without an override around its calibrated finger (radius,
+        modulus, flat length within +-25 %, :func:`~fingerfriction.sim.fingers.draw_finger`).
     """
 
     reps: int = 5
@@ -95,8 +106,17 @@ class SimOptions:
     table_step: float = 0.02
     table_loads: tuple = (0.22, 0.3, 0.38)
     video_end_mm: float = 14.0
+    realism: RealismParams | None = None
+    fingers: dict = field(default_factory=dict)
+    finger_seed: int | None = None
 
     def __post_init__(self) -> None:
+        if self.realism is not None:
+            if not isinstance(self.realism, RealismParams):
+                raise TypeError(f"realism must be a RealismParams or None, got {type(self.realism).__name__}")
+            # the normal force wanders over the full +-50 mN
+            object.__setattr__(self, "kinematics", replace(
+                self.kinematics, force_sd_trial=self.realism.force_sd_trial, force_sd=self.realism.force_sd))
         if isinstance(self.reps, bool) or not isinstance(self.reps, (int, np.integer)) or self.reps < 1:
             raise ValueError(f"reps must be an integer >= 1, got {self.reps!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
@@ -104,7 +124,10 @@ class SimOptions:
         subs = tuple(str(s) for s in self.subjects)
         if not subs:
             raise ValueError("subjects must not be empty")
-        provider = get_provider(self.contact_model)
+        fingers, fseed = check_finger_options(self.fingers, self.finger_seed, subs, self.contact_model)
+        object.__setattr__(self, "fingers", fingers)
+        object.__setattr__(self, "finger_seed", fseed)
+        provider = self.provider(subs)
         for s in subs:
             if s not in SUBJECT_FORCE_LAWS:
                 raise ValueError(
@@ -160,6 +183,11 @@ class SimOptions:
     def surface(self, spec: str) -> Surface:
         return surface_from_spec(spec)
 
+    def provider(self, subjects=None):
+        """The contact provider, with this study's fingers (:mod:`~fingerfriction.sim.fingers`)."""
+        fingers = study_fingers(self.fingers, self.finger_seed, subjects or self.subjects)
+        return get_provider(self.contact_model) if fingers is None else MechanicsProvider(fingers=fingers)
+
     def trial_specs(self) -> list[TrialSpec]:
         """The design in a fixed order: subject, surface, speed, repetition."""
         out = []
@@ -182,6 +210,11 @@ class SimOptions:
             "kinematics": self.kinematics.to_dict(), "contact_model": self.contact_model,
             "table_step": self.table_step,
             "table_loads": list(self.table_loads), "video_end_mm": self.video_end_mm,
+            # only when set, so that the default study's record is unchanged
+            **({"realism": self.realism.to_dict()} if self.realism is not None else {}),
+            # only when set, so a default study's description (and resume check) is unchanged
+            **({"fingers": self.fingers} if self.fingers else {}),
+            **({"finger_seed": self.finger_seed} if self.finger_seed is not None else {}),
         }
 
     @classmethod
@@ -208,6 +241,8 @@ class SimOptions:
             for key in ("subjects", "surfaces", "speeds", "table_loads"):
                 if key in d:
                     d[key] = tuple(d[key])
+            if d.get("realism") is not None:
+                d["realism"] = RealismParams(**dict(d["realism"]))
             return cls(**d)
         except TypeError as exc:  # unknown field names
             raise ValueError(f"simulation options: {exc}") from None
@@ -232,6 +267,12 @@ class TrialSpec:
 def _rngs(spec: TrialSpec, seed: int):
     kin, sensor, camera = spec.seed_sequence(seed).spawn(3)
     return np.random.default_rng(kin), np.random.default_rng(sensor), np.random.default_rng(camera)
+
+
+def _realism_rng(spec: TrialSpec, seed: int) -> np.random.Generator:
+    """A fourth stream of the trial for the realism draws: the first three (kinematics,
+    sensor, camera) are the same as without it, so switching realism off changes nothing."""
+    return np.random.default_rng(spec.seed_sequence(seed).spawn(4)[3])
 
 
 @dataclass(frozen=True)
@@ -377,8 +418,13 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
     surf = surface_from_spec(spec.surface_spec)
 
     # forces
+    mu_scale, load_exp, f_ref = 1.0, 0.0, 0.3
+    if opts.realism is not None:
+        mu_scale = opts.realism.trial_mu_scale(_realism_rng(spec, opts.seed))
+        load_exp, f_ref = opts.realism.mu_load_exponent, opts.realism.f_ref_n
     f_t, f_int, f_def = true_forces(table, law, kin.x, kin.f_n, kin.sliding_distance,
-                                    kin.mean_speed, kin.in_contact)
+                                    kin.mean_speed, kin.in_contact, mu_scale=mu_scale,
+                                    load_exponent=load_exp, f_ref_n=f_ref)
     F1, F2 = apply_sensor(kin.f_n, f_t, rs, opts.sensor)
 
     # video + per-frame truth
@@ -424,6 +470,7 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
         "geom_tol_mm": np.float64(tol), "mm_per_px": np.float64(opts.camera.mm_per_px),
         "x0_px": np.float64(opts.camera.x0_px), "y0_row": np.float64(opts.camera.y0_row),
         "mean_speed_mm_s": np.float64(kin.mean_speed), "z_finger_force": kin.z,
+        "mu_trial": np.float64(law.mu * mu_scale), "mu_load_exponent": np.float64(load_exp),
     })
     return rec
 
@@ -447,7 +494,7 @@ def _stack_regions(grids, masks) -> np.ndarray:
 
 
 def _truth_header(opts: SimOptions) -> dict:
-    provider = get_provider(opts.contact_model)
+    provider = opts.provider()
     subjects = {
         s: {"finger": provider.finger_dict(s), "force_law": SUBJECT_FORCE_LAWS[s].to_dict()}
         for s in opts.subjects
@@ -527,7 +574,7 @@ def _table_task(surface_spec: str, subject: str, load: float, opts: SimOptions, 
     if not os.path.exists(path):
         surf = surface_from_spec(surface_spec)
         table = build_table(surf, subject, loads=(load,), step=opts.table_step,
-                            provider=get_provider(opts.contact_model))
+                            provider=opts.provider())
         table.save(path)
     return path
 

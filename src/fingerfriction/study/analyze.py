@@ -225,7 +225,7 @@ def _reasons(store: ResultsStore, study: Study, t: TrialRecord, pdict: dict, pdi
         out.append(f"parameters changed: {what}" if what else "parameters changed")
     entry = status.get("entry")
     if entry is None:
-        out.append("manifest entry not recorded (results of an older version)")
+        out.append("manifest entry not recorded: results of an older version")
     else:
         what = _changed(entry, trial_entry(study, t))
         if what:

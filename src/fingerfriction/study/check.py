@@ -23,7 +23,7 @@ from pathlib import Path
 from ..forces.readers import read_force_file
 from ..video.readers import probe_video
 from .manifest import Study, TrialRecord, read_manifest_json
-from .records import MANIFEST_NAME, ForceInfo, ManifestError, Problem, VideoInfo, resolve_path
+from .records import MANIFEST_NAME, ForceInfo, ManifestError, Problem, VideoInfo, _problem, resolve_path
 
 __all__ = ["CheckResult", "check_study", "check_files"]
 
@@ -120,8 +120,7 @@ def check_study(path: str | os.PathLike, *, files: bool | Iterable[str] = True) 
             try:
                 resolve_path(study.root, rel, where=f"{where}.{what}")
             except ManifestError as exc:
-                head, _, msg = str(exc).partition(": ")
-                problems.append(Problem(shown, head, msg, trial=t.id))
+                problems.append(_problem(exc, file=shown, trial=t.id))
                 bad = True
         if not bad:
             good.append(t)

@@ -245,6 +245,18 @@ def match_recordings(paths: Iterable[str], video_patterns: Sequence[str] | str,
     """
     vps = [FilePattern.parse(p, what="--video") for p in _as_list(video_patterns, "--video")]
     fps = [FilePattern.parse(p, what="--forces") for p in _as_list(force_patterns, "--forces")]
+    _check_fields(vps, fps)
+    unmatched: list[Unmatched] = []
+    videos, forces = _bin_paths(paths, vps, fps, unmatched)
+    pairs = _pair(videos, forces, unmatched)
+    extra = [f for f in vps[0].fields if f not in KNOWN_FIELDS]
+    trials = _trials(pairs, "repetition" in vps[0].fields, extra, unmatched)
+    return MatchResult(trials=tuple(trials), unmatched=tuple(sorted(unmatched, key=lambda u: u.path)),
+                       fields=tuple(vps[0].fields))
+
+
+def _check_fields(vps: list[FilePattern], fps: list[FilePattern]) -> None:
+    """Every pattern has the required fields, and all have the same fields."""
     fields = set(vps[0].fields)
     for p in vps + fps:
         missing = [f for f in REQUIRED_FIELDS if f not in p.fields]
@@ -259,36 +271,41 @@ def match_recordings(paths: Iterable[str], video_patterns: Sequence[str] | str,
                 f"({sorted(fields)} and {sorted(p.fields)}); the fields pair a video with its force file, "
                 "so every pattern needs the same ones (use '*' for parts that differ)"
             )
+
+
+def _bin_paths(paths: Iterable[str], vps: list[FilePattern], fps: list[FilePattern],
+               unmatched: list[Unmatched]) -> tuple[dict, dict]:
+    """Videos and force files by the key of their fields; the rest into ``unmatched``. A
+    folder (a path ending in ``/``) can only be a video (a folder of TIFF frames), and the
+    files inside a folder that is a video belong to it."""
     paths = sorted(set(paths))
-    dirs = {p for p in paths if p.endswith("/")}
     videos: dict[tuple, list[tuple[str, dict]]] = {}
     forces: dict[tuple, list[tuple[str, dict]]] = {}
-    unmatched: list[Unmatched] = []
     used_dirs: list[str] = []
+    left: list[Unmatched] = []
     for path in paths:
+        is_dir = path.endswith("/")
         name = path.rstrip("/")
         hit = None
-        for kind, pats, table in (("video", vps, videos), ("force", fps, forces)):
-            if path in dirs and kind == "force":
-                continue
-            for pat in pats:
-                vals = pat.match(name)
-                if vals is not None:
-                    hit = (kind, table, vals)
-                    break
-            if hit:
+        for pats, table in ((vps, videos), (() if is_dir else fps, forces)):
+            vals = next((v for v in (pat.match(name) for pat in pats) if v is not None), None)
+            if vals is not None:
+                hit = (table, vals)
                 break
         if hit is None:
-            if path not in dirs:
-                unmatched.append(Unmatched(name, "matches no pattern"))
+            if not is_dir:
+                left.append(Unmatched(name, "matches no pattern"))
             continue
-        kind, table, vals = hit
+        table, vals = hit
         table.setdefault(_key(vals), []).append((name, vals))
-        if path in dirs:
+        if is_dir:
             used_dirs.append(name + "/")
-    # files inside a folder of TIFF frames that is a video are part of it
-    unmatched = [u for u in unmatched if not any(u.path.startswith(d) for d in used_dirs)]
+    unmatched.extend(u for u in left if not any(u.path.startswith(d) for d in used_dirs))
+    return videos, forces
 
+
+def _pair(videos: dict, forces: dict, unmatched: list[Unmatched]) -> list[tuple[str, str, dict]]:
+    """``(video, force file, fields)`` of each key with exactly one of each."""
     pairs = []
     for key in sorted(set(videos) | set(forces), key=repr):
         vs, fs = videos.get(key, []), forces.get(key, [])
@@ -299,20 +316,21 @@ def match_recordings(paths: Iterable[str], video_patterns: Sequence[str] | str,
                     others = ", ".join(p for p, _ in lst)
                     unmatched.extend(Unmatched(p, f"{len(lst)} {kind} for one trial ({what}): {others}")
                                      for p, _ in lst)
-            continue
-        if not fs:
+        elif not fs:
             unmatched.append(Unmatched(vs[0][0], f"video without a force file ({what})"))
-            continue
-        if not vs:
+        elif not vs:
             unmatched.append(Unmatched(fs[0][0], f"force file without a video ({what})"))
-            continue
-        pairs.append((vs[0][0], fs[0][0], vs[0][1]))
+        else:
+            pairs.append((vs[0][0], fs[0][0], vs[0][1]))
+    return pairs
 
-    extra = [f for f in vps[0].fields if f not in KNOWN_FIELDS]
-    trials = []
-    if "repetition" in fields:
-        for v, f, vals in pairs:
-            trials.append((vals, int(vals["repetition"]), v, f))
+
+def _trials(pairs: list, has_repetition: bool, extra: list[str], unmatched: list[Unmatched]) -> list:
+    """The trials of the pairs: repetitions numbered when the names have none, speeds and
+    repetitions checked, ids unique."""
+    numbered = []
+    if has_repetition:
+        numbered = [(vals, int(vals["repetition"]), v, f) for v, f, vals in pairs]
     else:
         groups: dict[tuple, list] = {}
         for v, f, vals in pairs:
@@ -320,20 +338,19 @@ def match_recordings(paths: Iterable[str], video_patterns: Sequence[str] | str,
             groups.setdefault(g, []).append((tuple(vals[e] for e in extra), v, f, vals))
         for members in groups.values():
             for rep, (_, v, f, vals) in enumerate(sorted(members, key=lambda m: (m[0], m[1])), start=1):
-                trials.append((vals, rep, v, f))
+                numbered.append((vals, rep, v, f))
     out = []
-    for vals, rep, v, f in trials:
+    for vals, rep, v, f in numbered:
         speed = float(vals["speed"])
         if speed <= 0:
             why = f"speed {vals['speed']!r} in the name is not a positive speed in mm/s"
             unmatched.append(Unmatched(v, why))
-            continue
-        if rep < 1:
+        elif rep < 1:
             unmatched.append(Unmatched(v, f"repetition {vals['repetition']!r} in the name must be >= 1"))
-            continue
-        tid = trial_id(vals["subject"], vals["surface"], speed, rep, [vals[e] for e in extra])
-        out.append(MatchedTrial(id=tid, subject=vals["subject"], surface=vals["surface"], speed_mm_s=speed,
-                                repetition=rep, video=v, force=f, labels=dict(vals)))
+        else:
+            tid = trial_id(vals["subject"], vals["surface"], speed, rep, [vals[e] for e in extra])
+            out.append(MatchedTrial(id=tid, subject=vals["subject"], surface=vals["surface"],
+                                    speed_mm_s=speed, repetition=rep, video=v, force=f, labels=dict(vals)))
     out.sort(key=lambda t: (t.subject, t.surface, t.speed_mm_s, t.repetition, t.id))
     seen: dict[str, MatchedTrial] = {}
     final = []
@@ -341,11 +358,10 @@ def match_recordings(paths: Iterable[str], video_patterns: Sequence[str] | str,
         if t.id in seen:
             why = f"its trial id {t.id!r} is the same as that of {seen[t.id].video}"
             unmatched.append(Unmatched(t.video, why))
-            continue
-        seen[t.id] = t
-        final.append(t)
-    return MatchResult(trials=tuple(final), unmatched=tuple(sorted(unmatched, key=lambda u: u.path)),
-                       fields=tuple(vps[0].fields))
+        else:
+            seen[t.id] = t
+            final.append(t)
+    return final
 
 
 def _as_list(patterns, what: str) -> list[str]:

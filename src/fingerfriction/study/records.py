@@ -175,7 +175,7 @@ class Problem:
         return f"{self.file}: {self.field}: {self.message}" if self.field else f"{self.file}: {self.message}"
 
 
-_FIELD_RE = re.compile(r"^[A-Za-z_][\w.\[\]]*$")
+_FIELD_RE = re.compile(r"^[A-Za-z_][\w.\[\]\-]*$")
 
 
 def _problem(exc: Exception, *, file: str = MANIFEST_NAME, trial: str | None = None,

@@ -17,17 +17,29 @@ Layout of a results folder (schema version 1)::
                                       info.forces.history: every step of the force
                                       processing with its parameters and fitted values
                                       (the estimated sensor cut-off among them)
-      fit/                            written by `fingerfriction fit`
-        fit.json                      mu grid, per-subject mu, fit options, counts
-        subjects.csv                  subject, mu, objective
-        trials.csv                    trial, subject, surface, speed, p0, p1, mu, nmse,
-                                      success, message
-        loso.csv, loso.png            the out-of-sample validation (leave one surface out)
+      fit/                            written by `fingerfriction fit` (both model variants,
+                                      'load' and 'paper'; `model` names the default one)
+        fit.json                      default model, per-subject mu (+ 95 % CI), per-model
+                                      parameters and CPU time, mu grid, options, flags
+                                      (level, code, subject, trial, model, message), counts
+        subjects.csv                  subject, model, mu, mu_lo, mu_hi, inset_mm, kappa_per_mm,
+                                      transient_mm, n_trials, n_failed, success, message
+        trials.csv                    trial, model, subject, surface, speed, mu, p0 (the
+                                      load model: the trial's pressure), p1, p1_se, inset_mm,
+                                      kappa_per_mm, footing, objective, success, message
+        table1.csv                    Table 1 of both models (model, subject, scale, shape,
+                                      rho, rho_lo, rho_hi, p, ...)
+        loso.csv, loso.png            the out-of-sample validation (leave one surface out),
+                                      both models (column model)
         model/<trial-id>.parquet      per position: x_mm; F_T_N and F_hat_N, measured and
-                                      model as compared by the fit (detrended over the
-                                      flat segment, model median-filtered); F_model_N,
-                                      F_int_N, F_def_N (raw Eq. 4 = Eq. 2 + Eq. 3);
-                                      F_T_raw_N (the stored measurement)
+                                      model of the default model as compared by its fit
+                                      (absolute for 'load', detrended over the flat segment
+                                      for 'paper'); F_model_N, F_int_N, F_def_N (Eq. 1-4);
+                                      F_N_N (measured normal force, absolute); F_T_raw_N
+                                      (the stored paper-footing measurement); the same per
+                                      model with a prefix: load_F_T_N, load_F_hat_N,
+                                      load_F_int_N, load_F_def_N, load_p0_N_per_mm,
+                                      paper_F_T_N, paper_F_hat_N, paper_F_model_N, ...
       report/                         written by `fingerfriction report`
         index.html                    self-contained HTML report (images embedded)
         fig3_occupancy.png/.svg, fig4_forces.png/.svg, fig6_model.png/.svg,
@@ -377,8 +389,10 @@ class ResultsStore:
         """One analysed trial as the fit and the out-of-sample validation use it.
 
         Forces on the 0.01 mm grid from ``forces.parquet`` (positions with a finite ``F_T``),
-        the video's contact regions mapped onto the grid (:func:`~fingerfriction.regions.regions_on_grid`),
-        the surface from the run record.
+        on the paper's footing and, where the trial has them, on the absolute footing
+        (``Trial.force_abs``, ``Trial.normal_abs``), the video's contact regions mapped onto
+        the grid (:func:`~fingerfriction.regions.regions_on_grid`), the surface from the
+        run record.
 
         Parameters
         ----------
@@ -415,10 +429,16 @@ class ResultsStore:
             raise ValueError(
                 f"no flat segment: {n_flat} positions where all contact lies before the feature "
                 f"(x(t) tracked over [{np.nanmin(fr['x_mm']):.2f}, {np.nanmax(fr['x_mm']):.2f}] mm)")
+        absolute = {}
+        if {"F_T_abs_N", "F_N_abs_N"} <= set(fo.columns):
+            ft_abs = fo["F_T_abs_N"].to_numpy(float)[good]
+            fn_abs = fo["F_N_abs_N"].to_numpy(float)[good]
+            if np.all(np.isfinite(ft_abs)) and np.all(np.isfinite(fn_abs)):
+                absolute = {"force_abs": ft_abs, "normal_abs": fn_abs}
         trial = Trial(x=x[good], force=F[good], regions=reg[good], surface=surf,
                       subject=str(entry["subject"]),
                       labels={"trial": tid, "surface": entry["surface"],
-                              "speed_mm_s": f"{entry['speed_mm_s']:g}"})
+                              "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute)
         return trial, moved[good]
 
     # fit/ ------------------------------------------------------------------------------
@@ -437,6 +457,15 @@ class ResultsStore:
         """``fit/trials.csv`` (one row per trial fit) and ``fit/subjects.csv``."""
         atomic_write_text(self.fit_dir / "trials.csv", trials.to_csv(index=False))
         atomic_write_text(self.fit_dir / "subjects.csv", subjects.to_csv(index=False))
+
+    def write_fit_csv(self, name: str, df: pd.DataFrame) -> None:
+        """``fit/<name>.csv`` (e.g. ``table1``: Table 1 of both models)."""
+        atomic_write_text(self.fit_dir / f"{name}.csv", df.to_csv(index=False))
+
+    def read_fit_csv(self, name: str) -> pd.DataFrame | None:
+        """``fit/<name>.csv`` (subjects as text), or None when it was not written."""
+        p = self.fit_dir / f"{name}.csv"
+        return pd.read_csv(p, dtype={"subject": str}) if p.is_file() else None
 
     def write_fit_record(self, record: dict) -> None:
         """``fit/fit.json``: the fit's grid, options, per-subject mu, counts."""

@@ -1,4 +1,4 @@
-"""Fitting the friction model to trials: Eq. (5) NMSE, p0/p1 per trial, mu per subject.
+"""The paper variant of the fit: Eq. (5) NMSE, p0/p1 per trial, mu per subject by grid search.
 
 Janko, Wiertlewski & Visell 2018, Methods "Estimating model parameters": per trial, the
 parameters ``p0, p1`` of Eq. (4) minimise a normalised mean square error between the
@@ -45,304 +45,37 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage, optimize
+from scipy import optimize
 
-from .model import FrictionModel, FrictionParams
-from .regions import as_regions
-from .surfaces import RaisedCosine, Surface, surface_from_spec
+from ..model import FrictionModel, FrictionParams, T_matrix
+from ..surfaces import Surface
+from .common import (
+    FitFlag,
+    Trial,
+    _check_kernel,
+    _fit_labels,
+    flat_detrend,
+    flat_segment_mask,
+    median_filter,
+    nmse,
+    nmse_eq5,
+)
 
 __all__ = [
-    "nmse",
-    "nmse_eq5",
-    "Trial",
     "FitOptions",
     "TrialFit",
     "SubjectFit",
-    "flat_segment_mask",
-    "flat_detrend",
-    "median_filter",
     "fit_trial",
     "fit_subject",
     "fit_trials",
     "mu_grid",
+    "paper_flags",
 ]
 
 log = logging.getLogger(__name__)
 
 OBJECTIVES = ("nmse", "nmse_eq5")
 METHODS = ("lstsq", "nelder-mead")
-
-
-# ------------------------------------------------------------------------ objectives
-
-
-def _pair(measured, estimate) -> tuple[np.ndarray, np.ndarray]:
-    f = np.asarray(measured, dtype=float)
-    g = np.asarray(estimate, dtype=float)
-    if f.ndim != 1 or g.ndim != 1:
-        raise ValueError(f"measured and estimate must be 1-D, got shapes {f.shape} and {g.shape}")
-    if f.shape != g.shape:
-        raise ValueError(
-            f"measured and estimate must have the same length, got {f.size} and {g.size}"
-        )
-    for name, v in (("measured", f), ("estimate", g)):
-        if not np.all(np.isfinite(v)):
-            i = int(np.flatnonzero(~np.isfinite(v))[0])
-            raise ValueError(f"{name} has a non-finite value {float(v[i])!r} at index {i}")
-    return f, g
-
-
-def nmse(measured, estimate) -> float:
-    """Conventional normalised mean square error (the default fit objective).
-
-    ``||F_hat - F||^2 / ||F - mean(F)||^2``: the residual energy relative to the
-    measurement's variance (0 = perfect, 1 = no better than the measurement's mean).
-
-    Parameters
-    ----------
-    measured : (n,) array_like
-        Measured force ``F_T`` in N.
-    estimate : (n,) array_like
-        Model estimate ``F_hat_T`` in N.
-
-    Returns
-    -------
-    float
-        Dimensionless; ``inf`` if the measurement is constant.
-
-    Notes
-    -----
-    Why this is the default rather than :func:`nmse_eq5`: the denominator does not depend
-    on the parameters, so minimising it is ordinary least squares (consistent, closed form,
-    unbiased under additive noise) and every trial is normalised by its own measurement.
-    Eq. (5) divides by the *model's* variance instead, which rewards inflating the model
-    (see :func:`nmse_eq5`).
-    """
-    f, g = _pair(measured, estimate)
-    den = float(np.sum((f - f.mean()) ** 2))
-    num = float(np.sum((g - f) ** 2))
-    return num / den if den > 0 else math.inf
-
-
-def nmse_eq5(measured, estimate) -> float:
-    """NMSE exactly as Eq. (5) of Janko et al. 2018 is printed.
-
-    ``eps = ||F_hat - F|| / ||F_hat - mean(F_hat)||``: a ratio of (unsquared) Euclidean
-    norms, normalised by the spread of the *model estimate*.
-
-    Parameters
-    ----------
-    measured : (n,) array_like
-        Measured force ``F_T`` in N.
-    estimate : (n,) array_like
-        Model estimate ``F_hat_T`` in N.
-
-    Returns
-    -------
-    float
-        Dimensionless; ``inf`` when the estimate is constant (denominator 0).
-
-    Notes
-    -----
-    The squared form ``eps^2 = ||F_hat - F||^2 / ||F_hat - mean(F_hat)||^2`` has the same
-    minimiser (``sqrt`` is monotonic), so fits with either agree; only reported values
-    differ. Because the denominator is the model's own variance, the minimiser is biased
-    towards a *larger* model: for a model ``c G`` with a free scale ``c`` and centred
-    signals, Eq. (5) is minimised at ``c = ||F||^2 / <G, F>`` whereas least squares gives
-    ``c = <G, F> / ||G||^2``; their ratio is ``1 / r^2`` (``r`` the correlation of ``G``
-    and ``F``), so noise in ``F`` inflates Eq. (5)'s parameters (by ~1 % at 10 % noise,
-    measured in ``tests/test_fit.py``). It is undefined (``inf``) for a flat model, e.g.
-    a trial whose contact never reaches the feature after detrending.
-    """
-    f, g = _pair(measured, estimate)
-    den = float(np.sqrt(np.sum((g - g.mean()) ** 2)))
-    num = float(np.sqrt(np.sum((g - f) ** 2)))
-    return num / den if den > 0 else math.inf
-
-
-# ------------------------------------------------------------------------ trial container
-
-
-_SHAPE_LABELS = {"bump": "Bump", "step-up": "Step Up", "step-down": "Step Down"}
-
-
-def _surface_labels(surface: Surface) -> tuple[str, str]:
-    if isinstance(surface, RaisedCosine):
-        return _SHAPE_LABELS[surface.shape], f"{surface.width:g} mm"
-    return surface.name, ""
-
-
-def _fit_labels(trial: Trial) -> dict:
-    """Labels carried by a TrialFit: the trial's, plus surface, shape and scale."""
-    return {**trial.labels, "surface": trial.surface.name, "shape": trial.shape, "scale": trial.scale}
-
-
-@dataclass(frozen=True, eq=False)
-class Trial:
-    """One trial on the position grid (the input of every fit).
-
-    Parameters
-    ----------
-    x : (n,) ndarray
-        Finger positions in mm, strictly increasing (paper: 0.01 mm steps over 26 mm).
-    force : (n,) ndarray
-        Measured tangential force ``F_T`` in N at each position, drift-corrected.
-    regions : (n, n_max, 2) ndarray
-        Contact regions ``C_i`` in mm at each position (:mod:`fingerfriction.regions`).
-    surface : Surface or str
-        The relief (a name such as ``'bump-2mm'``, a spec, or a Surface).
-    subject : str
-        Subject label (``mu`` is fitted per subject).
-    labels : dict of str to str
-        Further condition labels (speed, repetition, ...).
-
-    Raises
-    ------
-    ValueError
-        NaN/inf forces, mismatched lengths, non-increasing positions, invalid regions
-        (inverted, half-NaN, ...), a trial with no contact at all, an unknown surface.
-    """
-
-    x: np.ndarray
-    force: np.ndarray
-    regions: np.ndarray
-    surface: Surface
-    subject: str = "S1"
-    labels: Mapping[str, str] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        x = np.asarray(self.x, dtype=float)
-        f = np.asarray(self.force, dtype=float)
-        if x.ndim != 1 or x.size < 3:
-            raise ValueError(f"Trial.x must be a 1-D array of >= 3 positions (mm), got shape {x.shape}")
-        if not np.all(np.isfinite(x)):
-            i = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise ValueError(f"Trial.x has a non-finite value {float(x[i])!r} at index {i}")
-        if np.any(np.diff(x) <= 0):
-            i = int(np.flatnonzero(np.diff(x) <= 0)[0])
-            raise ValueError(
-                f"Trial.x must be strictly increasing; x[{i}]={float(x[i])!r} is followed by "
-                f"x[{i + 1}]={float(x[i + 1])!r}"
-            )
-        if f.shape != x.shape:
-            raise ValueError(
-                f"Trial.force must have one value per position: got shape {f.shape} for {x.size} positions"
-            )
-        if not np.all(np.isfinite(f)):
-            i = int(np.flatnonzero(~np.isfinite(f))[0])
-            raise ValueError(
-                f"Trial.force has a non-finite value {float(f[i])!r} at index {i} (x={x[i]:g} mm); "
-                "interpolate or drop such samples before fitting"
-            )
-        r = as_regions(self.regions, name="Trial.regions")
-        if r.shape[0] != x.size:
-            raise ValueError(
-                f"Trial.regions must have one frame per position: got {r.shape[0]} frames "
-                f"for {x.size} positions"
-            )
-        if not np.any(~np.isnan(r[..., 0])):
-            raise ValueError("Trial.regions is empty: no frame has any contact region")
-        surf = surface_from_spec(self.surface)
-        if not isinstance(self.subject, str) or not self.subject:
-            raise ValueError(f"Trial.subject must be a non-empty string, got {self.subject!r}")
-        object.__setattr__(self, "x", x)
-        object.__setattr__(self, "force", f)
-        object.__setattr__(self, "regions", r)
-        object.__setattr__(self, "surface", surf)
-        object.__setattr__(self, "labels", {str(k): str(v) for k, v in dict(self.labels).items()})
-
-    @property
-    def n(self) -> int:
-        """Number of positions."""
-        return int(self.x.size)
-
-    @property
-    def shape(self) -> str:
-        """Feature shape as in Table 1 ('Bump', 'Step Up', 'Step Down') or the profile's name."""
-        return _surface_labels(self.surface)[0]
-
-    @property
-    def scale(self) -> str:
-        """Feature width as a label, e.g. ``'2 mm'`` ('' for sampled profiles)."""
-        return _surface_labels(self.surface)[1]
-
-
-# ------------------------------------------------------------------------ preprocessing
-
-
-def flat_segment_mask(regions, surface: Surface, *, margin: float = 0.0) -> np.ndarray:
-    """Positions where the finger touches only the flat ground before the feature.
-
-    Parameters
-    ----------
-    regions : (n, n_max, 2) array_like
-        Contact regions in mm.
-    surface : Surface
-        The relief; its ``feature_extent[0]`` is where the feature starts (mm).
-    margin : float
-        Extra clearance in mm: every region must end at or before
-        ``feature_start - margin``.
-
-    Returns
-    -------
-    (n,) bool ndarray
-        True where the frame has contact and every region lies left of the feature.
-    """
-    r = as_regions(regions)
-    if not (math.isfinite(margin) and margin >= 0):
-        raise ValueError(f"margin must be >= 0 mm, got {margin!r}")
-    start = float(surface.feature_extent[0]) - float(margin)
-    valid = ~np.isnan(r[..., 0])
-    right = np.where(valid, r[..., 1], -np.inf).max(axis=1)
-    return valid.any(axis=1) & (right <= start)
-
-
-def flat_detrend(x, y, mask) -> np.ndarray:
-    """Subtract the best line (least squares over ``x[mask]``) from ``y`` everywhere.
-
-    This is the paper's drift correction ("Force data processing"); it is linear in
-    ``y``. ``y`` may be ``(n,)`` or ``(n, m)`` (each column detrended).
-
-    Raises
-    ------
-    ValueError
-        If fewer than 2 distinct positions are selected by ``mask``.
-    """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    m = np.asarray(mask, dtype=bool)
-    if m.shape != x.shape or y.shape[0] != x.size:
-        raise ValueError(f"x {x.shape}, y {y.shape} and mask {m.shape} must have matching length")
-    if np.count_nonzero(m) < 2:
-        raise ValueError(
-            f"the flat segment has {int(np.count_nonzero(m))} positions; at least 2 are needed "
-            "for the linear detrend (does the contact start on flat ground before the feature?)"
-        )
-    A = np.column_stack([np.ones(int(m.sum())), x[m] - x[m].mean()])
-    coef, *_ = np.linalg.lstsq(A, y[m], rcond=None)
-    full = np.column_stack([np.ones(x.size), x - x[m].mean()])
-    return y - full @ coef
-
-
-def median_filter(y, kernel: int) -> np.ndarray:
-    """Running median along axis 0 with an odd window of ``kernel`` samples.
-
-    Uses ``scipy.ndimage.median_filter`` with ``mode='nearest'`` (ends padded with the end
-    values, so the ends are not pulled towards zero as with ``scipy.signal.medfilt``'s
-    zero padding). ``kernel=1`` returns a copy.
-    """
-    k = _check_kernel(kernel)
-    y = np.asarray(y, dtype=float)
-    if k == 1:
-        return y.copy()
-    size = (k,) + (1,) * (y.ndim - 1)
-    return ndimage.median_filter(y, size=size, mode="nearest")
-
-
-def _check_kernel(kernel) -> int:
-    if isinstance(kernel, bool) or not isinstance(kernel, (int, np.integer)) or kernel < 1 or kernel % 2 == 0:
-        raise ValueError(f"median kernel must be an odd positive integer (samples), got {kernel!r}")
-    return int(kernel)
 
 
 # ------------------------------------------------------------------------ options & results
@@ -512,10 +245,7 @@ class _Design:
 
     def __init__(self, trial: Trial, options: FitOptions, model: FrictionModel | None = None):
         model = model if model is not None else FrictionModel(trial.surface)
-        # basis() is affine in mu by construction (model.py), so two calls give S, K, Q exactly.
-        b0 = model.basis(trial.regions, 0.0)
-        b1 = model.basis(trial.regions, 1.0)
-        raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q
+        raw = model.integrals(trial.regions)  # S, K, Q
         self.mask = flat_segment_mask(trial.regions, trial.surface, margin=options.flat_margin)
         self.detrend = bool(options.detrend)
         if self.detrend and np.count_nonzero(self.mask) < 2:
@@ -541,15 +271,7 @@ class _Design:
         self.Ac = self.A - self.n * np.outer(pm, pm)  # Gram of the centred columns
         self.sst = float(np.sum((self.F - self.F.mean()) ** 2))
 
-    @staticmethod
-    def T(mu) -> np.ndarray:
-        mu = np.asarray(mu, dtype=float)
-        T = np.zeros(mu.shape + (3, 2))
-        T[..., 0, 0] = 1.0
-        T[..., 1, 0] = mu
-        T[..., 0, 1] = mu
-        T[..., 2, 1] = 1.0
-        return T
+    T = staticmethod(T_matrix)
 
     def estimate(self, mu: float, p: np.ndarray) -> np.ndarray:
         """Model as compared: detrended (and filtered) Eq. (4) estimate in N."""
@@ -677,8 +399,8 @@ def _fit_one(d: _Design, mu: float, method: str, options: FitOptions, subject: s
         obj = (nmse if name == "nmse" else nmse_eq5)(d.F, est)
     else:
         obj = math.inf
-    if not success:
-        log.warning("fit failed (subject %s, %s, mu=%g): %s", subject, labels, mu, msg)
+    if not success:  # reported once per subject by paper_flags and the fit stage, never per fit
+        log.debug("fit failed (subject %s, %s, mu=%g): %s", subject, labels.get("trial", ""), mu, msg)
     return TrialFit(mu=float(mu), p0=float(p[0]), p1=float(p[1]), objective=float(obj),
                     objective_name=name, method=method, success=success, message=msg,
                     n_iter=n_iter, n_fev=n_fev, measured=d.F, estimate=est,
@@ -713,7 +435,7 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
 
     Examples
     --------
-    >>> from fingerfriction.synthetic import synthetic_trial
+    >>> from fingerfriction.testing import synthetic_trial
     >>> import numpy as np
     >>> t = synthetic_trial("bump-2mm", mu=0.55, p0=0.1, p1=0.3, rng=np.random.default_rng(0))
     >>> r = fit_trial(t, 0.55, options=FitOptions(median_kernel=1))
@@ -758,7 +480,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     trial, ``mu`` is identified only by the consistency of the three per-frame integrals
     across the trial, mostly through variations of the contact length (``K``). When the
     contact length hardly varies, the summed objective is nearly flat in ``mu``: on the
-    rigid-pad trials of :mod:`fingerfriction.synthetic` at 10 % noise it varies by < 1 %
+    rigid-pad trials of :mod:`fingerfriction.testing` at 10 % noise it varies by < 1 %
     over 0.30..0.90 and the selected ``mu`` can be off by 0.1 or more (0.40 for a true 0.60
     over 90 trials in ``benchmarks/fit.py``), while noise-free trials give the true value
     exactly; with a contact length varying by ~2 mm (``tests/test_fit.py``) ``mu`` comes
@@ -854,3 +576,49 @@ def fit_trials(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
         by.setdefault(t.subject, []).append(t)
     return {s: fit_subject(ts, grid=grid, method=method, options=options, refine=refine)
             for s, ts in sorted(by.items())}
+
+
+def paper_flags(fit: SubjectFit) -> list[FitFlag]:
+    """The flags of a paper-variant subject fit: what makes its parameters unusable.
+
+    * ``mu-at-grid-edge`` (error): the grid minimum is at an end of the grid, so the
+      optimum may lie outside it;
+    * ``mu-not-identifiable`` (warning): Eq. (4) is exactly invariant under
+      ``(mu, p0, p1) -> (p0/p1, p1 mu, p1)`` (see :func:`fingerfriction.predict.leave_one_surface_out`),
+      and the flat-segment detrend removes most of the ``cos alpha`` term that would pin
+      ``mu``; flagged when the summed objective varies by less than 5 % over the grid;
+    * ``negative-p0`` and ``fit-failed`` (error), one per trial: an unphysical pressure
+      or a fit that did not converge.
+
+    Parameters
+    ----------
+    fit : SubjectFit
+
+    Returns
+    -------
+    list of FitFlag
+    """
+    out: list[FitFlag] = []
+    s = fit.subject
+    g, c = np.asarray(fit.grid), np.asarray(fit.curve)
+    fin = np.isfinite(c)
+    if g.size > 1 and fin.any():
+        j = int(np.nanargmin(np.where(fin, c, np.nan)))
+        if j in (0, g.size - 1):
+            out.append(FitFlag("error", "mu-at-grid-edge", s, "", "paper",
+                               f"mu = {fit.mu:.3f} is at the end of the grid [{g[0]:.2f}, {g[-1]:.2f}]: "
+                               "the objective may still fall outside it"))
+        lo, hi = float(np.min(c[fin])), float(np.max(c[fin]))
+        if hi <= 1.05 * lo:
+            out.append(FitFlag("warning", "mu-not-identifiable", s, "", "paper",
+                               f"the summed objective changes by {100 * (hi / lo - 1):.1f} % over mu in "
+                               f"[{g[0]:.2f}, {g[-1]:.2f}]: mu is not identified by these forces"))
+    for tf in fit.trials:
+        tid = str(tf.labels.get("trial", ""))
+        if not tf.success:
+            if tf.p0 < 0:
+                out.append(FitFlag("error", "negative-p0", s, tid, "paper",
+                                   f"p0 = {tf.p0:.3g} N/mm < 0: an unphysical (negative) pressure"))
+            else:
+                out.append(FitFlag("error", "fit-failed", s, tid, "paper", tf.message))
+    return out

@@ -1,0 +1,660 @@
+"""The load-consistent variant of the fit (the package's default model).
+
+The model is Eq. (4) of Janko, Wiertlewski & Visell 2018 with the pressure taken from the
+measured normal force at each position (:mod:`fingerfriction.model`, "The load-consistent
+variant"): ``F_T = F_N (S + mu K) / (K - mu S) + p1 (Q + mu S)`` over the load-bearing
+contact. Its parameters are fitted in three steps, each where the data pin it:
+
+1. **mu per subject from flat-ground Coulomb friction** (:func:`flat_ground_mu`). Where the
+   finger touches only flat ground (every contact region before the feature, the same flat
+   segment as the paper's detrend) the model is Amontons' law ``F_T = mu F_N`` exactly, so
+   ``mu`` is the ratio of the absolute forces there. Per trial, ``F_T = F_N (mu_k + A_k
+   exp(-u / lambda))`` is fitted (``u`` the distance from the start of the flat segment,
+   ``lambda`` shared by the subject's trials): a static-to-sliding
+   transient at the start of the slide (the paper's Discussion) would otherwise bias the
+   ratio upwards. The subject's ``mu`` is the mean of the trials' ``mu_k``, with a seeded
+   bootstrap confidence interval over trials.
+2. **The load-bearing contact per subject**: the inset ``delta`` (mm) of the geometric
+   regions (``LoadParams.inset``) and the rise ``kappa`` (1/mm) of a region's pressure with
+   its height (``LoadParams.kappa``; 0 = one uniform pressure, the paper's) minimise the
+   subject's summed squared residual with ``p1`` profiled out per trial: a grid over
+   ``[0, inset_max] x [0, kappa_max]``, then a bounded Nelder-Mead
+   (``scipy.optimize.minimize``) from the best grid point. ``kappa`` is then held where
+   every trial's ``p1`` stays >= 0 (the deformation term dissipates; measured on the
+   simulated study, the residual alone would take ``kappa`` to about 2.5/mm where 40 of
+   180 trials get a slightly negative ``p1``), flagged ``kappa-limited``, and the inset
+   refitted at that ``kappa``. Noise in ``F_N`` enters the
+   model through the pressure and pulls ``delta`` up (errors in variables: about +0.05 mm
+   with 1 % noise on ``F_N`` in the synthetic tests); with forces recovered as well as the
+   force stage does on the simulated study the effect is negligible.
+3. **p1 per trial** by closed-form least squares on the absolute forces (the model is
+   linear in ``p1``), with a standard error that allows for the autocorrelated residuals
+   (Newey-West, Bartlett kernel over ``hac_mm`` of positions).
+
+Why ``mu`` is not refined jointly with the rest: on the simulated 180-trial study, mu from
+flat ground lands within 0.01 % of the truth (0.55, 0.60), while minimising the residual
+over ``mu`` and ``delta`` together moves it to 0.5448 and 0.5946 (-0.95 % and -0.90 %): the
+joint fit bends ``mu`` to absorb model mismatch at the features, where Eq. (4) is an
+approximation, whereas flat ground is where the model is exact (``benchmarks/science.py``
+prints both).
+
+A trial without absolute forces (no unloaded rest, or ``sensor_highpass_hz=None`` in the
+force stage) is fitted on the paper's footing instead: the nominal load stands in for
+``F_N`` and model and measurement are detrended over the flat segment alike, as the paper
+variant does; it is flagged ``no-absolute`` and takes no part in ``mu`` or ``delta``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize
+
+from ..model import FrictionModel, load_terms
+from ..surfaces import Surface
+from .common import (
+    FitFlag,
+    Trial,
+    _check_kernel,
+    _fit_labels,
+    flat_detrend,
+    flat_segment_mask,
+    median_filter,
+    nmse,
+)
+from .mu import FlatGroundMu, flat_ground_mu
+
+__all__ = [
+    "LoadFitOptions",
+    "LoadTrialFit",
+    "LoadSubjectFit",
+    "fit_load_subject",
+    "fit_load_trials",
+]
+
+MU_PER = ("subject", "trial")
+#: Position stride of the search for the inset and kappa (see _LoadDesign).
+SEARCH_STRIDE = 3
+
+
+@dataclass(frozen=True)
+class LoadFitOptions:
+    """How the load-consistent model is fitted (see the module notes).
+
+    Parameters
+    ----------
+    median_kernel : int
+        Median filter window, in positions, on the per-position integrals ``S, K, Q``
+        (odd; 1 = off; default 11 as the paper variant).
+    inset : 'fit' or float
+        Inset in mm of the geometric regions giving the load-bearing contact: fitted per
+        subject (default), or fixed (0 = the geometric regions as they are).
+    inset_max : float
+        Upper bound in mm of the fitted inset (default 1 mm).
+    kappa : 'fit' or float
+        Rise of a region's pressure with its mean height, in 1/mm: fitted per subject
+        (default), or fixed (0 = one uniform pressure over the whole contact, the paper's).
+    kappa_max : float
+        Upper bound in 1/mm of the fitted rise (default 8: a region 0.125 mm higher than
+        another carries e times its pressure).
+    transient : bool
+        Model a static-to-sliding transient in the flat-ground ratio (default True).
+    transient_max_mm : float
+        Upper bound in mm of the transient's decay length (default 3 mm).
+    mu_per : {'subject', 'trial'}
+        The ``mu`` each trial's model uses: the subject's (default, as the paper) or the
+        trial's own flat-ground value (for data whose friction varies from trial to trial).
+    n_boot : int
+        Bootstrap resamples of the confidence interval of ``mu`` (default 2000).
+    seed : int
+        Seed of the bootstrap's ``numpy.random.Generator``.
+    level : float
+        Confidence level (default 0.95).
+    nominal_load : float
+        Normal force in N used for trials without absolute forces (default 0.3 N, the
+        paper's prescribed load).
+    min_load : float
+        Positions where the measured ``F_N`` is below this (N) are left out (finger
+        lifting or not yet loaded; default 0.05 N); 0 keeps every position.
+    min_flat_mm : float
+        Least flat-ground travel in mm for a trial's own ``mu`` (default 1 mm).
+    hac_mm : float
+        Bandwidth in mm of the Newey-West standard error of ``p1`` (default 1 mm).
+    search_trials : int
+        At most this many of a subject's trials, spread evenly over its surfaces, are used
+        to find its load-bearing contact (default 36: 6 per surface of the paper's design;
+        the two parameters are the finger's, and more trials change them by less than
+        0.01 mm and 0.02 on the simulated study while the search's cost grows with them).
+    """
+
+    median_kernel: int = 11
+    inset: float | str = "fit"
+    inset_max: float = 1.0
+    kappa: float | str = "fit"
+    kappa_max: float = 8.0
+    transient: bool = True
+    transient_max_mm: float = 3.0
+    mu_per: str = "subject"
+    n_boot: int = 2000
+    seed: int = 0
+    level: float = 0.95
+    nominal_load: float = 0.3
+    min_load: float = 0.05
+    min_flat_mm: float = 1.0
+    hac_mm: float = 1.0
+    search_trials: int = 36
+
+    def __post_init__(self) -> None:
+        _check_kernel(self.median_kernel)
+        for name, what in (("inset", "a length >= 0 in mm"), ("kappa", "a rate >= 0 in 1/mm")):
+            v = getattr(self, name)
+            if isinstance(v, str):
+                if v != "fit":
+                    raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
+            elif isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
+        for name in ("inset_max", "kappa_max", "transient_max_mm", "nominal_load", "min_flat_mm",
+                     "hac_mm"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        m = self.min_load
+        if not (isinstance(m, (int, float)) and math.isfinite(m) and m >= 0):
+            raise ValueError(f"min_load must be a force >= 0 in N, got {self.min_load!r}")
+        if self.mu_per not in MU_PER:
+            raise ValueError(f"mu_per must be one of {MU_PER}, got {self.mu_per!r}")
+        if isinstance(self.n_boot, bool) or not isinstance(self.n_boot, int) or self.n_boot < 100:
+            raise ValueError(f"n_boot must be an integer >= 100, got {self.n_boot!r}")
+        if not (isinstance(self.level, float) and 0.5 < self.level < 1):
+            raise ValueError(f"level must be a confidence level in (0.5, 1), got {self.level!r}")
+        if isinstance(self.search_trials, bool) or not isinstance(self.search_trials, int) \
+                or self.search_trials < 1:
+            raise ValueError(f"search_trials must be an integer >= 1, got {self.search_trials!r}")
+        if not isinstance(self.transient, bool):
+            raise TypeError(f"transient must be True or False, got {self.transient!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class LoadTrialFit:
+    """Result of fitting ``p1`` of the load-consistent Eq. (4) to one trial.
+
+    Attributes
+    ----------
+    mu : float
+        Friction coefficient used (fixed during the fit).
+    p1, p1_se : float
+        Deformation weight in N/mm and its standard error (Newey-West).
+    inset : float
+        Inset in mm of the load-bearing contact.
+    kappa : float
+        Rise of a region's pressure with its height, 1/mm.
+    p0_mean : float
+        The trial's pressure in N/mm, ``sum F_N / sum (K - mu S)`` over the compared
+        positions (the counterpart of the paper's constant ``p0``).
+    mu_flat : float
+        The trial's own flat-ground ``mu`` (NaN when it has too little flat ground).
+    objective : float
+        Conventional NMSE of the compared series.
+    objective_name, method : str
+        ``'nmse'`` and ``'lstsq'``.
+    success : bool
+        False for a fit that must not be used (unphysical ``p1 < 0``, nothing to compare).
+    message : str
+    footing : {'absolute', 'flat'}
+        The footing of the compared series: absolute forces, or the paper's flat-segment
+        footing for a trial without absolute forces.
+    used : (n,) bool ndarray
+        Positions compared (load-bearing contact and ``F_N >= min_load``).
+    measured, estimate : (n,) ndarray
+        Measured ``F_T`` and the model, in N, on ``footing`` (NaN where not ``used``).
+    interfacial, deformation, pressure : (n,) ndarray
+        ``F_int`` (Eq. 2) and ``F_def`` (Eq. 3) in N and ``p0(x)`` in N/mm.
+    subject : str
+    labels : dict
+    flags : tuple of FitFlag
+    """
+
+    mu: float
+    p1: float
+    p1_se: float
+    inset: float
+    kappa: float
+    p0_mean: float
+    mu_flat: float
+    objective: float
+    success: bool
+    message: str
+    footing: str
+    used: np.ndarray
+    measured: np.ndarray
+    estimate: np.ndarray
+    interfacial: np.ndarray
+    deformation: np.ndarray
+    pressure: np.ndarray
+    subject: str = ""
+    labels: dict = field(default_factory=dict)
+    flags: tuple = ()
+    objective_name: str = "nmse"
+    method: str = "lstsq"
+
+    def compared(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(measured, estimate)`` over the compared positions, in N (for Table 1)."""
+        return self.measured[self.used], self.estimate[self.used]
+
+
+@dataclass(frozen=True, eq=False)
+class LoadSubjectFit:
+    """Result of the load-consistent fit of one subject.
+
+    Attributes
+    ----------
+    subject : str
+    mu : float
+        Flat-ground ``mu`` (see ``flat``).
+    flat : FlatGroundMu or None
+        How ``mu`` was measured (None when no trial has absolute forces).
+    inset : float
+        Load-bearing inset in mm (fitted or given).
+    kappa : float
+        Rise of a region's pressure with its height in 1/mm (fitted or given).
+    fitted : tuple of str
+        Which of ``'inset'`` and ``'kappa'`` were fitted.
+    trials : tuple of LoadTrialFit
+        In the order of the input trials.
+    flags : tuple of FitFlag
+        Subject-level and trial-level flags.
+    success : bool
+        False when ``mu`` could not be measured or a trial fit failed.
+    message : str
+    model : str
+        ``'load'``.
+    """
+
+    subject: str
+    mu: float
+    flat: FlatGroundMu | None
+    inset: float
+    kappa: float
+    fitted: tuple
+    trials: tuple
+    flags: tuple
+    success: bool
+    message: str
+    model: str = "load"
+
+    @property
+    def mu_ci(self) -> tuple[float, float]:
+        """Confidence interval of ``mu`` (NaN when unavailable)."""
+        return self.flat.ci if self.flat is not None else (math.nan, math.nan)
+
+
+# ------------------------------------------------------------------------ per-trial design
+
+
+def _hac_se(b: np.ndarray, e: np.ndarray, lags: int) -> float:
+    """Newey-West standard error of the slope of ``y = p1 b + e`` (Bartlett kernel)."""
+    g = b * e
+    n = g.size
+    lags = int(min(max(lags, 0), n - 1))
+    # autocovariances of g up to `lags` through the FFT (O(n log n))
+    m = 1 << int(math.ceil(math.log2(2 * n)))
+    f = np.fft.rfft(g, m)
+    acov = np.fft.irfft(f * np.conj(f), m)[: lags + 1]
+    w = 1.0 - np.arange(lags + 1) / (lags + 1.0)
+    s = acov[0] + 2.0 * float(np.sum(w[1:] * acov[1:]))
+    bb = float(b @ b)
+    return math.sqrt(max(s, 0.0)) / bb if bb > 0 else math.nan
+
+
+class _LoadDesign:
+    """One trial's data and cached integrals for the load-consistent fit."""
+
+    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel):
+        self.trial = trial
+        self.model = model
+        self.k = options.median_kernel
+        self.absolute = trial.has_absolute
+        if self.absolute:
+            self.F = trial.force_abs
+            self.FN = trial.normal_abs
+            # min_load = 0 keeps every position (a negative load is then flagged, not dropped)
+            self.load_ok = self.FN >= options.min_load if options.min_load > 0 else np.ones(trial.n, bool)
+        else:
+            self.F = trial.force
+            self.FN = np.full(trial.n, float(options.nominal_load))
+            self.load_ok = np.ones(trial.n, bool)
+            self.flat = flat_segment_mask(trial.regions, trial.surface)
+        step = float(np.median(np.diff(trial.x)))
+        self.lags = int(round(options.hac_mm / step)) if step > 0 else 0
+        # Where every region lies on flat ground, F_int = mu F_N and F_def = 0 whatever the
+        # inset, kappa and p1: those positions (and the median window around the
+        # others) are left out of the contact search, whose residual they do not change.
+        a, b = trial.surface.feature_extent
+        reg = trial.regions
+        touches = np.any((reg[..., 1] > a) & (reg[..., 0] < b), axis=1)
+        idx = np.flatnonzero(touches)
+        # The search also takes every SEARCH_STRIDE-th position (with a median window
+        # shortened alike): the residual is smooth in the parameters, and this makes the
+        # search 3x cheaper; the final fit of each trial uses every position.
+        if idx.size:
+            self.search = slice(max(int(idx[0]) - self.k, 0), min(int(idx[-1]) + self.k + 1, trial.n),
+                                SEARCH_STRIDE)
+        else:
+            self.search = slice(0, 0)
+        # No median filter in the search: measured on the simulated study, it moves the
+        # residual by under 0.1 % there and would cost half of the search's time.
+        self.k_search = 1
+
+    def parts(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
+        """``(g, b_def, support)`` of :func:`fingerfriction.model.load_terms` over the
+        positions ``window``, median-filtered along them like the paper's model estimate
+        (NaN where undefined)."""
+        R = self.model._region_integrals(self.trial.regions[window], inset)
+        g, b, support = load_terms(R, mu, kappa)
+        ok = np.isfinite(g)
+        k = self.k if window.step in (None, 1) else self.k_search
+        if k > 1 and ok.any():
+            idx = np.arange(g.size)
+            g = np.where(ok, median_filter(np.interp(idx, idx[ok], g[ok]), k), np.nan)
+            b = median_filter(b, k)
+        return g, b, support
+
+    def terms(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
+        """(used, y, b, f_int, b_def, support) of the linear problem ``y = p1 b`` over
+        the positions ``window`` (the paper's footing needs them all: ``window`` is ignored)."""
+        if not self.absolute:
+            window = slice(None)
+        g, b_def, support = self.parts(mu, inset, kappa, window)
+        FN, F = self.FN[window], self.F[window]
+        used = self.load_ok[window] & np.isfinite(g)
+        f_int = FN * np.where(used, g, 0.0)
+        if not self.absolute:  # the paper's footing: detrend model parts and measurement alike
+            m = self.flat & used
+            if np.count_nonzero(m) < 2:
+                return used & False, None, None, f_int, b_def, support
+            f_int = flat_detrend(self.trial.x, f_int, m)
+            b_def = flat_detrend(self.trial.x, b_def, m)
+            F = flat_detrend(self.trial.x, F, m)
+        y = (F - f_int)[used]
+        return used, y, b_def[used], f_int, b_def, support
+
+    def rss(self, mu: float, inset: float, kappa: float) -> float:
+        """Residual with ``p1`` profiled out, over the positions near the feature."""
+        return self.solve(mu, inset, kappa)[1]
+
+    def solve(self, mu: float, inset: float, kappa: float, *, full: bool = False) -> tuple[float, float]:
+        """``(p1, residual)`` by least squares, over the positions near the feature (the
+        search's) or, with ``full``, every position as the trial's own fit uses them."""
+        used, y, b, *_ = self.terms(mu, inset, kappa, slice(None) if full else self.search)
+        if y is None or y.size == 0:
+            return 0.0, 0.0
+        bb = float(b @ b)
+        p1 = float(b @ y) / bb if bb > 0 else 0.0
+        r = y - p1 * b
+        return p1, float(r @ r)
+
+
+def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: float,
+                model_name: str = "load") -> LoadTrialFit:
+    t = d.trial
+    labels = _fit_labels(t)
+    tid = t.id
+    flags: list[FitFlag] = []
+    used, y, b, f_int, b_def, support = d.terms(mu, inset, kappa)
+    n = t.n
+    nan = np.full(n, np.nan)
+    pressure = d.FN / support
+    footing = "absolute" if d.absolute else "flat"
+    if not d.absolute:
+        flags.append(FitFlag("warning", "no-absolute", t.subject, tid, model_name,
+                             "no absolute forces: fitted on the paper's flat-segment footing with the "
+                             "nominal load standing in for F_N"))
+    if y is None or y.size < 3:
+        msg = "no position with load-bearing contact and a normal load to compare"
+        flags.append(FitFlag("error", "fit-failed", t.subject, tid, model_name, msg))
+        return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, kappa=kappa,
+                            p0_mean=math.nan, mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
+                            footing=footing, used=used,
+                            measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=pressure,
+                            subject=t.subject, labels=labels, flags=tuple(flags))
+    bb = float(b @ b)
+    success, parts = True, ["closed-form least squares"]
+    if bb > 0:
+        p1 = float(b @ y) / bb
+        p1_se = _hac_se(b, y - p1 * b, d.lags)
+    else:
+        p1, p1_se = 0.0, math.nan
+        flags.append(FitFlag("warning", "p1-not-identified", t.subject, tid, model_name,
+                             "the load-bearing contact never reaches a slope: p1 is not identified "
+                             "(F_def = 0)"))
+    if p1 < 0:
+        success = False
+        msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
+        parts.insert(0, msg)
+        flags.append(FitFlag("error", "negative-p1", t.subject, tid, model_name, msg))
+    n_out = int(n - np.count_nonzero(used))
+    if n_out:
+        level = "error" if n_out > 0.1 * n else "warning"
+        flags.append(FitFlag(level, "positions-left-out", t.subject, tid, model_name,
+                             f"{n_out} of {n} positions have no load-bearing contact or a normal force "
+                             "below the minimum and are left out of the fit"))
+        if level == "error":
+            success = False
+            parts.insert(0, f"{n_out} of {n} positions left out")
+    if np.any(d.FN[used] < 0):
+        success = False
+        flags.append(FitFlag("error", "negative-pressure", t.subject, tid, model_name,
+                             "the measured normal force is negative at some compared positions"))
+    # the trial's pressure: total load over total vertical support (a ratio of sums stays
+    # unbiased under noise in F_N, a mean of the pointwise pressure would not)
+    p0_mean = float(np.sum(d.FN[used]) / np.sum(support[used]))
+    est = np.where(used, f_int + p1 * b_def, np.nan)
+    meas = np.full(n, np.nan)
+    if d.absolute:
+        meas[used] = d.F[used]
+    else:
+        meas[used] = y + f_int[used]  # the detrended measurement
+    obj = nmse(meas[used], est[used])
+    return LoadTrialFit(
+        mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset), kappa=float(kappa),
+        p0_mean=p0_mean, mu_flat=float(mu_flat), objective=float(obj),
+        success=success, message="; ".join(parts), footing=footing, used=used, measured=meas, estimate=est,
+        interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, p1 * b_def, np.nan),
+        pressure=pressure, subject=t.subject, labels=labels, flags=tuple(flags),
+    )
+
+
+def _physical_kappa(designs: list, mu_of, inset: float, kappa: float, *, steps: int = 8) -> float:
+    """The largest ``kappa <= kappa`` at which every trial's least-squares ``p1`` is >= 0.
+
+    The deformation term of Eq. (3) resists the motion (it dissipates energy), so a
+    negative weight is unphysical; a larger ``kappa`` moves the force on the slopes from
+    ``F_def`` to ``F_int`` and can push ``p1`` below 0 on the trials with the least
+    deformation (the 4 mm steps). Bisection on ``[0, kappa]`` with the search's positions,
+    then a check with every position (what the trials' own fits use), stepping down by
+    2 % until it holds.
+    """
+    def feasible(k: float, full: bool) -> bool:
+        return all(d.solve(mu_of(d), inset, k, full=full)[0] >= 0 for d in designs)
+
+    if feasible(kappa, True):
+        return kappa
+    lo, hi = 0.0, kappa
+    if not feasible(lo, False):
+        return 0.0  # p1 < 0 even with one uniform pressure: flagged per trial by the fit
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if feasible(mid, False) else (lo, mid)
+    k = lo
+    for _ in range(20):
+        if k <= 0 or feasible(k, True):
+            break
+        k *= 0.98
+    return max(k, 0.0)
+
+
+def _search_designs(designs: list, n_max: int) -> list:
+    """At most ``n_max`` trials for the contact search, spread evenly over the surfaces
+    (and, within a surface, over the trials in their order: speeds and repetitions)."""
+    if len(designs) <= n_max:
+        return designs
+    by: dict[str, list] = {}
+    for d in designs:
+        by.setdefault(d.trial.surface.name, []).append(d)
+    out, k = [], 0
+    while len(out) < n_max:  # round robin over the surfaces, each list thinned evenly
+        for ds in by.values():
+            picks = [ds[int(i)] for i in np.linspace(0, len(ds) - 1, min(len(ds), -(-n_max // len(by))))]
+            if k < len(picks) and len(out) < n_max:
+                out.append(picks[k])
+        k += 1
+    return out
+
+
+def _fit_contact(designs, mu_of, options: LoadFitOptions) -> tuple[float, float, tuple]:
+    """The subject's load-bearing inset and pressure rise with height (module notes, step 2)."""
+    free = [name for name in ("inset", "kappa") if getattr(options, name) == "fit"]
+    fixed = {name: float(getattr(options, name)) for name in ("inset", "kappa") if name not in free}
+    if not free or not designs:
+        return fixed.get("inset", 0.0), fixed.get("kappa", 0.0), ()
+    hi = {"inset": float(options.inset_max), "kappa": float(options.kappa_max)}
+
+    def total(v) -> float:
+        p = {**fixed, **dict(zip(free, (float(a) for a in v), strict=True))}
+        return sum(d.rss(mu_of(d), p["inset"], p["kappa"]) for d in designs)
+
+    # a coarse grid first (the summed residual can have shallow local minima), then a
+    # bounded Nelder-Mead from its best point, on parameters scaled to [0, 1]
+    axes = {"inset": np.linspace(0.0, hi["inset"], 6),
+            "kappa": hi["kappa"] * np.array([0.0, 0.125, 0.25, 0.5, 0.75])}
+    mesh = np.meshgrid(*(axes[n] for n in free), indexing="ij")
+    points = np.stack([m.ravel() for m in mesh], axis=1)
+    values = [total(p) for p in points]
+    best = points[int(np.argmin(values))]
+    scale = np.array([hi[n] for n in free])
+    step = np.array([0.2 * hi[n] if n == "inset" else 0.125 * hi[n] for n in free]) / scale
+    x0 = best / scale
+    simplex = np.vstack([x0] + [x0 + np.where(np.arange(len(free)) == i, step[i] / 2, 0.0)
+                                for i in range(len(free))])
+    res = optimize.minimize(lambda q: total(q * scale), x0, method="Nelder-Mead",
+                            bounds=[(0.0, 1.0)] * len(free),
+                            # 0.01 of each range (0.01 mm of inset, 0.08/mm of kappa), or a
+                            # residual settled to 1e-5 of its size: finer is below the noise
+                            options={"initial_simplex": np.clip(simplex, 0.0, 1.0), "xatol": 1e-2,
+                                     "fatol": 1e-5 * float(np.min(values)), "maxfev": 80})
+    out = {**fixed, **dict(zip(free, (float(v) for v in res.x * scale), strict=True))}
+    return out["inset"], out["kappa"], tuple(free)
+
+
+# ------------------------------------------------------------------------ subject fit
+
+
+def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
+                     models: dict | None = None) -> LoadSubjectFit:
+    """Fit the load-consistent Eq. (4) to one subject's trials (see the module notes).
+
+    Parameters
+    ----------
+    trials : sequence of Trial
+        All trials of one subject; those with ``force_abs``/``normal_abs`` are fitted on
+        the absolute footing, the others on the paper's (flagged).
+    options : LoadFitOptions, optional
+    models : dict, optional
+        Surface -> FrictionModel cache shared between calls.
+
+    Returns
+    -------
+    LoadSubjectFit
+        ``success`` is False (with the reason in ``message`` and ``flags``) when ``mu``
+        cannot be measured (no trial with absolute forces and flat ground) or any trial
+        fit is unphysical; never a silent number.
+    """
+    options = options or LoadFitOptions()
+    trials = list(trials)
+    if not trials:
+        raise ValueError("trials is empty: need at least one Trial to fit a subject")
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+    subjects = sorted({t.subject for t in trials})
+    if len(subjects) != 1:
+        raise ValueError(f"fit_load_subject needs trials of one subject, got subjects {subjects}; "
+                         "use fit_load_trials")
+    subject = subjects[0]
+    models = {} if models is None else models
+    designs = []
+    for t in trials:
+        key: Surface = t.surface
+        if key not in models:
+            models[key] = FrictionModel(key)
+        designs.append(_LoadDesign(t, options, models[key]))
+    try:
+        flat = flat_ground_mu(trials, transient=options.transient, transient_max_mm=options.transient_max_mm,
+                              min_load=options.min_load, min_flat_mm=options.min_flat_mm,
+                              n_boot=options.n_boot, seed=options.seed, level=options.level)
+    except ValueError as exc:
+        msg = str(exc)
+        flag = FitFlag("error", "mu-unavailable", subject, "", "load", msg)
+        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
+                              fitted=(), trials=(), flags=(flag,), success=False, message=msg)
+    mu = flat.mu
+    flags = list(flat.flags)
+
+    def mu_of(d: _LoadDesign) -> float:
+        if options.mu_per == "trial":
+            return flat.mu_trials.get(d.trial.id, mu)
+        return mu
+
+    absolute = [d for d in designs if d.absolute]
+    search = _search_designs(absolute, options.search_trials)
+    inset, kappa, fitted = _fit_contact(search, mu_of, options)
+    if "kappa" in fitted:  # the physical limit: every trial's deformation weight p1 >= 0
+        best = kappa
+        kappa = _physical_kappa(absolute, mu_of, inset, kappa)
+        if kappa < best:
+            if "inset" in fitted:  # the best inset at the limited kappa
+                res = optimize.minimize_scalar(lambda v: sum(d.rss(mu_of(d), v, kappa) for d in search),
+                                               bounds=(0.0, float(options.inset_max)), method="bounded",
+                                               options={"xatol": 1e-3})
+                inset = float(res.x)
+                kappa = _physical_kappa(absolute, mu_of, inset, kappa)
+            flags.append(FitFlag("warning", "kappa-limited", subject, "", "load",
+                                 f"the pressure's rise with height is limited to {kappa:.2f}/mm, where every "
+                                 f"trial's deformation weight p1 stays >= 0 (the residual alone would take "
+                                 f"{best:.2f}/mm)"))
+    bounds = (("inset", inset, options.inset_max), ("kappa", kappa, options.kappa_max))
+    for name, value, bound in bounds:
+        if name in fitted and value > 0.98 * bound:
+            what = "load-bearing inset" if name == "inset" else "rise of the pressure with height"
+            flags.append(FitFlag("warning", f"{name}-at-bound", subject, "", "load",
+                                 f"the {what} reached its bound {bound:g}"))
+    fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan))
+                 for d in designs)
+    for f in fits:
+        flags.extend(f.flags)
+    n_bad = sum(not f.success for f in fits)
+    parts = [f"mu = {mu:.4f} (flat ground, {100 * flat.level:g} % CI [{flat.ci[0]:.4f}, {flat.ci[1]:.4f}]); "
+             f"load-bearing inset {inset:.3f} mm, pressure rise with height {kappa:.2f}/mm"
+             + (f" (fitted: {', '.join(fitted)})" if fitted else "")]
+    if n_bad:
+        parts.append(f"{n_bad} of {len(fits)} trial fits failed or unphysical")
+    return LoadSubjectFit(subject=subject, mu=mu, flat=flat, inset=inset, kappa=kappa, fitted=fitted,
+                          trials=fits, flags=tuple(flags), success=n_bad == 0, message="; ".join(parts))
+
+
+def fit_load_trials(trials: Sequence[Trial],
+                    options: LoadFitOptions | None = None) -> dict[str, LoadSubjectFit]:
+    """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
+    trials = list(trials)
+    if not trials:
+        raise ValueError("trials is empty")
+    by: dict[str, list[Trial]] = {}
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+        by.setdefault(t.subject, []).append(t)
+    models: dict = {}
+    return {s: fit_load_subject(ts, options, models=models) for s, ts in sorted(by.items())}

@@ -1,0 +1,473 @@
+"""Internals of :mod:`.calibrate`: the fixed-grid forward model of the measured frames, the
+residuals, the Jacobian with warm-started sweeps, the bootstrap (see that module's notes)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from ..blindspots import blind_spots
+from ..surfaces import Surface
+from .bem import ContactSolver
+from .finger import FingerParams
+
+__all__: list[str] = []
+
+
+# ------------------------------------------------------------------------------ problem
+class _SurfaceData:
+    """The frames of one surface, on the calibration's fixed grid (all fixed arrays)."""
+
+    def __init__(self, surface: Surface, frames: list, u: np.ndarray, table_lo: float, table_hi: float):
+        self.surface = surface
+        self.name = surface.name
+        self.x = np.concatenate([f[0] for f in frames])
+        self.load = np.concatenate([f[1] for f in frames])
+        self.tol = np.concatenate([f[2] for f in frames])
+        self.trial = np.concatenate([f[3] for f in frames])
+        self.regions = [r for f in frames for r in f[4]]
+        self.min_gap = np.concatenate([f[5] for f in frames])
+        self.min_region = np.concatenate([f[6] for f in frames])
+        self.u = u
+        self.dx = float(u[1] - u[0])
+        self.lo, self.hi = table_lo, table_hi
+        X = self.x[:, None] + u[None, :]
+        self.H = np.asarray(surface.h(X), dtype=float)
+        self.X = X
+
+
+class _Structure:
+    """Residual bookkeeping of a set of frames (fixed for the calibration)."""
+
+    def __init__(self, sd: _SurfaceData, idx: np.ndarray):
+        u, dx = sd.u, sd.dx
+        n = u.size
+        self.idx = idx
+        fe, je, te, etrial = [], [], [], []
+        codes = np.full((idx.size, n), -1, dtype=np.int64)
+        kinds = []  # per run id: +1 region interior (max d), -1 gap/exterior (min d)
+        run_trial = []
+        rid = 0
+        for k, i in enumerate(idx):
+            reg = sd.regions[i]
+            X = sd.X[i]
+            ends = reg.ravel()
+            # end residuals (skip ends off the grid)
+            pos = (ends - X[0]) / dx
+            j = np.floor(pos).astype(int)
+            ok = (j >= 0) & (j < n - 1)
+            fe.append(np.full(int(ok.sum()), k))
+            je.append(j[ok])
+            te.append(pos[ok] - j[ok])
+            etrial.append(np.full(int(ok.sum()), sd.trial[i]))
+            # hinge runs: cells more than 1.5 cells away from every end
+            near = np.zeros(n, dtype=bool)
+            for e in ends:
+                c = (e - X[0]) / dx
+                lo_c, hi_c = int(math.floor(c - 1.5)), int(math.ceil(c + 1.5))
+                near[max(lo_c, 0): max(min(hi_c + 1, n), 0)] = True
+            inside = np.zeros(n, dtype=bool)
+            for a, b in reg:
+                inside |= (X >= a) & (X <= b)
+            # label contiguous runs of (not near) cells with the same inside flag
+            lab = np.where(near, -1, inside.astype(int))
+            change = np.flatnonzero(np.diff(lab) != 0) + 1
+            starts = np.concatenate([[0], change])
+            stops = np.concatenate([change, [n]])
+            for s0, s1 in zip(starts, stops, strict=True):
+                if lab[s0] < 0:
+                    continue
+                codes[k, s0:s1] = rid
+                kinds.append(1 if lab[s0] == 1 else -1)
+                run_trial.append(sd.trial[i])
+                rid += 1
+        self.fe = np.concatenate(fe) if fe else np.empty(0, int)
+        self.je = np.concatenate(je) if je else np.empty(0, int)
+        self.te = np.concatenate(te) if te else np.empty(0)
+        self.end_trial = np.concatenate(etrial) if etrial else np.empty(0, int)
+        flat = codes.ravel()
+        keep = flat >= 0
+        self.cell_index = np.flatnonzero(keep)
+        run_ids = flat[keep]
+        # runs are contiguous in the flattened array: reduceat over their starts
+        self.run_starts = np.concatenate([[0], np.flatnonzero(np.diff(run_ids) != 0) + 1])
+        self.kinds = np.asarray(kinds, dtype=int)
+        self.run_trial = np.asarray(run_trial, dtype=int)
+        assert self.run_starts.size == self.kinds.size
+        self.n_res = self.fe.size + self.kinds.size
+
+    @property
+    def trials(self) -> np.ndarray:
+        """Trial index of every residual, ``(n_res,)``."""
+        return np.concatenate([self.end_trial, self.run_trial])
+
+
+class _Problem:
+    def __init__(self, trials, initial: FingerParams, opts):
+        self.opts = opts
+        self.initial = initial
+        self.fit = opts.fit
+        self.p0 = np.array([float(getattr(initial, f)) for f in self.fit])
+        hw = initial.default_half_width(clearance=opts.clearance)
+        n = int(2 * math.ceil(hw / opts.dx))
+        self.n = max(n, 64)
+        self.hw = hw
+        self.u = -hw + (np.arange(self.n) + 0.5) * (2 * hw / self.n)
+        self.n_solves = 0
+        self.cg_iterations = 0
+        self.t_bem = 0.0
+        self.t_res = 0.0
+        self.bem_failures = 0
+        # group frames by surface
+        groups: dict[str, list] = {}
+        surfaces: dict[str, Surface] = {}
+        self.trial_labels = []
+        self.trial_surface = []
+        loads = []
+        for t in trials:
+            ok = t.usable()
+            if not ok.any():
+                continue
+            idx = np.flatnonzero(ok)
+            regs = []
+            for i in idx:
+                r = t.regions[i]
+                regs.append(r[~np.isnan(r[:, 0])])
+            tnum = len(self.trial_labels)
+            self.trial_labels.append(t.label)
+            self.trial_surface.append(t.surface.name)
+            groups.setdefault(t.surface.name, []).append(
+                (t.x[idx], t.load[idx], np.full(idx.size, t.tol), np.full(idx.size, tnum), regs,
+                 np.full(idx.size, t.min_gap), np.full(idx.size, t.min_region))
+            )
+            surfaces[t.surface.name] = t.surface
+            loads.append(t.load[idx])
+        if not groups:  # calibrate_finger checks this first, with a message for the user
+            raise ValueError("no usable frame")
+        allload = np.concatenate(loads)
+        self.load_median = float(np.median(allload))
+        q = np.linspace(0.02, 0.98, opts.n_loads) if opts.n_loads > 1 else np.array([0.5])
+        lv = np.unique(np.round(np.quantile(allload, q), 6))
+        self.loads = lv
+        self.surfaces: list[_SurfaceData] = []
+        for name, frames in groups.items():
+            s = surfaces[name]
+            a, b = s.feature_extent
+            self.surfaces.append(_SurfaceData(s, frames, self.u, a - hw - 0.5, b + hw + 0.5))
+        self.n_frames = int(sum(sd.x.size for sd in self.surfaces))
+        self.n_trials = len(self.trial_labels)
+        # warm starts: (level, surface, load index) -> pressures (m, n)
+        self._warm: dict = {}
+        self._structs: dict = {}
+        self.last_end_gain: dict = {}
+        self.last_failures = 0
+
+    # ---------------------------------------------------------------- parameters
+    def finger(self, z: np.ndarray) -> FingerParams:
+        vals = self.p0 * np.exp(np.asarray(z, dtype=float))
+        return dataclasses.replace(self.initial, **{f: float(v) for f, v in zip(self.fit, vals, strict=True)})
+
+    # ---------------------------------------------------------------- levels
+    def positions(self, sd: _SurfaceData, step: float) -> np.ndarray:
+        m = int(math.ceil((sd.hi - sd.lo) / step)) + 1
+        return sd.lo + step * np.arange(m)
+
+    def structure(self, level: str, sd: _SurfaceData) -> _Structure:
+        key = (level, sd.name)
+        if key not in self._structs:
+            stride = self.opts.coarse_stride if level == "coarse" else 1
+            # every stride-th frame of each trial
+            idx = []
+            for t in np.unique(sd.trial):
+                fi = np.flatnonzero(sd.trial == t)
+                idx.append(fi[::stride])
+            self._structs[key] = _Structure(sd, np.sort(np.concatenate(idx)))
+        return self._structs[key]
+
+    # ---------------------------------------------------------------- forward
+    def tables(self, z: np.ndarray, level: str, step: float, perturbed: bool = False) -> dict:
+        """Deformed outlines ``(n_loads, m, n)`` per surface for parameters ``z``.
+
+        Each position starts from the last base sweep's pressure at the same position
+        (same grid cells) when there is one; a ``perturbed`` sweep (Jacobian) does not
+        replace those starts.
+        """
+        finger = self.finger(z)
+        solver = ContactSolver(finger, n=self.n, half_width=self.hw)
+        out = {}
+        t0 = time.process_time()
+        fails = 0
+        for sd in self.surfaces:
+            pos = self.positions(sd, step)
+            Y = np.empty((self.loads.size, pos.size, self.n))
+            for j, F in enumerate(self.loads):
+                key = (level, sd.name, j)
+                start = self._warm.get(key) if self.opts.warm_start == "parameters" else None
+                Y[j], P, f = self._sweep(solver, sd.surface, pos, float(F), start)
+                fails += f
+                if not perturbed:
+                    self._warm[key] = P
+            out[sd.name] = (pos, Y)
+        self.t_bem += time.process_time() - t0
+        self.last_failures = fails
+        return out
+
+    def _sweep(self, solver: ContactSolver, surface, pos: np.ndarray, load: float, start):
+        n = self.n
+        Y = np.empty((pos.size, n))
+        P = np.empty((pos.size, n))
+        prev = prev2 = None
+        fails = 0
+        tol = self.opts.solver_tol
+        for i, xf in enumerate(pos):
+            if start is not None:
+                guess = start[i]
+            elif self.opts.warm_start == "none":
+                guess = None
+            elif prev is not None:
+                guess = prev if prev2 is None else np.maximum(2.0 * prev - prev2, 0.0)
+            else:
+                guess = None
+            sol = solver.solve(surface, xf, load=load, x0=guess, tol=tol, check=False)
+            self.n_solves += 1
+            self.cg_iterations += sol.iterations
+            if not sol.success and guess is not None:
+                sol = solver.solve(surface, xf, load=load, tol=tol, check=False)
+                self.n_solves += 1
+                self.cg_iterations += sol.iterations
+            if not sol.success:
+                fails += 1
+            Y[i] = sol.finger_y  # cell i at xf + u_i (finger frame), heights in surface coordinates
+            P[i] = sol.pressure
+            prev2, prev = prev, sol.pressure
+        return Y, P, fails
+
+    def distances(self, sd: _SurfaceData, idx: np.ndarray, pos: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        """Model distance ``d`` (mm) from each surface cell to the finger, ``(len(idx), n)``."""
+        x = sd.x[idx]
+        ld = sd.load[idx]
+        step = pos[1] - pos[0]
+        uu = np.clip((x - pos[0]) / step, 0.0, pos.size - 1.0)
+        i0 = np.minimum(np.floor(uu).astype(int), pos.size - 2)
+        w = (uu - i0)[:, None]
+        L = self.loads
+        if L.size == 1:
+            j0 = np.zeros(x.size, dtype=int)
+            v = np.zeros((x.size, 1))
+            j1 = j0
+        else:
+            f = np.clip(ld, L[0], L[-1])
+            j0 = np.clip(np.searchsorted(L, f, side="right") - 1, 0, L.size - 2)
+            v = ((f - L[j0]) / (L[j0 + 1] - L[j0]))[:, None]
+            j1 = j0 + 1
+        # outlines are stored in the finger frame (cell i at x_c + u_i), so bilinear
+        # interpolation keeps the shape; heights are surface heights.
+        i1 = i0 + 1
+        yf = (1 - v) * ((1 - w) * Y[j0, i0] + w * Y[j0, i1]) + v * ((1 - w) * Y[j1, i0] + w * Y[j1, i1])
+        slope = np.gradient(yf, sd.dx, axis=1)
+        return (yf - sd.H[idx]) / np.sqrt(1.0 + slope * slope)
+
+    def residuals(self, level: str, tabs: dict) -> np.ndarray:
+        t0 = time.process_time()
+        o = self.opts
+        out = []
+        for sd in self.surfaces:
+            st = self.structure(level, sd)
+            pos, Y = tabs[sd.name]
+            d = self.distances(sd, st.idx, pos, Y)
+            tol_f = sd.tol[st.idx]
+            # end residuals
+            d0 = d[st.fe, st.je]
+            d1 = d[st.fe, st.je + 1]
+            de = d0 + st.te * (d1 - d0)
+            slope = (d1 - d0) / sd.dx
+            den = np.sqrt(slope * slope + o.s_min**2)
+            r_end = (de - tol_f[st.fe]) / den
+            # d r_end / d(outward shift of the measured end), for the systematic sensitivity:
+            # moving an end outwards (away from its region) raises d by |d'| per mm.
+            self.last_end_gain[sd.name] = np.abs(slope) / den
+            # hinge residuals
+            flat = d.ravel()[st.cell_index]
+            tol_cells = np.repeat(tol_f, sd.u.size)[st.cell_index]
+            rel = flat - tol_cells
+            if st.kinds.size:
+                mx = np.maximum.reduceat(rel, st.run_starts)
+                mn = np.minimum.reduceat(rel, st.run_starts)
+                r_h = np.where(st.kinds > 0, np.maximum(mx, 0.0), np.maximum(-mn, 0.0)) / o.s_0
+            else:
+                r_h = np.empty(0)
+            out.append(r_end)
+            out.append(r_h)
+        self.t_res += time.process_time() - t0
+        return np.concatenate(out)
+
+    def residual_trials(self, level: str) -> np.ndarray:
+        return np.concatenate([self.structure(level, sd).trials for sd in self.surfaces])
+
+    def residual_surfaces(self, level: str) -> list[tuple[str, int, int]]:
+        """(surface, n_end, n_hinge) in residual order."""
+        return [(sd.name, self.structure(level, sd).fe.size, self.structure(level, sd).kinds.size)
+                for sd in self.surfaces]
+
+
+def _make_fun_jac(pb: _Problem, level: str, step: float):
+    """Residual function and forward-difference Jacobian sharing the base evaluation.
+
+    Warm starts: the base sweep at new parameters starts each position from the previous
+    base sweep's pressure there (same grid cells); each perturbed sweep starts from the
+    base sweep at the same parameters. The last evaluation and Jacobian are kept in
+    ``state`` (``'tabs'``, ``'r'``, ``'J'``) for reuse at the optimum.
+    """
+    h = pb.opts.diff_step
+    state: dict = {}
+
+    def key_of(z):
+        return tuple(np.asarray(z, dtype=float).round(12))
+
+    def fun(z):
+        key = key_of(z)
+        if state.get("key") != key:
+            tabs = pb.tables(z, level, step)
+            r = pb.residuals(level, tabs)
+            state.update(key=key, tabs=tabs, r=r, fail=pb.last_failures, gain=dict(pb.last_end_gain))
+        pb.last_failures = state["fail"]
+        return state["r"]
+
+    def jac(z):
+        key = key_of(z)
+        if state.get("jkey") == key:
+            return state["J"]
+        r0 = fun(z)
+        z = np.asarray(z, dtype=float)
+        J = np.empty((r0.size, z.size))
+        for k in range(z.size):
+            zk = z.copy()
+            zk[k] += h
+            tabs = pb.tables(zk, level, step, perturbed=True)
+            J[:, k] = (pb.residuals(level, tabs) - r0) / h
+        state.update(jkey=key, J=J)
+        return J
+
+    return fun, jac, state
+
+
+def _soft_weights(r: np.ndarray, f_scale: float) -> np.ndarray:
+    """IRLS weights of the soft-L1 loss, ``rho'(z) = 1 / sqrt(1 + (r / f)^2)``."""
+    return 1.0 / np.sqrt(1.0 + (r / f_scale) ** 2)
+
+
+def _bootstrap(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndarray, opts):
+    """Linearised stratified cluster bootstrap (see the module notes). Returns (std, ci95)."""
+    if opts.bootstrap == 0:
+        return ({f: math.nan for f in opts.fit}, {f: (math.nan, math.nan) for f in opts.fit})
+    rng = np.random.default_rng(opts.seed)
+    w = _soft_weights(r, opts.fine_soft)
+    tr = pb.residual_trials("fine")
+    T = pb.n_trials
+    by_surface: dict[str, list[int]] = {}
+    for t, s in enumerate(pb.trial_surface):
+        by_surface.setdefault(s, []).append(t)
+    # per-trial normal-equation pieces: A_t = J_t^T W_t J_t, b_t = J_t^T W_t r_t
+    p = z.size
+    A = np.zeros((T, p, p))
+    b = np.zeros((T, p))
+    for t in range(T):
+        m = tr == t
+        Jw = J[m] * w[m, None]
+        A[t] = Jw.T @ J[m]
+        b[t] = Jw.T @ r[m]
+    zs = np.empty((opts.bootstrap, p))
+    for k in range(opts.bootstrap):
+        c = np.zeros(T)
+        for ts in by_surface.values():
+            draw = rng.integers(0, len(ts), size=len(ts))
+            np.add.at(c, np.asarray(ts)[draw], 1.0)
+        Ab = np.tensordot(c, A, axes=1)
+        bb = c @ b
+        try:
+            zs[k] = z - np.linalg.solve(Ab, bb)
+        except np.linalg.LinAlgError:
+            zs[k] = np.nan
+    vals = pb.p0[None, :] * np.exp(zs)
+    std, ci = {}, {}
+    for i, f in enumerate(opts.fit):
+        v = vals[:, i][np.isfinite(vals[:, i])]
+        std[f] = float(np.std(v, ddof=1)) if v.size > 1 else math.nan
+        ci[f] = ((float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5))) if v.size
+                 else (math.nan, math.nan))
+    return std, ci
+
+
+def _end_bias_sensitivity(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndarray, gain: dict,
+                          opts) -> dict:
+    """Parameter change (linearised, IRLS weights at the optimum) if every measured region
+    were ``end_bias_px`` px wider at each end; the pixel size is taken as ``tol / 3``."""
+    w = _soft_weights(r, opts.fine_soft)
+    dr = []
+    for sd in pb.surfaces:
+        st = pb.structure("fine", sd)
+        px = sd.tol[st.idx][st.fe] / 3.0
+        dr.append(gain[sd.name] * opts.end_bias_px * px)
+        dr.append(np.zeros(st.kinds.size))
+    dr = np.concatenate(dr)
+    Jw = J * w[:, None]
+    try:
+        dz = -np.linalg.solve(Jw.T @ J, Jw.T @ dr)
+    except np.linalg.LinAlgError:
+        return {f: math.nan for f in opts.fit}
+    vals = pb.p0 * np.exp(z)
+    return {f: float(v * (math.exp(d) - 1.0)) for f, v, d in zip(opts.fit, vals, dz, strict=True)}
+
+
+def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.ndarray,
+                   min_region: np.ndarray) -> list[np.ndarray]:
+    """Regions ``d <= tol`` per frame, ends interpolated linearly (as the BEM's geometric
+    ones), then the measurement's cleanup (as :func:`fingerfriction.video.contact.
+    contact_regions`): gaps shorter than ``min_gap`` bridged, regions shorter than
+    ``min_region`` dropped."""
+    out = []
+    for i in range(d.shape[0]):
+        di, xi = d[i], X[i]
+        m = di <= tol[i]
+        if not m.any():
+            out.append(np.empty((0, 2)))
+            continue
+        dm = np.diff(m.view(np.int8))
+        starts = np.flatnonzero(dm == 1) + 1
+        ends = np.flatnonzero(dm == -1)
+        if m[0]:
+            starts = np.concatenate(([0], starts))
+        if m[-1]:
+            ends = np.concatenate((ends, [m.size - 1]))
+        rows = []
+        for s, e in zip(starts, ends, strict=True):
+            if s > 0:
+                g0, g1 = di[s - 1], di[s]
+                a = xi[s - 1] + (xi[s] - xi[s - 1]) * (g0 - tol[i]) / (g0 - g1)
+            else:
+                a = xi[0]
+            if e < m.size - 1:
+                g0, g1 = di[e], di[e + 1]
+                bb = xi[e] + (xi[e + 1] - xi[e]) * (tol[i] - g0) / (g1 - g0)
+            else:
+                bb = xi[-1]
+            if rows and a - rows[-1][1] < min_gap[i]:
+                rows[-1] = (rows[-1][0], bb)
+            else:
+                rows.append((a, bb))
+        rows = [r for r in rows if r[1] - r[0] >= min_region[i]]
+        out.append(np.asarray(rows).reshape(-1, 2))
+    return out
+
+
+def _union_blind_spots(region_list: list[np.ndarray]) -> np.ndarray:
+    k = max((r.shape[0] for r in region_list), default=0)
+    if k == 0:
+        return np.empty((0, 2))
+    arr = np.full((len(region_list), k, 2), np.nan)
+    for i, r in enumerate(region_list):
+        arr[i, : r.shape[0]] = r
+    return blind_spots(arr).intervals

@@ -1,0 +1,614 @@
+"""Calibrate a subject's finger from recorded contact regions (issue 15).
+
+The forward model (:mod:`~fingerfriction.mechanics.bem`) knows the fingers it is given.
+This module finds the finger of a recorded subject: the shape and modulus parameters of
+the :class:`~fingerfriction.mechanics.finger.FingerParams` family (by default the
+stadium pad's end radius ``R``, effective modulus ``E*`` and flat length ``L``) for which
+the model's **geometric** contact (surface points within ``tol`` = 3 px, ~70 um, of the
+deformed finger: the paper's criterion, Methods "Image analysis") reproduces the contact
+regions measured in every frame, at the frame's finger position and measured normal force.
+It is a pure function of arrays (no file I/O); :mod:`fingerfriction.study.finger_calibration`
+reads a results folder into :class:`CalibrationTrial` objects.
+
+What is identifiable
+--------------------
+The contact of the plane-strain model depends on the load and the modulus only through
+``P' / E* = F_N / (D E*)`` (``D``: the effective finger width, ``P'`` the load per width).
+``D`` is therefore held at the initial finger's value (10 mm for the defaults) and ``E*``
+is fitted: the fitted ``E*`` is an *effective* modulus for that ``D``, and the load per
+width the calibration implies is ``P' = F_N / D``. A study without absolute normal force
+can only give ``E*`` relative to an assumed load (``load=`` in
+:func:`fingerfriction.study.finger_calibration.trials_from_results`; the result is flagged).
+
+The mismatch (smooth by construction)
+-------------------------------------
+Per frame, with ``d(s)`` the model's distance from the surface point at ``s`` to the
+deformed finger (vertical gap times ``1 / sqrt(1 + y_f'^2)``: the normal distance to first
+order, as the video's Euclidean 3-px test) and ``[a_k, b_k]`` the measured regions:
+
+* one residual per measured region end ``e``: ``(d(e) - tol) / sqrt(d'(e)^2 + s_min^2)``,
+  a Newton estimate of how far (mm) the model's edge is from the measured one;
+* one hinge per measured region interior, ``max(0, max d - tol) / s_0`` (the model
+  opens a gap where contact was seen), and per measured gap or exterior span,
+  ``max(0, tol - min d) / s_0`` (the model touches where no contact was seen); these
+  catch regions the model has and the video has not, and vice versa.
+
+Every residual is a continuous, piecewise-smooth function of the parameters: the model's
+grid is fixed for the whole calibration (cells at ``x + u_i``, ``u`` fixed), outlines are
+interpolated bilinearly in position and load (as the simulator's contact tables are) with
+weights that depend on the data only, and the contact solution of the BEM is continuous in
+its parameters. A count of mismatched pixels would be piecewise constant, which no
+gradient-based optimiser can use. ``scipy.optimize.least_squares`` (trust-region
+reflective, bounds, ``soft_l1`` loss against the video's occasional fragment or outlier)
+minimises it over ``log(p / p_initial)``; the Jacobian is by forward differences, each
+perturbed sweep warm-started from the base sweep's pressures at the same positions.
+
+Cost
+----
+Every evaluation runs, per surface and per tabulated load, one warm-started BEM sweep
+over the finger positions that can touch the feature. A coarse pass (positions every
+``coarse_step`` mm, every ``coarse_stride``-th frame, a wider ``soft`` scale) brings the
+parameters near the optimum; a fine pass (``fine_step``, all frames) finishes. The
+:class:`FingerCalibration` records the CPU time per stage and the number of solves.
+
+Uncertainty
+-----------
+A stratified cluster bootstrap over trials (trials resampled with replacement within each
+surface; seeded), linearised: each replicate takes one weighted Gauss-Newton step from the
+optimum with the residuals and Jacobian at the optimum (frames of one trial share its
+finger-position and force errors, so trials, not frames, are the independent units).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..regions import as_regions
+from ..surfaces import Surface
+from ._calibration_problem import (
+    _bootstrap,
+    _end_bias_sensitivity,
+    _make_fun_jac,
+    _model_regions,
+    _Problem,
+    _union_blind_spots,
+)
+from .bem import GEOMETRIC_TOL
+from .finger import FingerParams
+
+__all__ = ["CalibrationTrial", "CalibrationOptions", "FingerCalibration", "SurfaceFit",
+           "CalibrationError", "calibrate_finger", "FIT_FIELDS"]
+
+log = logging.getLogger(__name__)
+
+#: Parameters the calibration can fit (all positive, fitted as ``log(p / p_initial)``).
+FIT_FIELDS = ("radius", "modulus", "flat_length")
+
+
+class CalibrationError(ValueError):
+    """The data cannot calibrate a finger (too few trials, no contact regions, ...)."""
+
+
+# ------------------------------------------------------------------------------ inputs
+@dataclass(frozen=True)
+class CalibrationTrial:
+    """The measured contact of one trial.
+
+    Parameters
+    ----------
+    surface : Surface
+        The relief.
+    x : (n_frames,) ndarray
+        Finger-centre position per frame in mm (NaN: frame unused).
+    regions : (n_frames, n_max, 2) ndarray
+        Measured contact regions in mm (:mod:`fingerfriction.regions` format).
+    load : (n_frames,) ndarray
+        Normal force ``F_N`` in N at each frame (NaN or <= 0: frame unused).
+    label : str
+        Trial id (named in messages).
+    tol : float
+        The trial's contact tolerance in mm (3 px of its calibrated pixel size; default
+        :data:`~fingerfriction.mechanics.bem.GEOMETRIC_TOL`).
+    min_gap, min_region : float
+        The measurement's cleanup in mm (the video analysis bridges gaps shorter than
+        ``min_gap`` and drops regions shorter than ``min_region``); applied to the model's
+        regions too when they are compared with the measured ones (blind spots). Default 0.
+    """
+
+    surface: Surface
+    x: np.ndarray
+    regions: np.ndarray
+    load: np.ndarray
+    label: str = ""
+    tol: float = GEOMETRIC_TOL
+    min_gap: float = 0.0
+    min_region: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.surface, Surface):
+            raise TypeError(
+                f"trial {self.label!r}: surface must be a Surface, got {type(self.surface).__name__}"
+            )
+        x = np.asarray(self.x, dtype=float).ravel()
+        reg = as_regions(self.regions, name=f"trial {self.label!r} regions")
+        ld = np.asarray(self.load, dtype=float).ravel()
+        if reg.shape[0] != x.size or ld.size != x.size:
+            raise ValueError(
+                f"trial {self.label!r}: x has {x.size} frames, regions {reg.shape[0]}, load {ld.size}; "
+                "they must be equal"
+            )
+        if not (math.isfinite(self.tol) and 0 < self.tol < 1):
+            raise ValueError(f"trial {self.label!r}: tol must be a contact tolerance in mm in (0, 1), "
+                             f"got {self.tol!r}")
+        object.__setattr__(self, "x", x)
+        object.__setattr__(self, "regions", reg)
+        object.__setattr__(self, "load", ld)
+        object.__setattr__(self, "tol", float(self.tol))
+        for name in ("min_gap", "min_region"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"trial {self.label!r}: {name} must be a length >= 0 in mm, got {v!r}")
+            object.__setattr__(self, name, float(v))
+
+    def usable(self) -> np.ndarray:
+        """Frames with a finite position, a positive load and a region, ``(n_frames,)`` bool."""
+        with np.errstate(invalid="ignore"):
+            pos = self.load > 0
+        return np.isfinite(self.x) & pos & ~np.isnan(self.regions[:, 0, 0])
+
+
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """Settings of :func:`calibrate_finger` (defaults measured in ``benchmarks/calibrate.py``).
+
+    Parameters
+    ----------
+    fit : tuple of str
+        Parameters fitted, a subset of :data:`FIT_FIELDS`; the others keep the initial
+        finger's values.
+    dx : float
+        Target cell size of the BEM grid in mm (default 0.045, the simulator's ~0.046).
+    clearance : float
+        The grid spans the initial outline out to where it has risen this much, in mm
+        (default 2.0: margin for blunter fingers than the initial one).
+    coarse_step, fine_step : float
+        Finger-position step in mm of the contact tables of the two passes.
+    coarse_stride : int
+        The coarse pass uses every ``coarse_stride``-th usable frame.
+    n_loads : int
+        Tabulated normal loads (quantiles 2 %, ..., 98 % of the frames' loads); frames
+        interpolate linearly between them.
+    coarse_soft, fine_soft : float
+        ``f_scale`` (mm) of the soft-L1 loss in each pass: residuals beyond it count
+        linearly, not quadratically.
+    s_min : float
+        Floor of ``|d'(e)|`` in the end residuals (dimensionless slope).
+    s_0 : float
+        Slope converting hinge residuals (mm of distance) into mm of position.
+    bound : float
+        Each fitted parameter stays within ``[p0 / bound, p0 * bound]``.
+    diff_step : float
+        Forward-difference step in ``log p`` for the Jacobian.
+    max_nfev : int
+        Evaluations per pass.
+    solver_tol : float
+        Tolerance of each BEM solve.
+    warm_start : {'positions', 'parameters', 'none'}
+        How each BEM solve starts: ``'positions'`` (default) from the previous position's
+        pressure, linearly extrapolated, as :func:`~.sweep.sweep` does; ``'parameters'``
+        from the last base sweep's pressure at the same position (previous parameters,
+        same grid cells). Measured on a 36-trial subject (benchmarks/calibrate.py): 19.8
+        vs 22.7 CG iterations per solve, so the positions' start is the default.
+        ``'none'``: every solve starts cold (a reference for the benchmark).
+    end_bias_px : float
+        Size in px of the per-end widening of the measured regions whose effect on the
+        parameters is reported as a systematic sensitivity (default 0.5 px).
+    bootstrap : int
+        Bootstrap replicates for the uncertainties.
+    seed : int
+        Seed of the bootstrap.
+    min_trials : int
+        Fewer usable trials than this is an error.
+    min_frames : int
+        Fewer usable frames than this is an error.
+    max_rel_std : float
+        A parameter whose bootstrap standard deviation exceeds this fraction of its value
+        is flagged as poorly identified.
+    """
+
+    fit: tuple = FIT_FIELDS
+    dx: float = 0.045
+    clearance: float = 2.0
+    coarse_step: float = 0.2
+    fine_step: float = 0.05
+    coarse_stride: int = 4
+    n_loads: int = 3
+    coarse_soft: float = 0.2
+    fine_soft: float = 0.05
+    s_min: float = 0.1
+    s_0: float = 0.1
+    bound: float = 2.0
+    diff_step: float = 0.005
+    max_nfev: int = 25
+    solver_tol: float = 1e-6
+    warm_start: str = "positions"
+    end_bias_px: float = 0.5
+    bootstrap: int = 400
+    seed: int = 0
+    min_trials: int = 3
+    min_frames: int = 200
+    max_rel_std: float = 0.1
+
+    def __post_init__(self) -> None:
+        fit = tuple(self.fit)
+        if not fit or any(f not in FIT_FIELDS for f in fit) or len(set(fit)) != len(fit):
+            raise ValueError(f"fit must be a non-empty subset of {FIT_FIELDS}, got {self.fit!r}")
+        object.__setattr__(self, "fit", fit)
+        for name in ("dx", "clearance", "coarse_step", "fine_step", "coarse_soft", "fine_soft", "s_min",
+                     "s_0", "diff_step", "solver_tol", "max_rel_std"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"CalibrationOptions.{name} must be a positive number, got {v!r}")
+        if self.warm_start not in ("positions", "parameters", "none"):
+            raise ValueError(f"CalibrationOptions.warm_start must be 'positions', 'parameters' or 'none', "
+                             f"got {self.warm_start!r}")
+        if not (math.isfinite(self.end_bias_px) and self.end_bias_px >= 0):
+            raise ValueError(f"CalibrationOptions.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
+        if not self.bound > 1:
+            raise ValueError(f"CalibrationOptions.bound must be > 1, got {self.bound!r}")
+        for name, lo in (("coarse_stride", 1), ("n_loads", 1), ("max_nfev", 1), ("bootstrap", 0),
+                         ("seed", 0), ("min_trials", 1), ("min_frames", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"CalibrationOptions.{name} must be an integer >= {lo}, got {v!r}")
+
+
+# ------------------------------------------------------------------------------ result
+@dataclass
+class SurfaceFit:
+    """Per-surface figures of a calibration.
+
+    Attributes
+    ----------
+    surface : str
+    n_trials, n_frames : int
+    rms_end_mm : float
+        Root mean square of the end-point residuals at the optimum (mm).
+    median_end_mm : float
+        Median absolute end-point residual (mm).
+    hinge_violations : float
+        Fraction of measured interiors / gaps where the model's contact disagrees.
+    measured_blind_spots, predicted_blind_spots : (k, 2) ndarray
+        Blind spots (mm) of the union of the measured regions, and of the calibrated
+        model's regions at the same frames (positions and loads).
+    """
+
+    surface: str
+    n_trials: int
+    n_frames: int
+    rms_end_mm: float
+    median_end_mm: float
+    hinge_violations: float
+    measured_blind_spots: np.ndarray
+    predicted_blind_spots: np.ndarray
+
+    def blind_spot_pairs(self) -> list[tuple[float, float]]:
+        """``(measured width, predicted width)`` in mm, paired by overlap (NaN: no partner)."""
+        return _pair_spots(self.measured_blind_spots, self.predicted_blind_spots)
+
+    def to_dict(self) -> dict:
+        return {
+            "surface": self.surface, "n_trials": self.n_trials, "n_frames": self.n_frames,
+            "rms_end_mm": self.rms_end_mm, "median_end_mm": self.median_end_mm,
+            "hinge_violations": self.hinge_violations,
+            "measured_blind_spots_mm": self.measured_blind_spots.tolist(),
+            "predicted_blind_spots_mm": self.predicted_blind_spots.tolist(),
+        }
+
+
+@dataclass
+class FingerCalibration:
+    """Result of :func:`calibrate_finger` (in the style of ``scipy.optimize.OptimizeResult``).
+
+    Attributes
+    ----------
+    finger : FingerParams
+        The calibrated finger.
+    initial : FingerParams
+        Where the fit started (and the fixed parameters' source).
+    fitted : tuple of str
+        Names of the fitted parameters.
+    std : dict
+        Bootstrap standard deviation of each fitted parameter (its unit).
+    ci95 : dict
+        Bootstrap 2.5 and 97.5 percentiles of each fitted parameter.
+    systematic : dict
+        Change of each fitted parameter (its unit) if every measured region were
+        ``options.end_bias_px`` px wider at each end (linearised at the optimum): the
+        bootstrap sees only trial-to-trial scatter, not a bias shared by all frames of
+        the video analysis, which dominates on simulated studies.
+    load_per_width : float
+        ``P' = median F_N / D`` in N/mm.
+    load_median : float
+        Median normal force of the frames used, in N.
+    surfaces : list of SurfaceFit
+    success : bool
+        The optimiser converged, no parameter sits at its bound, every BEM solve at the
+        optimum converged.
+    message : str
+    flags : list of str
+        Reasons to doubt the result (each one line); empty when there are none.
+    n_trials, n_frames : int
+    nfev : dict
+        Evaluations per pass.
+    n_solves : int
+        BEM solves in total; ``cg_iterations`` their conjugate-gradient iterations.
+    timings : dict
+        CPU seconds per stage (``'prepare', 'bem', 'residuals', 'bootstrap', 'predict'``),
+        per pass (``'coarse_pass', 'fine_pass'``: optimiser, BEM and residuals) and
+        ``'total'``.
+    cost : float
+        Final robust cost of the fine pass.
+    """
+
+    finger: FingerParams
+    initial: FingerParams
+    fitted: tuple
+    std: dict
+    ci95: dict
+    systematic: dict
+    load_per_width: float
+    load_median: float
+    surfaces: list
+    success: bool
+    message: str
+    flags: list = field(default_factory=list)
+    n_trials: int = 0
+    n_frames: int = 0
+    nfev: dict = field(default_factory=dict)
+    n_solves: int = 0
+    cg_iterations: int = 0
+    timings: dict = field(default_factory=dict)
+    cost: float = math.nan
+    options: CalibrationOptions | None = field(default=None, repr=False)
+
+    def summary(self) -> str:
+        """The result as plain-text tables: parameters, then per-surface figures and flags."""
+        units = {"radius": "mm", "modulus": "MPa", "flat_length": "mm"}
+        lines = [f"finger calibration: {self.message}; {self.n_trials} trials, {self.n_frames} frames",
+                 f"{'parameter':18s} {'start':>9s} {'calibrated':>11s} {'bootstrap std':>13s} "
+                 f"{'95 % interval':>19s} {'+0.5 px ends':>12s}"]
+        for f in self.fitted:
+            lo, hi = self.ci95[f]
+            lines.append(f"{f + ' (' + units.get(f, '') + ')':18s} {getattr(self.initial, f):9.4g} "
+                         f"{getattr(self.finger, f):11.4g} {self.std[f]:13.2g} {lo:9.4g}..{hi:<9.4g} "
+                         f"{self.systematic[f]:+12.2g}")
+        lines.append(f"load per width P' = {self.load_per_width:.4f} N/mm (median F_N "
+                     f"{self.load_median:.3f} N, D = {self.finger.width:g} mm fixed)")
+        lines.append(f"{'surface':14s} {'frames':>6s} {'end rms mm':>10s}  "
+                     "blind spots measured -> predicted (mm)")
+        for s in self.surfaces:
+            txt = ", ".join(f"{m:.3f} -> {p:.3f}" for m, p in s.blind_spot_pairs()) or "none"
+            lines.append(f"{s.surface:14s} {s.n_frames:6d} {s.rms_end_mm:10.4f}  {txt}")
+        lines += [f"flag: {f}" for f in self.flags]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """JSON-ready provenance (what ``calibrate-finger`` stores in the finger file)."""
+        return {
+            "success": self.success, "message": self.message, "flags": list(self.flags),
+            "fitted": list(self.fitted),
+            "parameters": {k: float(getattr(self.finger, k)) for k in self.fitted},
+            "std": {k: float(v) for k, v in self.std.items()},
+            "ci95": {k: [float(a), float(b)] for k, (a, b) in self.ci95.items()},
+            "systematic_per_end_bias": {k: float(v) for k, v in self.systematic.items()},
+            "initial": self.initial.to_dict(),
+            "width_mm_fixed": float(self.finger.width),
+            "load_median_N": self.load_median, "load_per_width_N_per_mm": self.load_per_width,
+            "n_trials": self.n_trials, "n_frames": self.n_frames, "nfev": dict(self.nfev),
+            "n_solves": self.n_solves, "cg_iterations": self.cg_iterations,
+            "cpu_s": {k: round(float(v), 3) for k, v in self.timings.items()},
+            "surfaces": [s.to_dict() for s in self.surfaces],
+            "options": dataclasses.asdict(self.options) if self.options is not None else None,
+        }
+
+
+def _pair_spots(meas: np.ndarray, pred: np.ndarray) -> list[tuple[float, float]]:
+    """Pair blind spots by largest overlap (else nearest centre); unpaired get NaN."""
+    out = []
+    used = set()
+    for a, b in meas:
+        best, score = None, -math.inf
+        for j, (c, d) in enumerate(pred):
+            if j in used:
+                continue
+            ov = min(b, d) - max(a, c)
+            s = ov if ov > 0 else -abs(0.5 * (a + b) - 0.5 * (c + d))
+            if s > score:
+                best, score = j, s
+        if best is not None and score > -1.0:
+            used.add(best)
+            out.append((float(b - a), float(pred[best][1] - pred[best][0])))
+        else:
+            out.append((float(b - a), math.nan))
+    for j, (c, d) in enumerate(pred):
+        if j not in used:
+            out.append((math.nan, float(d - c)))
+    return out
+
+
+# ------------------------------------------------------------------------------ public
+def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptions | None = None
+                     ) -> FingerCalibration:
+    """Fit a subject's finger to its measured contact regions.
+
+    Parameters
+    ----------
+    trials : sequence of CalibrationTrial
+        The subject's trials (any surfaces; all should be the same subject).
+    initial : FingerParams
+        Starting finger; its family (shape), width ``D`` and unfitted parameters are kept.
+        For the default fit it must be a circle with ``flat_length > 0`` (a stadium).
+    options : CalibrationOptions, optional
+
+    Returns
+    -------
+    FingerCalibration
+        ``success=False`` with a message (and ``flags``) when the fit did not converge,
+        hit a bound or a contact solve failed; check it before using the finger.
+
+    Raises
+    ------
+    CalibrationError
+        Too few usable trials or frames, no contact regions.
+    TypeError, ValueError
+        Bad arguments.
+
+    Notes
+    -----
+    See the module notes for the mismatch, the optimiser and the uncertainties.
+    """
+    T0 = time.process_time()
+    opts = options or CalibrationOptions()
+    trials = _check_inputs(trials, initial, opts)
+    pb = _Problem(trials, initial, opts)
+    if pb.n_trials < opts.min_trials:
+        raise CalibrationError(
+            f"only {pb.n_trials} trial(s) with usable contact regions (need at least {opts.min_trials}); "
+            "a finger calibrated on so little data would be a guess"
+        )
+    if pb.n_frames < opts.min_frames:
+        raise CalibrationError(
+            f"only {pb.n_frames} usable frames (need at least {opts.min_frames}): frames need a finite "
+            "position, a normal force and a contact region"
+        )
+    t_prep = time.process_time() - T0
+    z, fine, fun, jac, state, nfev, pass_cpu = _optimise(pb, opts)
+    finger = pb.finger(z)
+
+    # residuals and Jacobian at the optimum (for the bootstrap and the per-surface figures;
+    # reused from the fine pass when it evaluated them there)
+    r0 = fun(z)
+    failures = pb.last_failures
+    J = jac(z)
+    t_b = time.process_time()
+    std, ci = _bootstrap(pb, z, r0, J, opts)
+    systematic = _end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
+    t_boot = time.process_time() - t_b
+    t_p = time.process_time()
+    surfaces = _surface_fits(pb, state["tabs"], r0)
+    t_pred = time.process_time() - t_p
+
+    success, message, flags = _assess(fine, z, failures, finger, std, surfaces, opts)
+    timings = {
+        "prepare": t_prep, "bem": pb.t_bem, "residuals": pb.t_res, "bootstrap": t_boot,
+        "predict": t_pred, "coarse_pass": pass_cpu["coarse"], "fine_pass": pass_cpu["fine"],
+        "total": time.process_time() - T0,
+    }
+    return FingerCalibration(
+        finger=finger, initial=initial, fitted=opts.fit, std=std, ci95=ci, systematic=systematic,
+        load_per_width=pb.load_median / finger.width, load_median=pb.load_median, surfaces=surfaces,
+        success=success, message=message, flags=flags, n_trials=pb.n_trials, n_frames=pb.n_frames,
+        nfev=nfev, n_solves=pb.n_solves, cg_iterations=pb.cg_iterations, timings=timings,
+        cost=float(fine.cost), options=opts,
+    )
+
+
+def _check_inputs(trials, initial, opts: CalibrationOptions) -> list[CalibrationTrial]:
+    if not isinstance(initial, FingerParams):
+        raise TypeError(f"initial must be a FingerParams, got {type(initial).__name__}")
+    if initial.shape != "circle" or initial.layer_thickness is not None or initial.has_skin:
+        raise ValueError("calibration supports the circle/stadium half-space finger family, got "
+                         f"shape={initial.shape!r}, layer_thickness={initial.layer_thickness!r}, "
+                         f"skin={initial.has_skin}")
+    for f in opts.fit:
+        if float(getattr(initial, f)) <= 0:
+            raise ValueError(f"initial {f} must be > 0 to be fitted (fitted as log({f})), got "
+                             f"{getattr(initial, f)!r}")
+    trials = list(trials)
+    for t in trials:
+        if not isinstance(t, CalibrationTrial):
+            raise TypeError(f"trials must be CalibrationTrial objects, got {type(t).__name__}")
+    if not trials:
+        raise CalibrationError("no trials given: nothing to calibrate on")
+    if not any(t.usable().any() for t in trials):
+        raise CalibrationError("no trial has a usable frame (finite position, positive load, at least "
+                               "one contact region): nothing to calibrate on")
+    return trials
+
+
+def _optimise(pb: _Problem, opts: CalibrationOptions):
+    """The coarse then the fine least-squares pass, from the initial finger (z = 0)."""
+    lb = np.full(len(opts.fit), -math.log(opts.bound))
+    z = np.zeros(len(opts.fit))
+    nfev, pass_cpu = {}, {}
+    for level, step, soft in (("coarse", opts.coarse_step, opts.coarse_soft),
+                              ("fine", opts.fine_step, opts.fine_soft)):
+        fun, jac, state = _make_fun_jac(pb, level, step)
+        t_pass = time.process_time()
+        r = least_squares(fun, z, jac=jac, bounds=(lb, -lb), loss="soft_l1", f_scale=soft,
+                          x_scale=1.0, max_nfev=opts.max_nfev, xtol=1e-4, ftol=1e-6, gtol=1e-8)
+        nfev[level] = int(r.nfev)
+        pass_cpu[level] = time.process_time() - t_pass
+        z = r.x
+        log.info("calibration %s pass: %s, z=%s, cost %.4g", level, r.message, np.round(z, 4), r.cost)
+    return z, r, fun, jac, state, nfev, pass_cpu
+
+
+def _assess(fine, z, failures: int, finger: FingerParams, std: dict, surfaces, opts: CalibrationOptions):
+    """``(success, message, flags)`` of a finished calibration."""
+    flags = []
+    msg_parts = []
+    success = bool(fine.status > 0)
+    if not success:
+        msg_parts.append(f"the optimiser did not converge ({fine.message})")
+    at_bound = [f for f, zi in zip(opts.fit, z, strict=True) if abs(abs(zi) - math.log(opts.bound)) < 1e-3]
+    if at_bound:
+        success = False
+        msg_parts.append(f"parameter(s) {', '.join(at_bound)} at the bound (x{opts.bound:g} / {opts.bound:g} "
+                         "of the initial finger): the data want a finger outside the searched range")
+    if failures:
+        success = False
+        msg_parts.append(f"{failures} contact solve(s) did not converge at the optimum")
+    for f in opts.fit:
+        v = float(getattr(finger, f))
+        if std.get(f, 0.0) > opts.max_rel_std * v:
+            flags.append(f"{f} is poorly identified: bootstrap std {std[f]:.3g} is "
+                         f"{100 * std[f] / v:.0f} % of {v:.4g}")
+    for s in surfaces:
+        if s.rms_end_mm > 0.1:
+            flags.append(f"{s.surface}: end-point residual RMS {s.rms_end_mm:.3f} mm (> 0.1 mm): the model "
+                         "does not reproduce this surface's contact")
+    message = "; ".join(msg_parts) if msg_parts else f"converged ({fine.message})"
+    return success, message, flags
+
+
+def _surface_fits(pb: _Problem, tabs: dict, r0: np.ndarray) -> list[SurfaceFit]:
+    out = []
+    off = 0
+    for sd in pb.surfaces:
+        st = pb.structure("fine", sd)
+        ne, nh = st.fe.size, st.kinds.size
+        re = r0[off: off + ne]
+        rh = r0[off + ne: off + ne + nh]
+        off += ne + nh
+        pos, Y = tabs[sd.name]
+        d = pb.distances(sd, st.idx, pos, Y)
+        model = _model_regions(d, sd.X[st.idx], sd.tol[st.idx], sd.min_gap[st.idx], sd.min_region[st.idx])
+        meas = [sd.regions[i] for i in st.idx]
+        out.append(SurfaceFit(
+            surface=sd.name, n_trials=int(np.unique(sd.trial).size), n_frames=int(st.idx.size),
+            rms_end_mm=float(np.sqrt(np.mean(re**2))) if re.size else math.nan,
+            median_end_mm=float(np.median(np.abs(re))) if re.size else math.nan,
+            hinge_violations=float(np.mean(rh > 0.05)) if rh.size else 0.0,
+            measured_blind_spots=_union_blind_spots(meas),
+            predicted_blind_spots=_union_blind_spots(model),
+        ))
+    return out

@@ -1,0 +1,137 @@
+"""Finger JSON files: one :class:`FingerParams` per file, read by every command that takes
+``--finger FILE`` (``simulate``, ``predict``, ``predict-contact``, ``validate``, ``render``)
+and written by ``calibrate-finger``.
+
+Two forms are accepted:
+
+* the bare serialisation of :meth:`FingerParams.to_json`, e.g.
+  ``{"radius": 26.2, "modulus": 0.14, "width": 10.0, "flat_length": 6.0}`` (omitted
+  fields take their defaults);
+* the wrapped form written by :func:`write_finger_file`::
+
+      {"format": "fingerfriction-finger", "version": 1,
+       "finger": {<FingerParams fields>},
+       "calibration": {...}}          # optional provenance, never read back as parameters
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from .._atomic import atomic_write_json
+from .finger import FingerParams
+
+__all__ = ["FINGER_FORMAT", "read_finger_file", "write_finger_file", "finger_from_mapping",
+           "read_subject_fingers"]
+
+FINGER_FORMAT = "fingerfriction-finger"
+_VERSION = 1
+
+
+def finger_from_mapping(d, where: str = "finger") -> FingerParams:
+    """A :class:`FingerParams` from a bare or wrapped finger mapping (see the module notes).
+
+    Parameters
+    ----------
+    d : dict
+        The decoded JSON object.
+    where : str
+        Named in error messages (a file name).
+
+    Raises
+    ------
+    ValueError
+        Naming ``where`` and the field at fault.
+    """
+    if isinstance(d, FingerParams):
+        return d
+    if not isinstance(d, dict):
+        raise ValueError(f"{where}: a finger must be a JSON object, got {type(d).__name__}")
+    if "format" in d:
+        if d["format"] != FINGER_FORMAT:
+            raise ValueError(f"{where}: format is {d['format']!r}, expected {FINGER_FORMAT!r}")
+        if d.get("version") != _VERSION:
+            raise ValueError(f"{where}: finger file version {d.get('version')!r} is not supported "
+                             f"(this version reads {_VERSION})")
+        if not isinstance(d.get("finger"), dict):
+            raise ValueError(f"{where}: the field 'finger' must be an object of FingerParams fields")
+        d = d["finger"]
+    d = dict(d)
+    d.pop("model", None)  # truth/study.json's finger entries carry the provider's name ...
+    for k in ("n", "clearance_mm", "side_radius_mm"):  # ... and its grid settings
+        d.pop(k, None)
+    try:
+        return FingerParams.from_dict(d)
+    except TypeError as exc:
+        if "missing" in str(exc):
+            raise ValueError(f"{where}: {exc}; a finger needs at least radius (mm), modulus (MPa) "
+                             "and width (mm)") from None
+        raise ValueError(f"{where}: {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+def read_finger_file(path: str | os.PathLike) -> FingerParams:
+    """Read a finger JSON file (either form of the module notes).
+
+    Raises
+    ------
+    ValueError
+        One line naming the file and what is wrong (unreadable, not JSON, unknown field,
+        invalid value).
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ValueError(f"cannot read finger file {str(p)!r}: {exc.strerror or exc}") from None
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"finger file {str(p)!r} is not JSON: {exc.msg} at line {exc.lineno}") from None
+    return finger_from_mapping(d, where=f"finger file {str(p)!r}")
+
+
+def write_finger_file(path: str | os.PathLike, finger: FingerParams, *,
+                      calibration: dict | None = None) -> Path:
+    """Write ``finger`` in the wrapped form, atomically (temporary file then rename).
+
+    Parameters
+    ----------
+    path : path-like
+        Target file.
+    finger : FingerParams
+    calibration : dict, optional
+        JSON-serialisable provenance (kept in the file, ignored by :func:`read_finger_file`).
+
+    Returns
+    -------
+    Path
+    """
+    if not isinstance(finger, FingerParams):
+        raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
+    doc = {"format": FINGER_FORMAT, "version": _VERSION, "finger": finger.to_dict()}
+    if calibration is not None:
+        doc["calibration"] = calibration
+    p = Path(path)
+    atomic_write_json(p, doc)  # NaN (an undetermined uncertainty) is written as null
+    return p
+
+
+def read_subject_fingers(items, option: str = "--finger") -> dict[str, FingerParams] | None:
+    """``['SUBJECT=FILE', ...]`` (a command line's repeated option) -> {subject: finger}.
+
+    Returns None for no items; raises ``ValueError`` naming ``option`` and the item, or the
+    file and its fault.
+    """
+    if not items:
+        return None
+    out = {}
+    for item in items:
+        label, sep, path = str(item).partition("=")
+        if not sep or not label.strip() or not path.strip():
+            raise ValueError(f"{option}: expected SUBJECT=FILE (e.g. 1=finger1.json), got {item!r}")
+        out[label.strip()] = read_finger_file(path.strip())
+    return out
