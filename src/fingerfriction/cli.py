@@ -592,8 +592,9 @@ def fit_cmd(
 def _fit_facts(res) -> list[str]:
     """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
     n_err = sum(f.level == "error" for f in res.flags)
-    mu = ", ".join(f"{m:.3f}" + (f" [{res.mu_ci[s][0]:.3f}, {res.mu_ci[s][1]:.3f}]"
-                                 if s in res.mu_ci and all(v == v for v in res.mu_ci[s]) else "")
+    mu = ", ".join(("not measured" if m != m else f"{m:.3f}")
+                   + (f" [{res.mu_ci[s][0]:.3f}, {res.mu_ci[s][1]:.3f}]"
+                      if s in res.mu_ci and all(v == v for v in res.mu_ci[s]) else "")
                    + f" (subject {s})" for s, m in res.mu.items())
     val = ("validated (leave one surface out)" if res.loso is not None
            else f"not validated: {res.loso_message}")

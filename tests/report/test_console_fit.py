@@ -18,8 +18,8 @@ SRC = Path(__file__).resolve().parents[2] / "src"
 
 @pytest.fixture(scope="module")
 def failing(tmp_path_factory):
-    """Synthetic results where every second repetition's force is upside down: p0 < 0,
-    an unphysical fit, for both subjects."""
+    """Synthetic results where every second repetition's force is upside down: p0 < 0 (the
+    paper's model) and p1 < 0 (the load-consistent one), unphysical fits, for both subjects."""
     root = tmp_path_factory.mktemp("failing") / "r"
     write_synthetic_results(root)
     store = ResultsStore(root)
@@ -27,7 +27,9 @@ def failing(tmp_path_factory):
         if tid.endswith("-r2"):
             p = store.trial_dir(tid) / "forces.parquet"
             f = pd.read_parquet(p)
-            f["F_T_N"] = -f["F_T_N"]
+            for col in ("F_T_N", "F_T_abs_N"):
+                if col in f:
+                    f[col] = -f[col]
             f.to_parquet(p)
     return root
 
@@ -47,16 +49,19 @@ def test_fit_console_one_warning_per_subject_and_one_summary(failing):
     summary = [ln for ln in lines if ln.startswith("fit:")]
     assert len(summary) == 1 and len(lines) == len(warnings) + 1, lines
     assert 1 <= len(warnings) <= len(SUBJECTS), lines
-    for subj in SUBJECTS:  # each subject's failed fits: counted, with one example
+    for subj in SUBJECTS:  # each subject's failed fits: counted by kind, with one example
         line = next(ln for ln in warnings if ln.startswith(f"warning: subject {subj}:"))
-        assert "trial fits failed (e.g. s" in line and "unphysical" in line
+        assert "paper model negative-p0 in 4 trials (e.g. s" in line and "unphysical" in line
+        assert line.count("negative-p0") == 1
     # the summary: counts, time, where the output is, the logged warnings grouped by kind
     s = summary[0]
-    assert "16 trials" in s and " failed" in s and " s; output in " in s and str(failing / "fit") in s
-    assert "logged warnings: 'fit failed' x" in s and s.count("'fit failed'") == 1
+    assert "16 trials" in s and "8 failed" in s and " s; output in " in s and str(failing / "fit") in s
+    kinds = s.split("logged warning")[-1]
+    for k in ("leave-one-surface-out", "out-of-sample validation failed"):  # each kind once
+        assert kinds.count(f"'{k}'") <= 1
     # quiet: the summary line alone; verbose: every failed trial on its own line
     quiet = _fit(failing, "--quiet")
     assert len(quiet) == 1 and quiet[0].startswith("fit: 16 trials")
     verbose = _fit(failing, "--verbose")
-    assert sum(ln.startswith("warning: fit failed: s") for ln in verbose) >= 8
+    assert sum(ln.startswith("warning: error negative-p0 (paper model) s") for ln in verbose) == 8
     assert len(verbose) > len(lines)
