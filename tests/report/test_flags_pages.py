@@ -50,21 +50,22 @@ def test_failed_trials_and_fit_failures_are_flagged_and_get_a_page(results):
     store = ResultsStore(results)
     tid = store.trial_ids()[3]
     store.write_failure(tid, "ValueError: video truncated at frame 12", {})
-    from fingerfriction.pipeline import fit
+    from fingerfriction.study.fitting import fit
 
     fit(results, progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # mu at its bound
     rep = make_report(results, sample=0)
     codes = {(f["level"], f["code"]) for f in rep.flags}
-    assert ("error", "analysis-failed") in codes and ("warning", "mu-at-bound") in codes
+    # the fit records its own flags (fit.json): mu at the edge of the paper model's grid
+    assert ("error", "analysis-failed") in codes and ("error", "mu-at-grid-edge") in codes
     assert rep.flags[0]["level"] == "error"  # most serious first
-    assert flagged_trials(rep.flags) == [tid]  # mu-at-bound is about a subject, not a trial
+    assert flagged_trials(rep.flags) == [tid]  # mu-at-grid-edge is about a subject, not a trial
     assert set(rep.pages) == {tid}
     page = rep.pages[tid].read_text()
     assert "Not analysed: ValueError: video truncated at frame 12" in page
     html = rep.html.read_text()
     assert f'href="trials/{tid}.html"' in html  # from the warnings block and the failed-trials table
     groups = {g["code"]: g for g in group_flags(rep.flags)}
-    assert groups["mu-at-bound"]["count"] == 2 and groups["mu-at-bound"]["n_trials"] == 0
+    assert groups["mu-at-grid-edge"]["count"] == 2 and groups["mu-at-grid-edge"]["n_trials"] == 0
 
 
 def test_choose_pages_flagged_plus_an_even_sample(results):

@@ -152,7 +152,7 @@ def test_demo_report_in_headless_chromium(demo_report, tmp_path):
 
 
 @pytest.mark.slow
-def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, synthetic_results, tmp_path):
+def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp_path):
     exe = _chromium()
     results, _ = demo_report
     # a fit the fit itself flags: mu's grid stops below the subject's minimum (mu at its bound)
@@ -162,10 +162,16 @@ def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, syn
     assert r.exit_code == 0, r.output
     rep = make_report(flagged, sample=0, animations=False)
     got = _probe(exe, rep.html, tmp_path / "p1")
-    assert got["warnings"] and "mu-at-bound" in got["warnings_text"]
-    # the synthetic results: every fit succeeds with mu inside its grid, nothing flagged
+    assert got["warnings"] and "mu-at-grid-edge" in got["warnings_text"]
+    # synthetic results with the start transient of real slides: both models fit every
+    # trial with their parameters inside their bounds, nothing is flagged
+    from report_synthetic import write_synthetic_results
+
+    from fingerfriction.study.fitting import fit
+
     clean = tmp_path / "clean"
-    shutil.copytree(synthetic_results[0], clean)
+    write_synthetic_results(clean, transient_mm=0.8)
+    fit(clean, progress=False)
     rep = make_report(clean, sample=0, animations=False)
     assert not [f for f in rep.flags if f["level"] != "info"], rep.flags
     got = _probe(exe, rep.html, tmp_path / "p2")

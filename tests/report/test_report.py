@@ -227,7 +227,7 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
     summary = html[html.index("<h2>Summary</h2>"):html.index("</ul>", html.index("<h2>Summary</h2>"))]
     assert summary.count("at the end of the search grid [0.3, 0.5]") == 2
     # and in the warnings block at the top, once per subject
-    assert [f["subject"] for f in rep.flags if f["code"] == "mu-at-bound"] == ["1", "2"]
+    assert [f["subject"] for f in rep.flags if f["code"] == "mu-at-grid-edge"] == ["1", "2"]  # the fit's flag
     assert html.index('id="warnings"') < html.index("<h2>Summary</h2>")
 
 

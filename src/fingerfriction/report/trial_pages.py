@@ -195,6 +195,17 @@ def _animation(t: TrialData, data: ReportData, study, tmp_dir: Path, max_frames:
     return base64.b64encode(blob).decode("ascii"), None
 
 
+#: Columns of ``fit/trials.csv`` shown on a trial page (those present), in order.
+_FIT_COLUMNS = ("model", "mu", "p0", "p1", "p1_se", "inset_mm", "kappa_per_mm", "footing", "objective",
+                "success", "message")
+
+
+def _cell(v) -> str:
+    if isinstance(v, float):
+        return "" if v != v else f"{v:.4g}"
+    return "" if v is None else str(v)
+
+
 def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str], out_dir: Path, *,
                       animations: bool = True, max_frames: int = 40, progress=None) -> dict[str, Path]:
     """Write the pages of ``trial_ids`` into ``out_dir`` (``report/trials``).
@@ -210,9 +221,11 @@ def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str],
     by_id = {t.id: t for t in data.trials}
     failed = dict(data.failed)
     labels = {m["id"]: m for m in data.run.get("trials", [])}
-    fit_rows = {}
+    fit_rows: dict = {}
     if data.fit_trials is not None:
-        fit_rows = {r["trial"]: r for r in data.fit_trials.to_dict("records")}
+        cols = [c for c in _FIT_COLUMNS if c in data.fit_trials.columns]
+        for r in data.fit_trials.to_dict("records"):
+            fit_rows.setdefault(r["trial"], []).append({c: _cell(r.get(c)) for c in cols})
     written = {}
     order = list(trial_ids)
     for i, tid in enumerate(order):
