@@ -1,9 +1,15 @@
-"""Wall time of `fingerfriction analyze` on the full study, and the speed-up of 2 workers
-over 1.
+"""Wall time of `fingerfriction analyze` on the full study, the speed-up of 2 workers
+over 1, and the CPU time of `fingerfriction report` on the analysed and fitted study.
 
 Usage::
 
     python benchmarks/study.py [--study DIR] [--speedup-trials N] [--out DIR]
+    python benchmarks/study.py --report-only RESULTS   # fit (if needed) + report of a copy
+
+The report is measured on the results this run analysed (then fitted), or with
+``--report-only`` on a copy of an analysed results folder (nothing is written into it):
+CPU seconds of the process writing it (figures, tables, trial pages with their
+animations, the HTML), target under 60 s for the 180-trial study.
 
 The study is, in order of preference: ``--study``; ``/work/studies/full`` (the paper's
 180 trials, written by ``fingerfriction simulate``); the largest study found under
@@ -93,6 +99,29 @@ def _cpu() -> float:
     return s.ru_utime + s.ru_stime + c.ru_utime + c.ru_stime
 
 
+def report_timing(results: Path) -> None:
+    """Fit ``results`` if it is not fitted, then time its report; print both."""
+    from fingerfriction.report import make_report
+    from fingerfriction.study.fitting import fit
+
+    if not (results / "fit" / "fit.json").is_file():
+        c0, t0 = time.process_time(), time.perf_counter()
+        fs = fit(results, progress=False)
+        print(f"fit: {fs.n_trials} trials, {fs.n_failed} failed, {time.perf_counter() - t0:.1f} s wall, "
+              f"{time.process_time() - c0:.1f} s CPU (this process)")
+    c0, t0 = time.process_time(), time.perf_counter()
+    rep = make_report(results)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    flagged = {f["trial"] for f in rep.flags if f["trial"] and f["level"] in ("error", "warning")}
+    n = rep.n_trials + rep.n_failed
+    print(f"report of {n} trials: {cpu:.1f} s CPU ({wall:.1f} s wall), {len(rep.pages)} trial pages "
+          f"({len(flagged & set(rep.pages))} of {len(flagged)} flagged trials + "
+          f"{len(set(rep.pages) - flagged)} sampled), {len(rep.files)} files")
+    if n >= PAPER_TRIALS:
+        print(f"180-trial report: {cpu:.1f} s CPU (target < 60 s CPU: {'met' if cpu < 60 else 'NOT met'}; "
+              f"pages for every flagged trial: {'yes' if flagged <= set(rep.pages) else 'NO'})")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--study")
@@ -103,9 +132,20 @@ def main(argv=None) -> int:
                          "simulated studies with --position cf-centroid)")
     ap.add_argument("--position", default="hybrid", choices=("hybrid", "cf-centroid", "chord"),
                     help="x(t) estimator (default: hybrid, the pipeline's)")
+    ap.add_argument("--report-only", metavar="RESULTS",
+                    help="only fit (if needed) and report a copy of this analysed results folder")
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.report_only:
+        tmp = Path(tempfile.mkdtemp(prefix="ff-bench-", dir=out))
+        try:
+            shutil.copytree(args.report_only, tmp / "results")
+            print(f"results: {args.report_only} (copied); load average {os.getloadavg()[0]:.1f}")
+            report_timing(tmp / "results")
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+        return 0
     study, origin = find_study(args.study, out)
     n = _n_trials(study)
     simulated = (study / "truth").is_dir()
@@ -146,6 +186,7 @@ def main(argv=None) -> int:
         idle = (max(tcpu, cpu) / max(n, 1) * PAPER_TRIALS + (wall - res.compute_s) * workers) / workers
         print(f"180-trial study on {workers} otherwise idle cores, from CPU time (+ start-up): about "
               f"{idle:.0f} s = {idle / 60:.2f} min")
+        report_timing(tmp / "all")
 
         # 2. speed-up of 2 workers over 1 on the same trials
         ids = [t["id"] for t in json.loads((study / "manifest.json").read_text())["trials"]]

@@ -13,7 +13,7 @@ def test_demo_small_design_end_to_end_and_resumed(tmp_path):
     r = CliRunner().invoke(app, args)
     assert r.exit_code == 0, r.output
     assert "Table 1" in r.output and "Tactile blind spots" in r.output
-    assert "subject 1, load-consistent model (default): mu =" in r.output
+    assert "demo: 1 trial," in r.output and "load model: mu 0." in r.output  # the summary line
     assert "1 computed, 0 already done, 0 failed" in r.output
     assert (tmp_path / "demo" / "results" / "report" / "index.html").is_file()
     assert (tmp_path / "demo" / "study" / "manifest.json").is_file()

@@ -30,8 +30,7 @@ def test_fit_and_report_on_a_results_folder(tmp_path):
     write_synthetic_results(tmp_path / "r", truth_dir=tmp_path / "study" / "truth")
     r = runner.invoke(app, ["fit", str(tmp_path / "r")])
     assert r.exit_code == 0, r.output
-    assert "subject 1, load-consistent model (default): mu =" in r.output
-    assert "subject 1, paper model: mu =" in r.output and "16 trials fitted" in r.output
+    assert "fit: 16 trials, both models, load the default, mu 0." in r.output and "(subject 1)" in r.output
     r = runner.invoke(app, ["report", str(tmp_path / "r")])
     assert r.exit_code == 0, r.output
     assert "Table 1" in r.output and "blind spots" in r.output and "index.html" in r.output

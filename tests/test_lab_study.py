@@ -93,7 +93,7 @@ def test_init_analyze_fit_on_lab_files(analysed):
         np.testing.assert_array_equal(xa, pd.read_parquet(b / "frames.parquet")["x_mm"])
     code, out = _run("fit", base / "lab-results")
     assert code == 0, out
-    assert "8 trials fitted" in out
+    assert "fit: 8 trials," in out
     fitted = pd.read_csv(base / "lab-results" / "fit" / "trials.csv")
     assert sorted(set(fitted["trial"])) == sorted(t["id"] for t in entries.values())
     assert set(fitted["model"]) == {"load", "paper"}  # one row per trial and model

@@ -262,6 +262,9 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
         assert fr["x_mm"].min() < -2 and fr["x_mm"].max() > 2  # across the feature
         assert (fr["n_regions"][tracked] > 0).all()
         assert fr["flag"][~tracked].str.len().min() > 0
+        # which estimator gave each frame's x(t): the hybrid's chord or an outline edge
+        assert set(fr["x_source"][tracked]) <= {"chord", "left-edge", "right-edge"}
+        assert (fr["x_source"][tracked] == "chord").any() and (fr["x_source"][~tracked] == "").all()
         assert np.diff(fo["x_mm"]).min() > 0 and np.isfinite(fo["F_T_N"]).all()
         # the paper's 26 mm window, covered by x(t) itself (hybrid): nothing extrapolated
         assert fo["x_mm"].iloc[0] == pytest.approx(-13.0) and fo["x_mm"].iloc[-1] == pytest.approx(13.0)
@@ -465,6 +468,15 @@ def test_analyze_command_interrupted_by_ctrl_c_then_resumed(tiny_study, tmp_path
         assert _fingerprint(out, tid) == before[tid]
 
 
+def test_frames_table_keeps_the_position_source():
+    frames = frames_table(np.zeros(3), [np.nan, 1.0, 2.0], np.full((3, 1, 2), np.nan),
+                          x_source=["", "chord", "left-edge"])
+    assert list(frames["x_source"]) == ["", "chord", "left-edge"]
+    assert "x_source" not in frames_table(np.zeros(3), np.zeros(3), np.full((3, 1, 2), np.nan)).columns
+    with pytest.raises(ValueError, match="x_source has 2 entries but t_s has 3"):
+        frames_table(np.zeros(3), np.zeros(3), np.full((3, 1, 2), np.nan), x_source=["", ""])
+
+
 @pytest.mark.slow
 def test_force_history_is_stored_and_shown_in_the_run_record(clean_results):
     """Every step of the force processing, with its fitted values, is in each trial's
@@ -483,7 +495,7 @@ def test_force_history_is_stored_and_shown_in_the_run_record(clean_results):
     assert "sensor high-pass inverted at 5 Hz (first order)" in page
     assert "residual drift fitted through the compensation on the rests" in page
     assert "{&#39;step&#39;" not in page and "{'step'" not in page  # readable lines, not dict text
-    assert "<td>forces.lowpass_hz</td><td>500</td>" in page  # parameters one per row
+    assert "<td>forces</td><td>lowpass_hz</td><td>500</td>" in page  # parameters one per row
 
 
 @pytest.mark.slow

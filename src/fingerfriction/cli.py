@@ -20,6 +20,7 @@ from rich.table import Table
 
 from . import __version__
 from ._cli_help import readable_help_types
+from ._console import console_log, one_line, summary_line
 from ._outputs import check_output_dir, output_dir, output_file
 from .surfaces import surface_from_spec
 
@@ -53,6 +54,63 @@ def _finger_file(path: str | None = None, items: list[str] | None = None):
         return finger_file.read_subject_fingers(items) if path is None else finger_file.read_finger_file(path)
     except ValueError as exc:
         fail(str(exc))
+
+
+# ---------------------------------------------------------------------------------------
+# the console of the long commands: --verbose / --quiet, grouped warnings, one summary line
+# ---------------------------------------------------------------------------------------
+
+VERBOSE = typer.Option(False, "--verbose", "-v", help="Show every log record and every failure as it comes.")
+QUIET = typer.Option(False, "--quiet", "-q", help="Print only the summary line.")
+
+
+def _verbosity(verbose: bool, quiet: bool) -> int:
+    """-1 quiet, 0 normal, 1 verbose."""
+    if verbose and quiet:
+        fail("--verbose and --quiet exclude each other")
+    return 1 if verbose else -1 if quiet else 0
+
+
+def _show_progress(verbosity: int) -> bool:
+    """Progress bars on an interactive terminal only: in a log file they are noise."""
+    return verbosity >= 0 and err_console.is_terminal
+
+
+def _echo(text: str) -> None:
+    err_console.print(escape(text), highlight=False, soft_wrap=True)
+
+
+def _warn(text: str) -> None:
+    err_console.print(f"[yellow]warning:[/] {escape(text)}", highlight=False, soft_wrap=True)
+
+
+def _grouped_failures(failures, what: str, verbosity: int, label_of=None) -> None:
+    """Failures as one warning line per group (a subject, or all), with a count and one
+    example; every failure with ``--verbose``; nothing with ``--quiet``."""
+    failures = list(failures)
+    if verbosity < 0 or not failures:
+        return
+    if verbosity > 0:
+        for tid, reason in failures:
+            _warn(f"{what} failed: {tid}: {one_line(reason, 300)}")
+        return
+    groups: dict = {}
+    for tid, reason in failures:
+        groups.setdefault(label_of(tid) if label_of else "", []).append((tid, reason))
+    for label, items in groups.items():
+        tid, reason = items[0]
+        head = f"{label}: " if label else ""
+        _warn(f"{head}{len(items)} {what} failure{'s' if len(items) != 1 else ''} "
+              f"(e.g. {tid}: {one_line(reason, 120)})")
+
+
+def _n(count: int, noun: str) -> str:
+    """'1 trial', '2 trials'."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
+def _summary(text: str) -> None:
+    console.print(escape(text), highlight=False, soft_wrap=True)
 
 
 # ---------------------------------------------------------------------------------------
@@ -90,11 +148,15 @@ def demo(
     subjects: str = typer.Option(None, hidden=True, help="Comma-separated subjects (a smaller design)."),
     surfaces: str = typer.Option(None, hidden=True, help="Comma-separated surfaces (a smaller design)."),
     speeds: str = typer.Option(None, hidden=True, help="Comma-separated speeds in mm/s (a smaller design)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Simulate the built-in default study, analyze it, fit the model, write the report;
     print Table 1 and the blind-spot table."""
     from .demo import demo as run_demo  # heavy (every stage); imported when the command runs
+    from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
+    verbosity = _verbosity(verbose, quiet)
     try:
         design = {}
         for key, val in (("subjects", _csv(subjects)), ("surfaces", _csv(surfaces))):
@@ -107,20 +169,24 @@ def demo(
                 raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
                     from None
         output_dir(out, owns={"study", "results"}, what="demo folder (study/, results/)")
-        res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers, progress=True, design=design)
+        with console_log(verbosity, _echo) as log:
+            res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers,
+                           progress=_show_progress(verbosity), design=design)
     except (ValueError, OSError) as exc:
         fail(str(exc))
     a, f = res.analysis, res.fit
-    _print_failures(a.failures)
-    _print_tables(res.report)
-    for line in f.lines:  # one line per subject and model, flags grouped (never one per trial)
-        console.print(line, highlight=False, soft_wrap=True)
+    _grouped_failures(a.failures, "analysis", verbosity)
+    _fit_warnings(f, ResultsStore(res.results), verbosity)
+    if verbosity >= 0:
+        _print_tables(res.report)
     t = res.elapsed_s
-    console.print(
-        f"{a.n_trials} trials: simulate {t['simulate']:.0f} s, analyze {t['analyze']:.0f} s "
-        f"({a.n_computed} computed, {a.n_skipped} already done, {a.n_failed} failed), fit {t['fit']:.0f} s, "
-        f"report {t['report']:.0f} s; total {sum(t.values()):.0f} s", highlight=False)
-    console.print(f"report: {res.report.html}", highlight=False)
+    _summary(summary_line(
+        "demo", [_n(a.n_trials, "trial"), f"simulate {t['simulate']:.0f} s",
+                 f"analyze {t['analyze']:.0f} s ({a.n_computed} computed, {a.n_skipped} already done, "
+                 f"{a.n_failed} failed)", f"fit {t['fit']:.0f} s ({f.n_failed} failed, {f.model} model: mu "
+                 + ", ".join(f"{m:.2f} (subject {s})" for s, m in f.mu.items()) + ")",
+                 f"report {t['report']:.0f} s ({_n(len(res.report.pages), 'trial page')})"],
+        elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
 
 
 # ---------------------------------------------------------------------------------------
@@ -234,6 +300,8 @@ def simulate_cmd(
         typer.Option("--finger-seed", help="Draw the other subjects' fingers around the calibrated ones "
                      "(radius, modulus, flat length +-25 %) with this seed."),
     ] = None,
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Simulate recordings (video + force sensor) of the paper's study with known ground truth."""
     from .sim import (  # heavy (video encoder, mechanics); when the command runs
@@ -266,11 +334,13 @@ def simulate_cmd(
         opts = SimOptions(**kw)
     except ValueError as exc:
         fail(str(exc))
+    verbosity = _verbosity(verbose, quiet)
     t0 = time.perf_counter()
     with Progress(
         TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-        TextColumn("{task.fields[label]}"), console=console, transient=False,
-    ) as prog:
+        TextColumn("{task.fields[label]}"), console=err_console, transient=False,
+        disable=not _show_progress(verbosity),
+    ) as prog, console_log(verbosity, _echo) as log:
         tasks: dict = {}
 
         def report(stage: str, done: int, total: int, label: str) -> None:
@@ -284,11 +354,9 @@ def simulate_cmd(
         except (ValueError, OSError) as exc:
             prog.stop()
             fail(str(exc))
-    dt = time.perf_counter() - t0
-    console.print(
-        f"[green]wrote[/] {len(study.trials)} trials to {out}/manifest.json in {dt:.1f} s "
-        f"(ground truth in {out}/truth/)"
-    )
+    _summary(summary_line("simulate", [_n(len(study.trials), "trial") + " written",
+                                       f"ground truth in {out}/truth/"],
+                          elapsed_s=time.perf_counter() - t0, output=f"{out}/manifest.json", log=log))
 
 
 # ---------------------------------------------------------------------------------------
@@ -401,14 +469,6 @@ def forces_cmd(
 # ---------------------------------------------------------------------------------------
 
 
-def _print_failures(failures, what: str = "trial", limit: int | None = None) -> None:
-    failures = list(failures)
-    for tid, reason in failures[:limit]:
-        err_console.print(f"[red]{what} failed[/] {tid}: {reason}", highlight=False, soft_wrap=True)
-    if limit is not None and len(failures) > limit:
-        err_console.print(f"... and {len(failures) - limit} more {what} failures", highlight=False)
-
-
 @app.command("analyze")
 def analyze_cmd(
     study: str = typer.Argument(..., help="Study folder (with manifest.json)."),
@@ -428,6 +488,8 @@ def analyze_cmd(
     dry_run: bool = typer.Option(False, "--dry-run", help="List the trials that would be computed and why "
                                  "(new, input changed, manifest entry changed, parameters changed); run "
                                  "and write nothing."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Every trial through video analysis and force processing, in parallel (resumable).
 
@@ -445,11 +507,13 @@ def analyze_cmd(
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
+        verbosity = _verbosity(verbose, quiet)
         if dry_run:
             plan = plan_analysis(study, out, params=params, force=force)
         else:
-            res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force, progress=True,
-                          params=params)
+            with console_log(verbosity, _echo) as log:
+                res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force,
+                              progress=_show_progress(verbosity), params=params)
     except StudyCheckError as exc:
         _print_problems(exc.problems)
         fail(f"{len(exc.problems)} problem(s) in the manifest; nothing was run")
@@ -461,11 +525,12 @@ def analyze_cmd(
         console.print(f"would compute {len(plan.todo)} and skip {len(plan.skipped)} of {len(plan.trials)} "
                       "trials; nothing was run or written", highlight=False)
         return
-    _print_failures(res.failures)
-    console.print(
-        f"{res.n_computed} computed, {res.n_skipped} already done, {res.n_failed} failed "
-        f"of {res.n_trials} trials in {res.elapsed_s:.1f} s ({res.scheduler}, {res.n_workers} workers) "
-        f"-> {res.results}", highlight=False)
+    _grouped_failures(res.failures, "analysis", verbosity)
+    _summary(summary_line(
+        "analyze", [f"{res.n_computed} computed", f"{res.n_skipped} already done",
+                    f"{res.n_failed} failed of {_n(res.n_trials, 'trial')}",
+                    f"{res.scheduler} scheduler, {res.n_workers} workers"],
+        elapsed_s=res.elapsed_s, output=str(res.results), log=log))
 
 
 def _print_problems(problems) -> None:
@@ -503,18 +568,72 @@ def fit_cmd(
     mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid."),
     median: int = typer.Option(11, help="Median filter window on the models, samples (odd; 1 = off)."),
     seed: int = typer.Option(0, help="Seed of the bootstrap confidence intervals."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
     """Both model variants: mu per subject, per-trial parameters, Table 1 with CIs, flags."""
     from .study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
     from .study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
+    verbosity = _verbosity(verbose, quiet)
+    t0 = time.perf_counter()
     try:
-        res = fit(results, model=model, mu_grid=(mu_min, mu_max, mu_step), method=method,
-                  median_kernel=median, progress=True, seed=seed)
+        with console_log(verbosity, _echo) as log:
+            res = fit(results, model=model, mu_grid=(mu_min, mu_max, mu_step), method=method,
+                      median_kernel=median, progress=_show_progress(verbosity), seed=seed)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    for line in res.console_lines(ResultsStore(results)):
-        console.print(line, highlight=False, soft_wrap=True)
+    store = ResultsStore(results)
+    _fit_warnings(res, store, verbosity)
+    _summary(summary_line("fit", _fit_facts(res), elapsed_s=time.perf_counter() - t0,
+                          output=str(store.fit_dir), log=log))
+
+
+def _fit_facts(res) -> list[str]:
+    """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
+    n_err = sum(f.level == "error" for f in res.flags)
+    mu = ", ".join(("not measured" if m != m else f"{m:.3f}")
+                   + (f" [{res.mu_ci[s][0]:.3f}, {res.mu_ci[s][1]:.3f}]"
+                      if s in res.mu_ci and all(v == v for v in res.mu_ci[s]) else "")
+                   + f" (subject {s})" for s, m in res.mu.items())
+    val = ("validated (leave one surface out)" if res.loso is not None
+           else f"not validated: {res.loso_message}")
+    return [_n(res.n_trials, "trial"), f"both models, {res.model} the default", f"mu {mu}",
+            f"{res.n_failed} failed", f"{n_err} error flags, {len(res.flags) - n_err} warnings", val]
+
+
+def _fit_warnings(res, store, verbosity: int) -> None:
+    """One warning line per subject: its flags of both models grouped by kind, each with a
+    count and one example (with --verbose: each subject's and model's summary line and every
+    flag); trials that could not be prepared for the fit, one line."""
+    if verbosity < 0:
+        return
+    unread = [(t, r) for t, r in res.failures if not any(f.trial == t for f in res.flags)]
+    if verbosity > 0:
+        for line in res.lines:
+            _echo(line)
+        for f in res.flags:
+            where = f.trial or (f"subject {f.subject}" if f.subject else "study")
+            _warn(f"{f.level} {f.code} ({f.model} model) {where}: {one_line(f.message, 300)}")
+        for tid, reason in unread:
+            _warn(f"not fitted: {tid}: {one_line(reason, 300)}")
+        return
+    if unread:
+        _warn(f"{_n(len(unread), 'trial')} could not be prepared for the fit (e.g. {unread[0][0]}: "
+              f"{one_line(unread[0][1], 100)})")
+    by_subject: dict = {}
+    for f in res.flags:
+        if f.level in ("error", "warning"):
+            by_subject.setdefault(f.subject or "", {}).setdefault((f.model, f.code), []).append(f)
+    for subj, groups in by_subject.items():
+        parts = []
+        for (model, code), fs in groups.items():
+            n_tr = len({f.trial for f in fs if f.trial})
+            first = fs[0]
+            where = f"{first.trial}: " if first.trial else ""
+            parts.append(f"{model} model {code}" + (f" in {_n(n_tr, 'trial')}" if n_tr else "")
+                         + f" (e.g. {where}{one_line(first.message, 90)})")
+        _warn((f"subject {subj}: " if subj else "") + "; ".join(parts))
 
 
 def _print_tables(rep) -> None:
@@ -556,18 +675,40 @@ def _print_tables(rep) -> None:
 @app.command("report")
 def report_cmd(
     results: str = typer.Argument(..., help="Results folder (after analyze; fit for Fig. 6/S3, Table 1)."),
+    sample: int = typer.Option(6, "--sample", min=0,
+                               help="Trial pages for every flagged trial and this many of the others."),
+    all_trials: bool = typer.Option(False, "--all-trials", help="A page for every trial."),
+    animations: bool = typer.Option(True, "--animations/--no-animations",
+                                    help="Overlay animation on each trial page (needs the study's videos)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
 ) -> None:
-    """Figures (PNG, SVG), Table 1, blind-spot table and a self-contained HTML report."""
+    """Figures (PNG, SVG), Table 1, blind-spot table, a self-contained HTML report and a page
+    per flagged (and sampled) trial."""
     from .report import make_report  # heavy (matplotlib, jinja2); imported when the command runs
 
+    verbosity = _verbosity(verbose, quiet)
+    t0 = time.perf_counter()
     try:
-        rep = make_report(results, progress=True)
+        with console_log(verbosity, _echo) as log:
+            rep = make_report(results, progress=_show_progress(verbosity),
+                              sample=None if all_trials else sample, animations=animations)
     except (ValueError, OSError) as exc:
         fail(str(exc))
-    _print_tables(rep)
-    for note in rep.notices:  # e.g. not fitted: said before the path, as at the top of the page
-        console.print(f"[bold yellow]note:[/] {note}", highlight=False, soft_wrap=True)
-    console.print(f"report: {rep.html}  ({len(rep.files)} files)", highlight=False)
+    if verbosity >= 0:
+        _print_tables(rep)
+        for note in rep.notices:  # e.g. not fitted: said before the path, as at the top of the page
+            console.print(f"[bold yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+    kinds: dict = {}
+    for f in rep.flags:
+        if f["level"] != "info":
+            kinds.setdefault(f["code"], []).append(f)
+    flagged = " ".join(f"{c} x{len(v)}" for c, v in kinds.items())
+    _summary(summary_line(
+        "report", [_n(rep.n_trials + rep.n_failed, "trial"), "not fitted" if not rep.fitted else "",
+                   _n(len(rep.pages), "trial page"), f"flags: {flagged}" if flagged else "nothing flagged",
+                   f"{len(rep.files)} files"],
+        elapsed_s=time.perf_counter() - t0, output=str(rep.html), log=log))
 
 
 # ---------------------------------------------------------------------------------------

@@ -32,10 +32,13 @@ def _regions(x: np.ndarray, gap: tuple[float, float]) -> np.ndarray:
     return reg
 
 
-def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: dict | None = None) -> dict:
+def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: dict | None = None,
+                            transient_mm: float | None = None) -> dict:
     """Write a results folder; return the true per-trial parameters and blind spots.
 
-    ``subjects`` (subject -> mu) defaults to :data:`SUBJECTS`.
+    ``subjects`` (subject -> mu) defaults to :data:`SUBJECTS`. ``transient_mm``: add to the
+    absolute tangential force the start transient real slides show (a friction ratio 0.15
+    higher at the window's start, decaying over this length in mm).
     """
     rng = np.random.default_rng(seed)
     rng_abs = np.random.default_rng(seed + 1000)  # the absolute footing's own draws
@@ -71,8 +74,11 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
                     # force of the same constant pressure (the vertical resultant of Eq. 2)
                     S, K, _ = FrictionModel(surf).integrals(rv[idx]).T
                     F_N = p.p0 * (K - mu * S) + 0.001 * rng_abs.standard_normal(xg.size)
+                    F_T_abs = F + F_abs[:200].mean()
+                    if transient_mm:
+                        F_T_abs = F_T_abs + 0.15 * F_N * np.exp(-(xg - xg[0]) / transient_mm)
                     forces = pd.DataFrame({"x_mm": xg, "F_T_N": F, "F_N_N": np.full(xg.size, 0.0),
-                                           "F_T_abs_N": F + F_abs[:200].mean(), "F_N_abs_N": F_N,
+                                           "F_T_abs_N": F_T_abs, "F_N_abs_N": F_N,
                                            "n_samples": np.ones(xg.size, dtype=np.int64)})
                     store.write_trial(tid, frames, forces, {"params_sha256": "synthetic", "inputs": {},
                                                            "elapsed_s": 0.0})
@@ -84,7 +90,9 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
             {"subjects": {s: {"mu": mu} for s, mu in subjects.items()}}))
     store.write_run({
         "study": str(truth_dir.parent) if truth_dir is not None else "synthetic",
-        "parameters": {"video": {}, "forces": {}}, "params_sha256": "synthetic",
+        "parameters": {"video": {"contact_tol_px": 3.0, "position": "hybrid"},
+                       "forces": {"notch_hz": [50.0, 150.0, 300.0], "flat_segment_mm": None}},
+        "params_sha256": "synthetic",
         "versions": {"fingerfriction": "test"},
         "surfaces": {s: get_surface(s).to_dict() for s in SURFACES},
         "trials": trials,

@@ -1,32 +1,53 @@
-"""The HTML report opened in a real browser (headless Chromium) shows its figures.
+"""The HTML report opened in a real browser (headless Chromium): checked in the DOM.
 
-Chromium comes from Debian's ``chromium`` package; ``.ci/run`` installs it. When it is
-missing this test FAILS (it is part of the acceptance), it does not skip. The screenshot
-is kept in ``tests/artifacts/`` (gitignored) for a person to look at.
+On the report of a small demo (simulated videos, analysed, fitted): every ``<img>``
+decodes (naturalWidth > 0); the links to the trial pages resolve; a trial page shows its
+animation and its three plots; the warnings block is there when a fit is flagged and
+absent when nothing is. Screenshots of the top of the report and of a trial page are kept
+in ``tests/artifacts/`` (gitignored) for a person to look at.
+
+Chromium comes from Debian's ``chromium`` package; ``make test`` installs it when run as
+root (``.ci/run``). When it is missing this test FAILS (it is part of the acceptance), it
+does not skip.
 """
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 import subprocess
 from pathlib import Path
+from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+from fingerfriction.cli import app
 from fingerfriction.report import make_report
 from fingerfriction.report.figures import FIGURES
 
 CHROMIUM = "/usr/bin/chromium"
 ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
 
+#: Runs after load: writes what the DOM holds into attributes of <body> (read from --dump-dom).
 _PROBE = """<script>
 window.addEventListener('load', function () {
   var imgs = Array.prototype.slice.call(document.images);
-  var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 100 && i.naturalHeight > 100; });
-  document.body.setAttribute('data-images-total', String(imgs.length));
-  document.body.setAttribute('data-images-loaded', String(ok.length));
+  var ok = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0 && i.naturalHeight > 0; });
+  var links = Array.prototype.slice.call(document.querySelectorAll('a.trial-link')).map(
+      function (a) { return a.href; });
+  var plots = Array.prototype.slice.call(document.querySelectorAll('img.plot')).filter(
+      function (i) { return i.naturalWidth > 0; });
+  var anim = document.getElementById('animation');
+  var warn = document.getElementById('warnings');
+  var out = {images_total: imgs.length, images_decoded: ok.length, links: links,
+             warnings: !!warn, warnings_text: warn ? warn.innerText : '',
+             plots_decoded: plots.length,
+             animation: anim ? {w: anim.naturalWidth, h: anim.naturalHeight, src: anim.src.slice(0, 20)}
+                             : null};
+  document.body.setAttribute('data-probe', JSON.stringify(out));
 });
 </script>
 """
@@ -37,7 +58,8 @@ def _chromium() -> str:
     if not exe:
         pytest.fail(
             "headless Chromium is required for the HTML report test but was not found at /usr/bin/chromium; "
-            "install Debian's package: apt-get update && apt-get install -y chromium (.ci/run does this)"
+            "install Debian's package: apt-get update && apt-get install -y chromium (make test does this as "
+            "root)"
         )
     return exe
 
@@ -45,39 +67,113 @@ def _chromium() -> str:
 def _run(exe: str, profile: Path, *args: str) -> subprocess.CompletedProcess:
     cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
            "--disable-background-networking", "--disable-component-update", "--disable-sync",
-           f"--user-data-dir={profile}", *args]
+           "--allow-file-access-from-files", f"--user-data-dir={profile}", *args]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
 
 
-@pytest.mark.slow
-def test_report_in_headless_chromium(synthetic_results, tmp_path):
-    exe = _chromium()
-    results, _ = synthetic_results
-    rep = make_report(results)
-
-    # 1. every <img> decodes in the browser (naturalWidth > 0), read back from the DOM
-    probe = tmp_path / "probe.html"
-    probe.write_text(rep.html.read_text().replace("</body>", _PROBE + "</body>"))
-    dom = _run(exe, tmp_path / "profile1", "--virtual-time-budget=10000", "--dump-dom", probe.as_uri())
+def _probe(exe: str, page: Path, profile: Path) -> dict:
+    """Load ``page`` (a copy beside it, with the probe script, so relative links resolve
+    the same) in Chromium and return what the probe found in the DOM."""
+    probe = page.with_name(f".probe-{page.name}")
+    probe.write_text(page.read_text().replace("</body>", _PROBE + "</body>"))
+    try:
+        dom = _run(exe, profile, "--virtual-time-budget=15000", "--dump-dom", probe.as_uri())
+    finally:
+        probe.unlink()
     assert dom.returncode == 0, dom.stderr[-2000:]
-    total = re.search(r'data-images-total="(\d+)"', dom.stdout)
-    loaded = re.search(r'data-images-loaded="(\d+)"', dom.stdout)
-    assert total and loaded, "the probe script did not run: " + dom.stdout[:500]
-    assert int(total.group(1)) == len(FIGURES) + 1  # and the leave-one-surface-out figure
-    assert int(loaded.group(1)) == len(FIGURES) + 1
+    m = re.search(r'data-probe="([^"]*)"', dom.stdout)
+    assert m, "the probe script did not run: " + dom.stdout[:500]
+    return json.loads(m.group(1).replace("&quot;", '"').replace("&amp;", "&"))
 
-    # 2. a screenshot a person can look at, and it is not blank
+
+def _screenshot(exe: str, page: Path, profile: Path, name: str, size=(1280, 1600)) -> Path:
     ARTIFACTS.mkdir(exist_ok=True)
-    shot = ARTIFACTS / "report_screenshot.png"
+    shot = ARTIFACTS / name
     shot.unlink(missing_ok=True)
-    res = _run(exe, tmp_path / "profile2", f"--screenshot={shot}", "--window-size=1280,2000",
-               "--hide-scrollbars", rep.html.as_uri())
+    res = _run(exe, profile, f"--screenshot={shot}", f"--window-size={size[0]},{size[1]}",
+               "--hide-scrollbars", page.as_uri())
     assert res.returncode == 0 and shot.is_file(), res.stderr[-2000:]
     from matplotlib.image import imread
 
     img = imread(shot)[..., :3]
-    assert img.shape[:2] == (2000, 1280)
+    assert img.shape[:2] == (size[1], size[0])
     gray = img.mean(axis=2)
-    assert gray.std() > 0.05, f"screenshot looks blank (pixel SD {gray.std():.4f})"
-    dark = float(np.mean(gray < 0.5))
-    assert dark > 0.01, f"almost nothing drawn: {dark:.4f} of pixels are dark"
+    assert gray.std() > 0.05, f"{name} looks blank (pixel SD {gray.std():.4f})"
+    assert float(np.mean(gray < 0.5)) > 0.01, f"{name}: almost nothing drawn"
+    return shot
+
+
+@pytest.fixture(scope="module")
+def demo_report(tmp_path_factory):
+    """A small demo (1 subject, 2 surfaces, 1 speed: 2 simulated trials with videos), its
+    report with a page for every trial."""
+    out = tmp_path_factory.mktemp("demo") / "demo"
+    r = CliRunner().invoke(app, ["demo", "--out", str(out), "--subjects", "1", "--surfaces",
+                                 "bump-2mm,step-up-4mm", "--speeds", "120", "--reps", "1", "--workers", "2"])
+    assert r.exit_code == 0, r.output
+    results = out / "results"
+    return results, make_report(results, sample=None)
+
+
+@pytest.mark.slow
+def test_demo_report_in_headless_chromium(demo_report, tmp_path):
+    exe = _chromium()
+    results, rep = demo_report
+    index = rep.html
+
+    # 1. every <img> of the report decodes in the browser (naturalWidth > 0)
+    got = _probe(exe, index, tmp_path / "p1")
+    n_fig = sum(p.suffix == ".png" and p.parent == index.parent for p in rep.files)
+    n_fig += rep.loso is not None and (results / "fit" / "loso.png").is_file()  # leave one surface out
+    assert n_fig >= len(FIGURES) - 2
+    assert got["images_total"] == got["images_decoded"] == n_fig
+    # the warnings block is there exactly when something is flagged (error or warning)
+    assert got["warnings"] == any(f["level"] in ("error", "warning") for f in rep.flags)
+
+    # 2. the links to the trial pages resolve (URLs as the browser resolved them)
+    assert got["links"], "no link to a trial page"
+    targets = {Path(unquote(urlparse(u).path)) for u in got["links"]}
+    for p in targets:
+        assert p.is_file(), p
+        assert p.parent == index.parent / "trials"
+    assert {p.stem for p in targets} == set(rep.pages)
+
+    # 3. a trial page shows its animation and its three plots, decoded
+    page = rep.pages[sorted(rep.pages)[0]]
+    got = _probe(exe, page, tmp_path / "p2")
+    assert got["animation"] is not None and got["animation"]["src"].startswith("data:image/gif")
+    assert got["animation"]["w"] > 100 and got["animation"]["h"] > 50
+    assert got["plots_decoded"] == 3
+    assert got["images_decoded"] == got["images_total"] == 4
+
+    # 4. screenshots for a person to look at
+    _screenshot(exe, index, tmp_path / "p3", "report_top.png")
+    _screenshot(exe, page, tmp_path / "p4", "report_trial_page.png", size=(1100, 1800))
+
+
+@pytest.mark.slow
+def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp_path):
+    exe = _chromium()
+    results, _ = demo_report
+    # a fit the fit itself flags: mu's grid stops below the subject's minimum (mu at its bound)
+    flagged = tmp_path / "flagged"
+    shutil.copytree(results, flagged)
+    r = CliRunner().invoke(app, ["fit", str(flagged), "--mu-min", "0.30", "--mu-max", "0.32"])
+    assert r.exit_code == 0, r.output
+    rep = make_report(flagged, sample=0, animations=False)
+    got = _probe(exe, rep.html, tmp_path / "p1")
+    assert got["warnings"] and "mu-at-grid-edge" in got["warnings_text"]
+    # synthetic results with the start transient of real slides: both models fit every
+    # trial with their parameters inside their bounds, nothing is flagged
+    from report_synthetic import write_synthetic_results
+
+    from fingerfriction.study.fitting import fit
+
+    clean = tmp_path / "clean"
+    write_synthetic_results(clean, transient_mm=0.8)
+    fit(clean, progress=False)
+    rep = make_report(clean, sample=0, animations=False)
+    assert not [f for f in rep.flags if f["level"] != "info"], rep.flags
+    got = _probe(exe, rep.html, tmp_path / "p2")
+    assert got["warnings"] is False
+    assert got["images_decoded"] == got["images_total"] == len(FIGURES) + 1

@@ -222,5 +222,24 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
 
     write_synthetic_results(tmp_path / "r")
     fit(tmp_path / "r", progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # truth 0.55, 0.60
-    html = make_report(tmp_path / "r").html.read_text()
-    assert html.count("at the end of the search grid [0.3, 0.5]") == 2
+    rep = make_report(tmp_path / "r")
+    html = rep.html.read_text()
+    summary = html[html.index("<h2>Summary</h2>"):html.index("</ul>", html.index("<h2>Summary</h2>"))]
+    assert summary.count("at the end of the search grid [0.3, 0.5]") == 2
+    # and in the warnings block at the top, once per subject
+    assert [f["subject"] for f in rep.flags if f["code"] == "mu-at-grid-edge"] == ["1", "2"]  # the fit's flag
+    assert html.index('id="warnings"') < html.index("<h2>Summary</h2>")
+
+
+def test_run_record_is_a_readable_table(report):
+    rep, results, _ = report
+    html = rep.html.read_text()
+    i = html.index('<section id="record">')
+    rec = html[i:html.index("</section>", i)]
+    for title in ("Study", "Analysis parameters", "Fit", "Versions and platform"):
+        assert title in rec
+    assert "{" not in rec and "'" not in rec.replace("&#39;", "")  # no raw Python dict text
+    assert "<th>stage</th><th>parameter</th><th>value</th>" in rec
+    assert "0.3 to 0.9 by 0.01 (61 values)" in rec
+    assert "<td>forces</td><td>notch_hz</td><td>50, 150, 300</td>" in rec
+    assert "<td>flat_segment_mm</td><td>default</td>" in rec

@@ -66,3 +66,30 @@ def test_cli_overlay(study, tmp_path):
     r = runner.invoke(app, ["overlay", str(study), "t1", "--out", str(tmp_path / "x.avi")])
     assert r.exit_code == 2 and "must end in .mp4 or .gif" in r.output
     assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_write_results_overlay_draws_the_stored_results(study, tmp_path):
+    """From the per-frame table ``analyze`` stores: only the drawn frames are decoded, the
+    regions drawn are the stored ones (here: moved 2 mm, so not what a new analysis finds)."""
+    from fingerfriction.study.store import frames_table
+    from fingerfriction.video import analyze_video
+    from fingerfriction.video.overlay import write_results_overlay
+
+    video = study / "trials" / "t1" / "video.mkv"
+    res = analyze_video(video, 0.4, surface=SURF)
+    frames = frames_table(np.arange(res.n_frames) * 1e-3, res.x, res.regions,
+                          ["calibration frame" if i == 0 else "" for i in range(res.n_frames)])
+    info = write_results_overlay(video, frames, 0.4, tmp_path / "r.gif", surface=SURF)
+    assert info.n_frames == int(np.isfinite(res.x).sum()) == 5  # the finger frames, not the calibration frame
+    with av.open(str(tmp_path / "r.gif")) as c:
+        gif = [f.to_ndarray(format="rgb24") for f in c.decode(video=0)]
+    assert len(gif) == 5 and gif[0].shape == (180, 630, 3)
+    info = write_results_overlay(video, frames, 0.4, tmp_path / "r.mp4", surface=SURF, max_frames=2,
+                                 scale=1.0)
+    assert info.n_frames == 2
+    with pytest.raises(ValueError, match=r"\.mp4 or \.gif"):
+        write_results_overlay(video, frames, 0.4, tmp_path / "r.avi")
+    no_finger = frames.assign(x_mm=np.nan, n_regions=0, **{c: np.nan for c in frames.columns
+                                                           if c[0] in "ab" and c[1:].isdigit()})
+    with pytest.raises(ValueError, match="no frame with the finger"):
+        write_results_overlay(video, no_finger, 0.4, tmp_path / "n.gif", surface=SURF)

@@ -15,7 +15,7 @@ import html
 import logging
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import resources
 from pathlib import Path
@@ -31,15 +31,18 @@ from ..stats import write_table
 from ..study.store import ResultsStore
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
+from .flags import collect_flags, flagged_trials, group_flags
 from .tables import (
     blindspot_table,
     fit_parameter_table,
     loso_table,
+    run_record,
     table1,
     table1_display,
     truth_tables,
     with_formatted_p,
 )
+from .trial_pages import choose_pages, page_href, write_trial_pages
 
 __all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
 
@@ -66,6 +69,11 @@ class ReportResult:
     truth : dict of str to pandas.DataFrame
         Recovered against true parameters (simulated studies).
     n_trials, n_failed : int
+    flags : tuple of dict
+        Everything flagged (:func:`fingerfriction.report.flags.collect_flags`): ``level``,
+        ``code``, ``subject``, ``trial``, ``model``, ``message``.
+    pages : dict of str to Path
+        The trial pages written, by trial id.
     fitted : bool
         Whether the results were fitted (Fig. 6, Fig. S3 and Table 1 need the fit).
     notices : tuple of str
@@ -83,6 +91,8 @@ class ReportResult:
     loso: pd.DataFrame | None = None
     fitted: bool = False
     notices: tuple[str, ...] = ()
+    flags: tuple[dict, ...] = ()
+    pages: dict = field(default_factory=dict)
 
 
 #: Captions of the figures in the HTML report (the figure titles carry the essentials).
@@ -110,37 +120,36 @@ CAPTIONS = {
 }
 
 
-def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}") -> str:
-    def fmt(v):
+def _html_table(df: pd.DataFrame, float_format: str = "{:.3g}", links: dict | None = None) -> str:
+    """An HTML table; cells of a ``trial`` column with a page in ``links`` link to it."""
+    links = links or {}
+
+    def fmt(col, v):
         if isinstance(v, float):
             return "" if v != v else float_format.format(v)
+        if col == "trial" and v in links:
+            return f'<a class="trial-link" href="{html.escape(links[v])}">{html.escape(str(v))}</a>'
         return html.escape(str(v))
 
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
-    body = "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
+    cols = list(df.columns)
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in cols)
+    body = "".join("<tr>" + "".join(f"<td>{fmt(c, v)}</td>" for c, v in zip(cols, row, strict=True)) + "</tr>"
                    for row in df.itertuples(index=False))
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def _parameter_rows(parameters: dict) -> list[tuple[str, str]]:
-    """The run record's analysis parameters as ``(stage.option, value)`` rows."""
+def _trial_table(data: ReportData, flags: list[dict]) -> pd.DataFrame:
+    """One row per trial of the run: labels, status, counts of its flags by level."""
+    status = dict(data.failed)
     rows = []
-    for stage, opts in parameters.items():
-        if isinstance(opts, dict):
-            rows += [(f"{stage}.{k}", _value_text(v)) for k, v in opts.items()]
-        else:
-            rows.append((str(stage), _value_text(opts)))
-    return rows
-
-
-def _value_text(v) -> str:
-    if v is None:
-        return "none"
-    if isinstance(v, (list, tuple)):
-        return ", ".join(_value_text(x) for x in v) if v else "none"
-    if isinstance(v, float):
-        return f"{v:g}"
-    return str(v)
+    for m in data.run.get("trials", []):
+        own = [f for f in flags if f["trial"] == m["id"]]
+        rows.append({"trial": m["id"], "subject": str(m.get("subject", "")), "surface": m.get("surface", ""),
+                     "speed_mm_s": m.get("speed_mm_s"), "status": "failed" if m["id"] in status else "ok",
+                     "errors": sum(f["level"] == "error" for f in own),
+                     "warnings": sum(f["level"] == "warning" for f in own),
+                     "notes": sum(f["level"] == "info" for f in own)})
+    return pd.DataFrame(rows)
 
 
 def _force_history(data: ReportData) -> list[tuple[str, list[str]]]:
@@ -206,22 +215,6 @@ def _mu_rows(fit: dict) -> list[dict]:
     return rows
 
 
-def _fit_warnings(fit: dict) -> list[str]:
-    """The fit's flags, grouped by model and kind: a count and the first example each."""
-    groups: dict[tuple[str, str, str], list[dict]] = {}
-    for f in fit.get("flags") or []:
-        groups.setdefault((f.get("model", ""), f.get("level", ""), f.get("code", "")), []).append(f)
-    out = []
-    for (m, level, code), fs in sorted(groups.items(), key=lambda kv: (kv[0][1] != "error", kv[0])):
-        first = fs[0]
-        where = f"{first['trial']}: " if first.get("trial") else f"subject {first.get('subject')}: "
-        n_trials = sum(1 for f in fs if f.get("trial"))
-        count = f"{n_trials} trial(s)" if n_trials else f"{len(fs)} subject(s)"
-        msg = first.get("message", "")
-        out.append(f"{MODEL_TITLES.get(m, m)} - {level} {code} ({count}), e.g. {where}{msg}")
-    return out
-
-
 def _by_model(df: pd.DataFrame | None, fit: dict, render) -> list[dict]:
     """One block per model of a table with a ``model`` column (the fit's default first)."""
     if df is None:
@@ -239,7 +232,8 @@ def _by_model(df: pd.DataFrame | None, fit: dict, render) -> list[dict]:
     return out
 
 
-def make_report(results: str | os.PathLike, *, progress: bool = False) -> ReportResult:
+def make_report(results: str | os.PathLike, *, progress: bool = False, sample: int | None = 6,
+                animations: bool = True) -> ReportResult:
     """Write the figures, tables and the HTML report of a results folder.
 
     Parameters
@@ -249,6 +243,13 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         ``fit``).
     progress : bool
         Show a progress bar on stderr.
+    sample : int or None
+        Trial pages (``report/trials/<trial-id>.html``) are written for every flagged
+        trial and for this many of the others, spread over the manifest's order (None:
+        every trial).
+    animations : bool
+        Put the overlay animation on each trial page (needs the study's videos; about
+        0.4 s of CPU per page).
 
     Returns
     -------
@@ -264,7 +265,10 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
     out.mkdir(parents=True, exist_ok=True)
     has_fit = data.fit is not None and any(t.model is not None for t in data.trials)
     files: list[Path] = []
-    bar = ProgressBar(progress, len(FIGURES) + 2, "report")
+    flags = collect_flags(data)
+    flagged = flagged_trials(flags)
+    page_ids = choose_pages(data, flagged, sample)
+    bar = ProgressBar(progress, len(FIGURES) + 2 + len(page_ids), "report")
     figures = []
     try:
         for stem, title, fn, needs_fit in FIGURES:
@@ -284,50 +288,17 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
                     if loso is not None and loso_png.is_file() else None)
         bar.advance("tables")
 
-        titles = {"mu": "Friction coefficient per subject",
-                  "blindspots": "Blind-spot widths: video analysis against the simulator's 3-px contact",
-                  "tracking": "Finger position x(t): RMS error against the true finger centre "
-                              "(one constant offset per trial removed)"}
-        env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
-                                 undefined=jinja2.StrictUndefined)
-        template = env.from_string(
-            resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
-        run = data.run
+        pages = write_trial_pages(data, flags, page_ids, out / "trials", animations=animations,
+                                  progress=lambda tid: bar.advance(tid))
+        files += list(pages.values())
+        links = {tid: page_href(tid) for tid in pages}
         notices = []
         if not has_fit:
             notices.append(f"The model is not fitted: Fig. 6, Fig. S3 and Table 1 are left out; run "
                            f"`fingerfriction fit {data.root}` and then this report again.")
-        fit = data.fit or {}
-        ft = data.fit_trials
-        n_neg_p0 = 0
-        if ft is not None:
-            paper_rows = ft[ft["model"] == "paper"] if "model" in ft.columns else ft
-            n_neg_p0 = int((paper_rows["p0"] < 0).sum())
-        page = template.render(
-            notices=notices, mu_rows=_mu_rows(fit), n_neg_p0=n_neg_p0, fit_warnings=_fit_warnings(fit),
-            table1_models=_by_model(t1, fit, lambda d: Markup(_html_table(table1_display(d)))),
-            loso_models=_by_model(loso, fit, lambda d: Markup(_html_table(with_formatted_p(d)))),
-            subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
-            table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
-                         if t1 is not None else None),
-            loso_img=loso_img, captions=CAPTIONS,
-            study_name=Path(run.get("study", "study")).name, study=run.get("study", ""),
-            results=str(data.root),
-            generated=datetime.now(UTC).isoformat(timespec="seconds"),
-            version=(run.get("versions") or {}).get("fingerfriction", "?"),
-            n_ok=len(data.trials), n_trials=len(data.trials) + len(data.failed),
-            subjects=data.subjects, surfaces=data.surface_names,
-            speeds=", ".join(f"{v:g}" for v in data.speeds),
-            has_fit=has_fit, failed=data.failed, notes=data.notes,
-            table1=t1 is not None, loso=loso is not None,
-            loso_calibrated=loso is not None and "rho_out_of_sample_calibrated_finger" in loso.columns,
-            loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
-            blindspots=Markup(_html_table(bs)),
-            truth=[(titles.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
-            params=Markup(_html_table(params)) if params is not None else None,
-            figures=figures, parameters=_parameter_rows(run.get("parameters", {})),
-            versions=run.get("versions", {}), force_history=_force_history(data),
-        )
+        page = _render_index(
+            data, has_fit=has_fit, figures=figures, tables=(t1, loso, bs, truth, params), loso_img=loso_img,
+            flags=flags, flagged=flagged, links=links, n_pages=len(pages), notices=notices)
         atomic_write_text(out / "index.html", page)
         files.append(out / "index.html")
         bar.advance("index.html")
@@ -335,4 +306,64 @@ def make_report(results: str | os.PathLike, *, progress: bool = False) -> Report
         bar.close()
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
                         n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
-                        notices=tuple(notices))
+                        notices=tuple(notices), flags=tuple(flags), pages=pages)
+
+
+#: Titles of the ground-truth tables (simulated studies).
+_TRUTH_TITLES = {"mu": "Friction coefficient per subject",
+                 "blindspots": "Blind-spot widths: video analysis against the simulator's 3-px contact",
+                 "tracking": "Finger position x(t): RMS error against the true finger centre "
+                             "(one constant offset per trial removed)"}
+
+#: Sections of the run record: (key of :func:`.tables.run_record`, title).
+_RECORD = (("study", "Study"), ("parameters", "Analysis parameters"), ("fit", "Fit"),
+           ("runs", "History of analyze runs"), ("versions", "Versions and platform"),
+           ("inputs", "Input files (SHA-256)"))
+
+
+def _render_index(data: ReportData, *, has_fit, figures, tables, loso_img, flags, flagged, links, n_pages,
+                  notices) -> str:
+    """The text of ``index.html``."""
+    t1, loso, bs, truth, params = tables
+    env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
+                             undefined=jinja2.StrictUndefined)
+    template = env.from_string(
+        resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
+    run = data.run
+    record = run_record(data)
+    fit = data.fit or {}
+    ft = data.fit_trials
+    n_neg_p0 = 0
+    if ft is not None:
+        paper_rows = ft[ft["model"] == "paper"] if "model" in ft.columns else ft
+        n_neg_p0 = int((paper_rows["p0"] < 0).sum())
+    return template.render(
+        flag_groups=group_flags(flags), n_flagged=len(flagged), links=links, all_flags=flags,
+        trials_table=Markup(_html_table(_trial_table(data, flags), links=links)),
+        n_pages=n_pages,
+        notices=notices, mu_rows=_mu_rows(fit), n_neg_p0=n_neg_p0,
+        table1_models=_by_model(t1, fit, lambda d: Markup(_html_table(table1_display(d)))),
+        loso_models=_by_model(loso, fit, lambda d: Markup(_html_table(with_formatted_p(d)))),
+        subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),
+        table1_long=(Markup(_html_table(with_formatted_p(t1.drop(columns=["significant"]))))
+                     if t1 is not None else None),
+        loso_img=loso_img, captions=CAPTIONS,
+        study_name=Path(run.get("study", "study")).name, study=run.get("study", ""),
+        results=str(data.root),
+        generated=datetime.now(UTC).isoformat(timespec="seconds"),
+        version=(run.get("versions") or {}).get("fingerfriction", "?"),
+        n_ok=len(data.trials), n_trials=len(data.trials) + len(data.failed),
+        subjects=data.subjects, surfaces=data.surface_names,
+        speeds=", ".join(f"{v:g}" for v in data.speeds),
+        has_fit=has_fit, failed=data.failed, notes=data.notes,
+        table1=t1 is not None, loso=loso is not None,
+        loso_calibrated=loso is not None and "rho_out_of_sample_calibrated_finger" in loso.columns,
+        loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
+        blindspots=Markup(_html_table(bs)),
+        truth=[(_TRUTH_TITLES.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
+        params=Markup(_html_table(params)) if params is not None else None,
+        figures=figures,
+        record=[(title, key, Markup(_html_table(record[key], links=links))) for key, title in _RECORD
+                if key in record],
+        force_history=_force_history(data),
+    )

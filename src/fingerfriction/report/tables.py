@@ -276,3 +276,68 @@ def loso_table(data: ReportData) -> pd.DataFrame | None:
     if out["subject"].nunique() == 2 and BOTH in set(out["subject"]):  # one subject + its copy
         out = out[out["subject"] != BOTH].reset_index(drop=True)
     return out
+
+
+def _value(v) -> str:
+    """A parameter value as people read it: lists joined, None as 'default', floats short."""
+    if v is None:
+        return "default"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return f"{v:g}"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_value(x) for x in v)
+    if isinstance(v, dict):
+        return "; ".join(f"{k} = {_value(x)}" for k, x in v.items())
+    return str(v)
+
+
+def run_record(data: ReportData) -> dict[str, pd.DataFrame]:
+    """The run record (``run.json``, ``fit/fit.json``) as readable tables.
+
+    Returns ``{"study", "parameters", "fit", "versions", "runs", "inputs"}`` (those that
+    exist): the study and its manifest hash; every analysis parameter by stage; the fit's
+    settings; package versions and platform; the history of ``analyze`` runs; each
+    trial's input files with their SHA-256.
+    """
+    run = data.run
+    out: dict[str, pd.DataFrame] = {}
+    rows = [("study", run.get("study")), ("manifest SHA-256", run.get("manifest_sha256")),
+            ("parameters SHA-256", run.get("params_sha256")), ("x(t) estimator", run.get("x_estimator")),
+            ("state", run.get("state")), ("started", run.get("started")), ("finished", run.get("finished")),
+            ("ground truth", run.get("truth"))]
+    out["study"] = pd.DataFrame([{"item": k, "value": _value(v)} for k, v in rows if v is not None])
+    prm = []
+    for stage, d in (run.get("parameters") or {}).items():
+        if isinstance(d, dict):
+            prm += [{"stage": stage, "parameter": k, "value": _value(v)} for k, v in d.items()]
+        else:
+            prm.append({"stage": stage, "parameter": "", "value": _value(d)})
+    if prm:
+        out["parameters"] = pd.DataFrame(prm)
+    if data.fit:
+        f = data.fit
+        grid = f.get("mu_grid") or {}
+        frows = [("method", f.get("method")),
+                 ("mu grid", f"{grid.get('start'):g} to {grid.get('stop'):g} by {grid.get('step'):g} "
+                             f"({grid.get('n')} values)" if grid else None),
+                 *[(f"option: {k}", v) for k, v in (f.get("options") or {}).items()],
+                 ("trials fitted", f.get("n_trials")), ("finished", f.get("finished"))]
+        out["fit"] = pd.DataFrame([{"item": k, "value": _value(v)} for k, v in frows if v is not None])
+    ver = [{"package": k, "version": str(v)} for k, v in (run.get("versions") or {}).items()]
+    ver += [{"package": f"platform: {k}", "version": str(v)} for k, v in (run.get("platform") or {}).items()]
+    if ver:
+        out["versions"] = pd.DataFrame(ver)
+    runs = run.get("runs") or []
+    if runs:
+        out["runs"] = pd.DataFrame([{k: _value(v) for k, v in r.items()} for r in runs])
+    inp = []
+    for tid, files in (run.get("inputs") or {}).items():
+        for kind, d in (files or {}).items():
+            if isinstance(d, dict):
+                inp.append({"trial": tid, "file": kind, "path": d.get("path", ""),
+                            "sha256": d.get("sha256", ""), "bytes": d.get("bytes", "")})
+    if inp:
+        out["inputs"] = pd.DataFrame(inp)
+    return out

@@ -462,8 +462,10 @@ class _Run:
             # allowed-failures=0: a trial that kills its worker (a crash in a decoder)
             # is reported at once instead of being retried on, and killing, the others.
             with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+                # dashboard_address=":0": a free port; None still tries 8787 and warns on the
+                # console when another cluster holds it (measured with distributed 2026.8)
                 cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+                                       dashboard_address=":0", silence_logs=logging.ERROR)
             client = Client(cluster)
             self.scheduler = "local"
         else:

@@ -59,7 +59,9 @@ Per-frame table (``frames.parquet``): ``frame`` (int, index in the video), ``t_s
 (int), ``a1, b1, a2, b2, ...`` (contact regions C_i in mm, NaN-padded; as many pairs
 as the trial's largest count, at least one), ``clipped`` (bool, a region ends at the
 edge of the camera's field of view, so its length is a lower bound), ``flag`` (str,
-empty when the frame is good, else the reason it was flagged).
+empty when the frame is good, else the reason it was flagged), ``x_source`` (str, the
+estimator that gave x: ``chord``, ``left-edge``, ``right-edge``, ``cf-centroid``; empty
+without a position; absent in results written before it was recorded).
 
 Per-position table (``forces.parquet``): ``x_mm`` (finger position on the 0.01 mm grid),
 ``F_T_N`` and ``F_N_N`` (tangential and normal force in N, drift-corrected over the flat
@@ -157,6 +159,7 @@ def frames_table(
     *,
     frame: np.ndarray | None = None,
     clipped: np.ndarray | None = None,
+    x_source=None,
 ) -> pd.DataFrame:
     """Build the per-frame table from arrays.
 
@@ -174,11 +177,15 @@ def frames_table(
         Frame indices; default ``0..n_frames-1``.
     clipped : (n_frames,) bool ndarray, optional
         A contact region ends at the edge of the field of view (default: none).
+    x_source : (n_frames,) sequence of str, optional
+        Which estimator gave each frame's x(t) (``chord``, ``left-edge``, ``right-edge``,
+        ``cf-centroid``; empty without a position); the column is left out when None.
 
     Returns
     -------
     pandas.DataFrame
-        Columns ``frame, t_s, x_mm, n_regions, a1, b1, ..., clipped, flag``.
+        Columns ``frame, t_s, x_mm, n_regions, a1, b1, ..., clipped, flag`` (and
+        ``x_source`` when given).
     """
     t_s = np.asarray(t_s, dtype=float).ravel()
     x_mm = np.asarray(x_mm, dtype=float).ravel()
@@ -212,6 +219,11 @@ def frames_table(
         raise ValueError(f"clipped has {clipped.size} entries but t_s has {n}")
     cols["clipped"] = clipped
     cols["flag"] = pd.array(flags, dtype="string")
+    if x_source is not None:
+        src = ["" if s is None else str(s) for s in x_source]
+        if len(src) != n:
+            raise ValueError(f"x_source has {len(src)} entries but t_s has {n}")
+        cols["x_source"] = pd.array(src, dtype="string")
     return pd.DataFrame(cols)
 
 

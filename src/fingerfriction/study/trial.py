@@ -24,7 +24,7 @@ import pandas as pd
 from ..forces import ForceProcessingParams, ForceProfile, ForceRecord, process_forces, read_force_file
 from ..forces.readers import channel_scale
 from ..surfaces import Surface, surface_from_spec
-from ..video import FLAG_REASONS, AnalysisOptions, FrameFlag, analyze_video
+from ..video import FLAG_REASONS, AnalysisOptions, FrameFlag, PositionSource, analyze_video
 from .manifest import Study, TrialRecord, load_manifest, resolve_path
 from .params import AnalysisParams, force_params, video_options
 from .store import frames_table
@@ -117,6 +117,8 @@ class VideoOutput:
         A region ends at the edge of the field of view.
     info : dict
         Diagnostics (calibration, threshold, flag counts, timings).
+    x_source : list of str or None
+        Per frame, the estimator that gave x(t) (:func:`position_sources`).
     """
 
     t_s: np.ndarray
@@ -125,6 +127,7 @@ class VideoOutput:
     flags: list
     clipped: np.ndarray
     info: dict = field(default_factory=dict)
+    x_source: list | None = None
 
     @property
     def frame(self) -> np.ndarray:
@@ -167,6 +170,18 @@ def _frame_reasons(flags: np.ndarray) -> list[str]:
 
 
 
+def position_sources(res, position: str) -> list[str]:
+    """Per frame, the estimator that gave the video stage's x(t): ``chord``, ``left-edge``
+    or ``right-edge`` for the hybrid estimator (:class:`~fingerfriction.video.PositionSource`),
+    the estimator's own name for ``cf-centroid`` and ``chord``; ``''`` without a position."""
+    has_x = np.isfinite(np.asarray(res.x, dtype=float))
+    if position == "hybrid" and res.x_source is not None:
+        names = {int(s): s.name.lower().replace("_", "-") for s in PositionSource}
+        names[int(PositionSource.NONE)] = ""
+        return [names.get(int(s), "") if ok else "" for s, ok in zip(res.x_source, has_x, strict=True)]
+    return [position if ok else "" for ok in has_x]
+
+
 def run_video(trial: TrialInput, options: AnalysisOptions | Mapping | None = None) -> VideoOutput:
     """Video stage (:func:`fingerfriction.video.analyze_video`) on one trial.
 
@@ -200,7 +215,7 @@ def run_video(trial: TrialInput, options: AnalysisOptions | Mapping | None = Non
             "clipped_frames": int(np.count_nonzero(res.clipped))}
     return VideoOutput(t_s=v.frame_times(), x_mm=np.asarray(res.x, dtype=float),
                        regions=np.asarray(res.regions, dtype=float), flags=_frame_reasons(res.flags),
-                       clipped=res.clipped, info=info)
+                       clipped=res.clipped, info=info, x_source=position_sources(res, opts.position))
 
 
 #: Fields of a manifest ``force`` entry passed to :func:`~fingerfriction.forces.read_force_file`.
@@ -316,7 +331,8 @@ def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> Tr
     if not prof.success:  # on_error='raise' should have raised; never keep unusable values
         raise ValueError(f"force processing failed: {prof.message}")
     forces_df = prof.to_frame()
-    frames = frames_table(v.t_s, v.x_mm, v.regions, v.flags, frame=v.frame, clipped=v.clipped)
+    frames = frames_table(v.t_s, v.x_mm, v.regions, v.flags, frame=v.frame, clipped=v.clipped,
+                          x_source=v.x_source)
     n_flag = int(sum(1 for s in v.flags if s))
     info = {"video": v.info, "forces": force_info(prof), "n_frames": len(frames), "n_flagged_frames": n_flag,
             "n_positions": len(forces_df)}

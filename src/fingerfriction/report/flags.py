@@ -1,0 +1,165 @@
+"""Everything the report flags, per trial and per subject, with the reason.
+
+One record per finding, the same shape as the fit's flags (``fit/fit.json`` ``flags``):
+``{"level", "code", "subject", "trial", "model", "message"}`` with ``level`` one of
+``"error"`` (the trial has no result), ``"warning"`` (a result to look at before trusting
+it) or ``"info"`` (a known limit, said once). Sources:
+
+* the analysis: a failed trial (``analysis-failed``), the force stage's flags
+  (``status.json`` ``info.forces.flags``, e.g. ``extrapolated``, ``nan-filled``,
+  ``no-absolute``), gaps in x(t) inside the tracked span (``position-gap``), contact
+  regions cut by the edge of the field of view (``regions-clipped``, info);
+* the fit: trials that could not be fitted or gave an unphysical fit (``fit-failed``),
+  contact regions translated from the nearest frame where x(t) was extrapolated
+  (``regions-translated``), mu at an end of its search grid (``mu-at-bound``), a failed
+  out-of-sample validation (``loso-failed``), and every flag the fit itself recorded.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+
+import numpy as np
+
+from .data import ReportData, TrialData
+
+__all__ = ["LEVELS", "collect_flags", "flagged_trials", "group_flags", "position_gaps"]
+
+#: Levels, most serious first.
+LEVELS = ("error", "warning", "info")
+
+#: Minimum run of frames without x(t) inside the tracked span reported as a gap.
+MIN_GAP_FRAMES = 3
+
+
+def _flag(level, code, message, *, trial=None, subject=None, model=None) -> dict:
+    return {"level": level, "code": code, "subject": None if subject is None else str(subject),
+            "trial": trial, "model": model, "message": str(message)}
+
+
+def position_gaps(t: TrialData, *, min_frames: int = MIN_GAP_FRAMES) -> list[dict]:
+    """Runs of frames without x(t) between the first and last tracked frame.
+
+    Returns one ``{"row", "frame", "n", "x_before", "x_after"}`` per run of at least
+    ``min_frames`` frames: first row of the run in the per-frame table, its frame index,
+    the run's length in frames, and x(t) in mm on either side.
+    """
+    x = t.frames["x_mm"].to_numpy(float)
+    ok = np.flatnonzero(np.isfinite(x))
+    if ok.size < 2:
+        return []
+    gaps = []
+    for k in np.flatnonzero(np.diff(ok) > min_frames):
+        a, b = int(ok[k]), int(ok[k + 1])
+        gaps.append({"row": a + 1, "frame": int(t.frames["frame"].iloc[a + 1]), "n": b - a - 1,
+                     "x_before": float(x[a]), "x_after": float(x[b])})
+    return gaps
+
+
+def _gap_reasons(t: TrialData, first_row: int, n: int) -> str:
+    flags = t.frames["flag"].astype(str).to_numpy()[first_row:first_row + n]
+    reasons = OrderedDict()
+    for f in flags:
+        for part in f.split(";"):
+            part = part.strip().split(":")[0]
+            if part:
+                reasons[part] = reasons.get(part, 0) + 1
+    return ", ".join(f"{r} ({c})" for r, c in reasons.items()) or "no reason recorded"
+
+
+def _trial_flags(t: TrialData) -> list[dict]:
+    out = []
+    info = t.status.get("info") or {}
+    for s in (info.get("forces") or {}).get("flags") or []:
+        code, _, msg = str(s).partition(": ")
+        out.append(_flag("warning", code.strip() or "forces", msg or s, trial=t.id, subject=t.subject))
+    for g in position_gaps(t):
+        out.append(_flag("warning", "position-gap",
+                         f"x(t) missing in {g['n']} frames from frame {g['frame']} (between x = "
+                         f"{g['x_before']:+.2f} and {g['x_after']:+.2f} mm): "
+                         f"{_gap_reasons(t, g['row'], g['n'])}",
+                         trial=t.id, subject=t.subject))
+    n_clip = int((info.get("video") or {}).get("clipped_frames") or 0)
+    if n_clip == 0 and "clipped" in t.frames.columns:
+        n_clip = int(t.frames["clipped"].sum())
+    if n_clip:
+        out.append(_flag("info", "regions-clipped",
+                         f"{n_clip} of {len(t.frames)} frames have a contact region cut by the edge of the "
+                         "field of view: its length there is a lower bound", trial=t.id, subject=t.subject))
+    if t.model is not None and "regions_translated" in t.model.columns:
+        n_tr = int(t.model["regions_translated"].astype(bool).sum())
+        if n_tr:
+            out.append(_flag("warning", "regions-translated",
+                             f"at {n_tr} positions the contact regions were translated from the nearest "
+                             "tracked frame (x(t) extrapolated there)", trial=t.id, subject=t.subject))
+    return out
+
+
+def collect_flags(data: ReportData) -> list[dict]:
+    """Every flag of the results, most serious first, then in trial order."""
+    labels = {m["id"]: m for m in data.run.get("trials", [])}
+    flags: list[dict] = []
+    for tid, reason in data.failed:
+        flags.append(_flag("error", "analysis-failed", reason, trial=tid,
+                           subject=labels.get(tid, {}).get("subject")))
+    for t in data.trials:
+        flags += _trial_flags(t)
+    fit = data.fit or {}
+    by_id = {t.id: t for t in data.trials}
+    recorded = fit.get("flags")
+    if isinstance(recorded, list):  # the fit's own flags (issue 12): taken as they are
+        for f in recorded:
+            if isinstance(f, dict) and f.get("message"):
+                flags.append(_flag(f.get("level", "warning") if f.get("level") in LEVELS else "warning",
+                                   f.get("code", "fit"), f["message"], trial=f.get("trial"),
+                                   subject=f.get("subject"), model=f.get("model")))
+    else:
+        for f in fit.get("failures") or []:
+            tid = f.get("trial")
+            subj = by_id[tid].subject if tid in by_id else labels.get(tid, {}).get("subject")
+            flags.append(_flag("warning", "fit-failed", f.get("reason", ""), trial=tid, subject=subj))
+        grid = fit.get("mu_grid") or {}
+        for s, mu in (fit.get("mu") or {}).items():
+            lo, hi = grid.get("start"), grid.get("stop")
+            if lo is not None and hi is not None and (math.isclose(mu, lo) or math.isclose(mu, hi)):
+                flags.append(_flag("warning", "mu-at-bound",
+                                   f"mu = {mu:g} is at the end of the search grid [{lo:g}, {hi:g}]: not a "
+                                   "minimum inside the grid; the true value may lie beyond it (widen the "
+                                   "grid)",
+                                   subject=s))
+    loso = fit.get("loso") or {}
+    msg = str(loso.get("message") or "")
+    if msg.startswith("failed"):
+        flags.append(_flag("warning", "loso-failed", f"out-of-sample validation {msg}"))
+    order = {lv: i for i, lv in enumerate(LEVELS)}
+    trial_order = {m["id"]: i for i, m in enumerate(data.run.get("trials", []))}
+    flags.sort(key=lambda f: (order[f["level"]], f["trial"] is not None, trial_order.get(f["trial"], -1)))
+    return flags
+
+
+def flagged_trials(flags: list[dict], *, levels=("error", "warning")) -> list[str]:
+    """Trial ids with at least one flag of the given levels, first-seen order."""
+    seen: dict[str, None] = {}
+    for f in flags:
+        if f["trial"] and f["level"] in levels:
+            seen.setdefault(f["trial"], None)
+    return list(seen)
+
+
+def group_flags(flags: list[dict]) -> list[dict]:
+    """Flags grouped by (level, code): ``{"level", "code", "count", "trials", "example"}``,
+    most serious first; ``trials`` counts distinct trials, ``example`` is the first flag."""
+    groups: OrderedDict = OrderedDict()
+    for f in flags:
+        g = groups.setdefault((f["level"], f["code"]), {"level": f["level"], "code": f["code"], "count": 0,
+                                                        "trials": set(), "example": f, "all": []})
+        g["count"] += 1
+        g["all"].append(f)
+        if f["trial"]:
+            g["trials"].add(f["trial"])
+    out = []
+    for g in groups.values():
+        g["n_trials"] = len(g.pop("trials"))
+        out.append(g)
+    return out
