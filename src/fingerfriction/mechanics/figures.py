@@ -7,12 +7,14 @@ import os
 import numpy as np
 
 from .._atomic import atomic_write
+from .._style import figure_style
 from ..surfaces import Surface
 from .sweep import SweepResult
 
 __all__ = ["save_occupancy_figure"]
 
 
+@figure_style()
 def save_occupancy_figure(result: SweepResult, surface: Surface, path, *, kind: str = "geometric") -> str:
     """Write a PNG of the contact occupancy of a sweep over the surface profile.
 

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write
+from .._style import figure_style
 from ..fit import (
     FitOptions,
     LoadFitOptions,
@@ -158,6 +159,7 @@ class OutOfSample:
         atomic_write(p, lambda tmp: self.table.to_csv(tmp, index=False, float_format="%.6g"))
         return p
 
+    @figure_style()
     def write_figure(self, path: str | os.PathLike) -> str:
         """PNG: per held-out surface and subject, measured (grey) and predicted (blue)
         forces of every held-out trial as compared (N), with rho in and out of sample."""

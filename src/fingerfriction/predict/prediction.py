@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write
+from .._style import figure_style
 from ..blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
@@ -206,6 +207,7 @@ class Prediction:
             put("occupancy_png", "occupancy.png", self._plot_occupancy)
         return paths
 
+    @figure_style()
     def _plot_forces(self, path: str) -> None:
         import matplotlib  # heavy, and only needed for the figures
 
@@ -230,6 +232,7 @@ class Prediction:
         fig.savefig(path, format="png", dpi=120)
         plt.close(fig)
 
+    @figure_style()
     def _plot_occupancy(self, path: str) -> None:
         import matplotlib  # heavy, and only needed for the figures
 

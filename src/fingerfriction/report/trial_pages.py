@@ -135,18 +135,19 @@ def trial_plots(t: TrialData, data: ReportData) -> dict[str, str]:
             ev = ev[(ev >= xm.min()) & (ev <= xm.max())] if xm.size else ev
             ax.plot(ev, np.zeros_like(ev), ls="none", marker="|", ms=6, color=MODEL,
                     transform=ax.get_xaxis_transform(), label="a contact region appears or vanishes")
-            ax.set_title("F_T(x): measured and model, on the fit's footing")
-        else:
+            footing = str((data.fit or {}).get("footing") or "the fit's").split(" (")[0]
+            ax.set_title(f"F_T(x): measured and the fit's default model, {footing} footing")
+        else:  # not fitted: the measurement on its footings (one scale: the flat level taken off)
             ax.set_title("F_T(x) measured (not fitted)")
-        ax.plot(xf, 1e3 * t.forces["F_T_N"].to_numpy(float), color=OKABE_ITO["vermillion"], lw=0.7,
-                label="measured, paper's footing")
-        if has_abs:
-            xa, ya = _measured(t, "absolute")
-            ax.plot(xa, 1e3 * ya, color=OKABE_ITO["bluish green"], lw=0.7,
-                    label="measured, absolute less its flat level")
+            ax.plot(xf, 1e3 * t.forces["F_T_N"].to_numpy(float), color=OKABE_ITO["vermillion"], lw=0.7,
+                    label="paper's footing")
+            if has_abs:
+                xa, ya = _measured(t, "absolute")
+                ax.plot(xa, 1e3 * ya, color=OKABE_ITO["bluish green"], lw=0.7,
+                        label="absolute, less its flat level")
         ax.set_xlabel("finger position x (mm)")
         ax.set_ylabel("F_T (mN)")
-        ax.legend(loc="upper left")
+        ax.legend(loc="best")
         out["f_t"] = _svg(fig)
 
         # 3. F_N(x)
