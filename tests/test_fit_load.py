@@ -155,6 +155,20 @@ def test_flat_ground_mu_ci_covers_trial_to_trial_scatter():
     assert set(res.mu_trials) == {f"t{k}" for k in range(40)}
 
 
+def test_flat_ground_mu_without_a_transient_neither_models_nor_flags_one():
+    """No start transient in the data: the residual is flat in lambda, whose minimum can
+    fall on the bound; the term is dropped (the trials do not agree on an amplitude) and
+    nothing is flagged, while a real transient is kept."""
+    for seed in range(4):
+        rng = np.random.default_rng(10 + seed)
+        res = flat_ground_mu(_flat_trials(rng, np.full(30, 0.55), amp=0.0))
+        assert math.isnan(res.transient_mm)
+        assert not [f for f in res.flags if f.code == "transient-at-bound"]
+        assert res.ci[0] <= 0.55 <= res.ci[1]
+    with_transient = flat_ground_mu(_flat_trials(np.random.default_rng(3), np.full(30, 0.55)))
+    assert math.isfinite(with_transient.transient_mm)
+
+
 def test_hac_standard_error_matches_the_scatter_of_p1():
     """White noise: the Newey-West SE agrees with the spread of p1 over noise draws."""
     rng = np.random.default_rng(5)
