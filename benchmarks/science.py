@@ -161,7 +161,7 @@ def part_a(results: Path, study: Path, tmp: Path) -> tuple[bool, object, Path]:
         print(f"  leave-one-surface-out not computed: {s.loso_message}: FAIL")
         ok = False
     else:
-        lo = loso_side_by_side(s.loso.table, 0.75)
+        lo = loso_side_by_side(s.loso, 0.75)
         good = lo["load"][1] == lo["load"][2]
         ok &= good
         print(f"  every held-out surface rho >= 0.75 (load): {verdict(good)}")
@@ -234,7 +234,7 @@ def part_d(results: Path, study: Path, tmp: Path) -> bool:
     ok &= good
     print(f"  every Table 1 cell rho >= 0.70 (load): {verdict(good)}")
     if s.loso is not None:
-        loso_side_by_side(s.loso.table, 0.75)
+        loso_side_by_side(s.loso, 0.75)
     print(f"  CPU: load {s.cpu_s['load']:.2f} s, paper {s.cpu_s['paper']:.2f} s")
     print("  mu per trial (default) vs per subject, Table 1 of the load model:")
     trials = trials_from_results(work)

@@ -347,12 +347,26 @@ class _LoadDesign:
         # No median filter in the search: measured on the simulated study, it moves the
         # residual by under 0.1 % there and would cost half of the search's time.
         self.k_search = 1
+        self._cache: dict = {}
+        self._cache_inset = math.nan
+
+    def _integrals(self, inset: float, window: slice) -> np.ndarray:
+        """Region integrals over ``window`` at ``inset``, kept for the last inset: they do
+        not depend on ``mu`` or ``kappa``, which the physical limit on ``kappa`` varies at
+        a fixed inset (half of the fit's time before they were kept)."""
+        key = (float(inset), window.start, window.stop, window.step)
+        if self._cache_inset != key[0]:
+            self._cache, self._cache_inset = {}, key[0]
+        R = self._cache.get(key)
+        if R is None:
+            R = self._cache[key] = self.model._region_integrals(self.trial.regions[window], inset)
+        return R
 
     def parts(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
         """``(g, b_def, support)`` of :func:`fingerfriction.model.load_terms` over the
         positions ``window``, median-filtered along them like the paper's model estimate
         (NaN where undefined)."""
-        R = self.model._region_integrals(self.trial.regions[window], inset)
+        R = self._integrals(inset, window)
         g, b, support = load_terms(R, mu, kappa)
         ok = np.isfinite(g)
         k = self.k if window.step in (None, 1) else self.k_search
@@ -473,24 +487,26 @@ def _physical_kappa(designs: list, mu_of, inset: float, kappa: float, *, steps: 
     The deformation term of Eq. (3) resists the motion (it dissipates energy), so a
     negative weight is unphysical; a larger ``kappa`` moves the force on the slopes from
     ``F_def`` to ``F_int`` and can push ``p1`` below 0 on the trials with the least
-    deformation (the 4 mm steps). Bisection on ``[0, kappa]`` with the search's positions,
-    then a check with every position (what the trials' own fits use), stepping down by
-    2 % until it holds.
+    deformation (the 4 mm steps). Bisection on ``[0, kappa]`` over the trials whose ``p1``
+    is negative at ``kappa`` (``p1`` falls as ``kappa`` rises), with the search's
+    positions, then a check of every trial with every position (what the trials' own
+    fits use), stepping down by 2 % until it holds.
     """
-    def feasible(k: float, full: bool) -> bool:
-        return all(d.solve(mu_of(d), inset, k, full=full)[0] >= 0 for d in designs)
+    def negative(k: float, full: bool, among: list) -> list:
+        return [d for d in among if d.solve(mu_of(d), inset, k, full=full)[0] < 0]
 
-    if feasible(kappa, True):
+    bad = negative(kappa, True, designs)
+    if not bad:
         return kappa
     lo, hi = 0.0, kappa
-    if not feasible(lo, False):
+    if negative(lo, False, bad):
         return 0.0  # p1 < 0 even with one uniform pressure: flagged per trial by the fit
     for _ in range(steps):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if feasible(mid, False) else (lo, mid)
+        lo, hi = (lo, mid) if negative(mid, False, bad) else (mid, hi)
     k = lo
     for _ in range(20):
-        if k <= 0 or feasible(k, True):
+        if k <= 0 or not negative(k, True, designs):
             break
         k *= 0.98
     return max(k, 0.0)
