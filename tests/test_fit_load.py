@@ -224,3 +224,25 @@ def test_two_subjects_and_option_validation():
     with pytest.raises(ValueError, match="Trial.force_abs and Trial.normal_abs go together"):
         Trial(x=X, force=np.zeros(X.size), regions=np.tile([[-5.0, 5.0]], (X.size, 1, 1)), surface="bump-2mm",
               force_abs=np.zeros(X.size))
+
+
+def test_each_trial_uses_its_own_flat_ground_mu_by_default():
+    """Friction that varies from trial to trial (10 % SD): with the trial's own flat-ground
+    mu (the default) every p1 comes back; with the subject's mean the friction error on
+    the slopes is pushed into p1."""
+    rng = np.random.default_rng(7)
+    trials = []
+    for s in SURFACE_NAMES:
+        for r in range(3):
+            mu = 0.55 * (1 + 0.1 * rng.normal())
+            trials.append(synthetic_trial(s, mu=mu, p0=0.03, p1=0.2, rng=rng, noise=0.02, absolute=True,
+                                          labels={"trial": f"S1-{s}-{r}"}))
+    fixed = {"inset": 0.0, "kappa": 0.0, **FIXTURE}
+    assert LoadFitOptions().mu_per == "trial"
+    own = fit_load_subject(trials, LoadFitOptions(**fixed))
+    mean = fit_load_subject(trials, LoadFitOptions(mu_per="subject", **fixed))
+    err_own = np.array([t.p1 / 0.2 - 1 for t in own.trials])
+    err_mean = np.array([t.p1 / 0.2 - 1 for t in mean.trials])
+    assert np.median(np.abs(err_own)) < 0.02
+    assert np.median(np.abs(err_mean)) > 3 * np.median(np.abs(err_own))
+    assert [t.mu for t in own.trials] == pytest.approx([own.flat.mu_trials[t.id] for t in trials])
