@@ -27,7 +27,7 @@ from ..fit import (
     flat_segment_mask,
     median_filter,
 )
-from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, load_terms
+from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, T_matrix, load_terms
 from ..stats import BOTH, correlation_table, ensemble_correlation
 from ..study.store import ResultsStore
 from ..surfaces import Surface
@@ -40,15 +40,25 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
+def _paper_estimate(model: FrictionModel, regions: np.ndarray, params: FrictionParams, options,
+                    footing=np.asarray) -> np.ndarray:
+    """The paper model's Eq. (4) in N for fixed parameters, processed as the fit processes
+    it (``fit.paper._Design.estimate``): the median filter on the per-frame integrals S, K,
+    Q ('basis' mode) or on the force ('estimate' mode), and ``footing`` (a linear map of a
+    series, e.g. the flat detrend) where the fit applies it."""
+    raw = model.integrals(regions)  # S, K, Q (mm)
+    coef = T_matrix(params.mu) @ np.array([params.p0, params.p1])
+    if options.median_on == "basis":
+        return footing(median_filter(raw, options.median_kernel)) @ coef
+    return footing(median_filter(raw @ coef, options.median_kernel))
+
+
 def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regions: np.ndarray,
                        params: FrictionParams, options, model: FrictionModel | None = None):
     """Measured and model series as the fit compares them (fit.py's processing), for fixed
     parameters: median filter on the per-frame integrals S, K, Q, then the same linear
     detrend over the flat segment defined by ``regions`` applied to both."""
     model = model or FrictionModel(surface)
-    b0 = model.basis(regions, 0.0)
-    b1 = model.basis(regions, 1.0)
-    raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
     if getattr(options, "detrend", True):
         mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
 
@@ -57,30 +67,14 @@ def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regio
     else:  # absolute forces (FitOptions.detrend=False)
         def footing(y):
             return np.asarray(y, dtype=float)
-    mu = params.mu
-    T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
-    p = np.array([params.p0, params.p1])
-    if options.median_on == "basis":
-        est = footing(median_filter(raw, options.median_kernel)) @ (T @ p)
-    else:
-        est = footing(median_filter(raw @ (T @ p), options.median_kernel))
-    return footing(force), est
+    return footing(force), _paper_estimate(model, regions, params, options, footing)
 
 
 def _predicted_estimate(surface: Surface, force: np.ndarray, regions: np.ndarray, params: FrictionParams,
                         options, flat_level: float, model: FrictionModel):
     """Measured force as given and the prediction minus its flat-ground level (N); the
     model is median-filtered like the fit's (per-frame integrals S, K, Q in 'basis' mode)."""
-    b0 = model.basis(regions, 0.0)
-    b1 = model.basis(regions, 1.0)
-    raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
-    mu = params.mu
-    T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
-    p = np.array([params.p0, params.p1])
-    if options.median_on == "basis":
-        est = median_filter(raw, options.median_kernel) @ (T @ p)
-    else:
-        est = median_filter(raw @ (T @ p), options.median_kernel)
+    est = _paper_estimate(model, regions, params, options)
     if not getattr(options, "detrend", True):  # absolute forces: keep the flat level
         flat_level = 0.0
     return np.asarray(force, dtype=float), est - flat_level
