@@ -270,6 +270,22 @@ _FOOTING_TEXT = {
 }
 
 
+def _surface_subject_grid(data: ReportData, *, top_in: float):
+    """Fig. 4's and Fig. 6's layout: a panel per surface (row) and subject (column), x
+    shared; the axes labelled (F_T in mN, finger position in mm). ``top_in``: the height
+    in inches above the rows (titles, legend). Returns ``(fig, axes)``, axes
+    ``(n_surfaces, max(n_subjects, 1))``."""
+    names, n_cols = data.surface_names, max(len(data.subjects), 1)
+    fig = new_figure(FULL_WIDTH_IN if n_cols > 1 else FULL_WIDTH_IN / 2 + 0.3, top_in + 1.55 * len(names))
+    axes = fig.subplots(len(names), n_cols, squeeze=False, sharex=True)
+    if data.subjects:
+        for ax in axes[:, 0]:
+            ax.set_ylabel("F_T (mN)")
+    for ax in axes[-1]:
+        ax.set_xlabel("finger position x (mm)")
+    return fig, axes
+
+
 def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
     """Fig. 4: measured F_T(x) per surface and subject, one curve per speed.
 
@@ -288,10 +304,8 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
     if footing == "auto":
         footing = measured_footing(data)
     names, subjects, speeds = data.surface_names, data.subjects, data.speeds
-    n_cols = max(len(subjects), 1)
     with figure_style():
-        fig = new_figure(FULL_WIDTH_IN if n_cols > 1 else FULL_WIDTH_IN / 2 + 0.3, 0.9 + 1.55 * len(names))
-        axes = fig.subplots(len(names), n_cols, squeeze=False, sharex=True)
+        fig, axes = _surface_subject_grid(data, top_in=0.9)
         for i, name in enumerate(names):
             for j, subj in enumerate(subjects):
                 ax = axes[i, j]
@@ -311,10 +325,6 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
                 if not drawn:
                     _empty(ax)
                 ax.set_title(f"{_label(data, name)}, subject {subj}")
-                if j == 0:
-                    ax.set_ylabel("F_T (mN)")
-        for ax in axes[-1]:
-            ax.set_xlabel("finger position x (mm)")
         handles = [Line2D([], [], color=SPEED_COLOURS[k % len(SPEED_COLOURS)],
                           label=f"{v:g} mm/s (+{k * 25} mN)") for k, v in enumerate(speeds)]
         handles.append(Patch(color="0.5", alpha=0.35, label="+- 1 SD (only where n > 1)"))
@@ -370,10 +380,8 @@ def fig6_model(data: ReportData) -> Figure:
     once), while the measured force changes continuously.
     """
     names, subjects = data.surface_names, data.subjects
-    n_cols = max(len(subjects), 1)
     with figure_style():
-        fig = new_figure(FULL_WIDTH_IN if n_cols > 1 else FULL_WIDTH_IN / 2 + 0.3, 1.0 + 1.55 * len(names))
-        axes = fig.subplots(len(names), n_cols, squeeze=False, sharex=True)
+        fig, axes = _surface_subject_grid(data, top_in=1.0)
         for i, name in enumerate(names):
             for j, subj in enumerate(subjects):
                 ax = axes[i, j]
@@ -396,10 +404,6 @@ def fig6_model(data: ReportData) -> Figure:
                         ax.plot(ev, np.zeros_like(ev), ls="none", marker="|", ms=5, mew=0.8, color=MODEL,
                                 alpha=0.6, transform=ax.get_xaxis_transform())
                 ax.set_title(f"{_label(data, name)}, subject {subj}" + (f" (n = {n})" if n else ""))
-                if j == 0:
-                    ax.set_ylabel("F_T (mN)")
-        for ax in axes[-1]:
-            ax.set_xlabel("finger position x (mm)")
         handles = [Line2D([], [], color=MEASURED, label="measured F_T (mean)"),
                    Line2D([], [], color=MODEL, label="model F_hat_T (mean)"),
                    Patch(color="0.5", alpha=0.35, label="+- 1 SD (where n > 1)"),
