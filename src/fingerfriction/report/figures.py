@@ -147,6 +147,35 @@ def _curve(ax, ms, colour, *, scale: float = 1e3, offset: float = 0.0, ls: str =
 # --------------------------------------------------------------------------------------
 
 
+def _profile_with_blind_spots(ax_h, ax_o, surf, bs) -> None:
+    """Fig. 3's lower panel: the profile h(x) over the blind-spot span ``bs.span`` (flat
+    without a surface), each blind spot shaded and labelled with its width, and outlined
+    on the occupancy strip above (``ax_o``)."""
+    lo, hi = bs.span
+    xs = np.linspace(lo, hi, 1500)
+    h = surf.h(xs) if surf is not None else np.zeros_like(xs)
+    H = max(float(np.ptp(h)), 0.2)
+    base = float(h.min()) - 0.15 * H
+    ax_h.fill_between(xs, base, h, color="0.82", lw=0)
+    ax_h.plot(xs, h, color="k", lw=0.9)
+    n_bs = len(bs)
+    for k, (a, b) in enumerate(bs.intervals):
+        ax_h.axvspan(a, b, color=BLIND_SPOT, alpha=0.22, lw=0)
+        ax_o.plot([a, a, b, b], [0.0, 1.0, 1.0, 0.0], color=BLIND_SPOT, lw=0.9)
+        seg = (xs >= a) & (xs <= b)
+        ax_h.plot(xs[seg], h[seg], color=BLIND_SPOT, lw=2.2, solid_capstyle="butt")
+        # two neighbours (a bump's pair) are labelled away from each other
+        ha, xt = "center", 0.5 * (a + b)
+        if n_bs == 2:
+            ha, xt = ("right", b) if k == 0 else ("left", a)
+        ax_h.text(xt, float(h.max()) + 0.12 * H, f"{b - a:.2f} mm", ha=ha, va="bottom",
+                  color=BLIND_SPOT, fontsize=7)
+    ax_h.set_ylim(base, float(h.max()) + 0.5 * H)
+    ax_h.set_xlim(lo, hi)
+    ax_h.set_ylabel("h (mm)")
+    ax_h.yaxis.set_major_formatter("{x:.1f}")
+
+
 def fig3_occupancy(data: ReportData) -> Figure:
     """Fig. 3: normalised proportion of time each surface location is in contact.
 
@@ -194,28 +223,7 @@ def fig3_occupancy(data: ReportData) -> Figure:
                 sp.set_visible(True)
             widths = ", ".join(f"{w:.2f}" for w in bs.widths)
             ax_o.set_title(f"{title}: blind spots {widths + ' mm' if widths else 'none'}", loc="left")
-            xs = np.linspace(lo, hi, 1500)
-            h = surf.h(xs) if surf is not None else np.zeros_like(xs)
-            H = max(float(np.ptp(h)), 0.2)
-            base = float(h.min()) - 0.15 * H
-            ax_h.fill_between(xs, base, h, color="0.82", lw=0)
-            ax_h.plot(xs, h, color="k", lw=0.9)
-            n_bs = len(bs)
-            for k, (a, b) in enumerate(bs.intervals):
-                ax_h.axvspan(a, b, color=BLIND_SPOT, alpha=0.22, lw=0)
-                ax_o.plot([a, a, b, b], [0.0, 1.0, 1.0, 0.0], color=BLIND_SPOT, lw=0.9)
-                seg = (xs >= a) & (xs <= b)
-                ax_h.plot(xs[seg], h[seg], color=BLIND_SPOT, lw=2.2, solid_capstyle="butt")
-                # two neighbours (a bump's pair) are labelled away from each other
-                ha, xt = "center", 0.5 * (a + b)
-                if n_bs == 2:
-                    ha, xt = ("right", b) if k == 0 else ("left", a)
-                ax_h.text(xt, float(h.max()) + 0.12 * H, f"{b - a:.2f} mm", ha=ha, va="bottom",
-                          color=BLIND_SPOT, fontsize=7)
-            ax_h.set_ylim(base, float(h.max()) + 0.5 * H)
-            ax_h.set_xlim(lo, hi)
-            ax_h.set_ylabel("h (mm)")
-            ax_h.yaxis.set_major_formatter("{x:.1f}")
+            _profile_with_blind_spots(ax_h, ax_o, surf, bs)
             if i < len(names) - 1:
                 ax_h.tick_params(axis="x", labelbottom=False)
         if all_axes:
