@@ -234,6 +234,17 @@ def _caption(img: np.ndarray, lines: list[str]) -> None:
         cv2.putText(img, text, (6, 18 + 18 * j), cv2.FONT_HERSHEY_SIMPLEX, 0.5, _RED, 1, cv2.LINE_AA)
 
 
+def _stored_caption(frame: int, x: float, source: str | None, flag: str) -> list[str]:
+    """The caption of a frame of stored results: its number, x in mm and the estimator that
+    gave it; the first reason of its flag, if any."""
+    lines = [f"frame {frame}" + (f"  x = {x:+.2f} mm" if np.isfinite(x) else "  no x")]
+    if source and np.isfinite(x):
+        lines[0] += f" ({source})"
+    if flag:
+        lines.append(flag.split(";")[0].split(":")[0][:70])
+    return lines
+
+
 def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tuple[int, np.ndarray]]:
     """Up to ``max_frames`` of the ``candidates`` frame indices, evenly spread, decoded.
 
@@ -363,13 +374,8 @@ def write_results_overlay(video, frames, surface_height_mm: float, out: str | os
                 res = {"line_row": [np.nan], "x": [x_all[r]], "regions": [regions[r]], "flags": [0]}
                 img = _resized(_draw(an, frame, i, res, 0), size)
                 # the text is written at the output size (readable), over _draw's own
-                lines = [f"frame {i}" + (f"  x = {x_all[r]:+.2f} mm" if np.isfinite(x_all[r]) else "  no x")]
-                if source is not None and source[r] and np.isfinite(x_all[r]):
-                    lines[0] += f" ({source[r]})"
-                if flags[r]:
-                    lines.append(flags[r].split(";")[0].split(":")[0][:70])
-                    n_flagged += 1
-                _caption(img, lines)
+                _caption(img, _stored_caption(i, x_all[r], None if source is None else source[r], flags[r]))
+                n_flagged += bool(flags[r])
                 put(img)
                 n_written += 1
         target.commit()
