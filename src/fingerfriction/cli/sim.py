@@ -33,6 +33,24 @@ def _split_list(values: list[str] | None) -> list[str] | None:
     return out
 
 
+def _design(surfaces, subjects, speeds) -> dict:
+    """The ``SimOptions`` fields of the options that narrow the design (those given)."""
+    kw: dict = {}
+    if _split_list(surfaces):
+        kw["surfaces"] = tuple(_split_list(surfaces))
+    if _split_list(subjects):
+        kw["subjects"] = tuple(_split_list(subjects))
+    if _split_list(speeds):
+        sp = []
+        for v in _split_list(speeds):
+            try:
+                sp.append(float(v))
+            except ValueError:
+                fail(f"--speeds: {v!r} is not a number (mm/s)")
+        kw["speeds"] = tuple(sp)
+    return kw
+
+
 def simulate_cmd(
     out: Annotated[str, typer.Option("--out", help="Output study folder (new, empty, or same study).")],
     reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).")] = 5,
@@ -74,19 +92,8 @@ def simulate_cmd(
     )
 
     kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
-                "contact_model": contact_model, "realism": RealismParams() if realism else None}
-    if _split_list(surfaces):
-        kw["surfaces"] = tuple(_split_list(surfaces))
-    if _split_list(subjects):
-        kw["subjects"] = tuple(_split_list(subjects))
-    if _split_list(speeds):
-        sp = []
-        for v in _split_list(speeds):
-            try:
-                sp.append(float(v))
-            except ValueError:
-                fail(f"--speeds: {v!r} is not a number (mm/s)")
-        kw["speeds"] = tuple(sp)
+                "contact_model": contact_model, "realism": RealismParams() if realism else None,
+                **_design(surfaces, subjects, speeds)}
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
     if finger:
