@@ -452,6 +452,14 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
     return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, _fit_labels(trial))
 
 
+def _checked_grid(grid) -> np.ndarray:
+    """The ``mu`` grid as a 1-D array (default :func:`mu_grid`), checked."""
+    mus = mu_grid() if grid is None else np.asarray(grid, dtype=float).reshape(-1)
+    if mus.size == 0 or not np.all(np.isfinite(mus)) or np.any(mus < 0) or np.any(mus > 5):
+        raise ValueError(f"grid must be non-empty finite mu values in [0, 5], got {mus!r}")
+    return mus
+
+
 def _objective_curve(d: _Design, mus: np.ndarray, method: str, options: FitOptions) -> np.ndarray:
     """One trial's objective at every ``mu`` of the grid (``p0, p1`` refitted at each; inf
     where the fit fails)."""
@@ -508,9 +516,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     _check_method(method)
     trials, subject = _one_subject(trials, caller="fit_subject", purpose="fit a subject's mu",
                                    group="fit_trials")
-    mus = mu_grid() if grid is None else np.asarray(grid, dtype=float).reshape(-1)
-    if mus.size == 0 or not np.all(np.isfinite(mus)) or np.any(mus < 0) or np.any(mus > 5):
-        raise ValueError(f"grid must be non-empty finite mu values in [0, 5], got {mus!r}")
+    mus = _checked_grid(grid)
     if method == "lstsq" and options.objective != "nmse":
         raise ValueError(
             f"method='lstsq' minimises the conventional NMSE; objective={options.objective!r} "
