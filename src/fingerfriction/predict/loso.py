@@ -274,22 +274,9 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     """
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
-    trials = list(trials)
-    for i, t in enumerate(trials):
-        if not isinstance(t, Trial):
-            raise TypeError(f"trials[{i}] must be a fingerfriction.fit.Trial, got {type(t).__name__}")
+    trials, surfaces, subjects = _loso_inputs(trials, fingers)
     options = options or FitOptions()
     load_options = load_options or LoadFitOptions()
-    surfaces: dict[str, Surface] = {}
-    for t in trials:
-        surfaces.setdefault(t.surface.name, t.surface)
-    if len(surfaces) < 2:
-        raise ValueError(f"leave-one-surface-out needs trials on at least 2 surfaces, got {sorted(surfaces)}")
-    subjects = sorted({t.subject for t in trials})
-    for s in subjects:
-        _finger_for_label(s, fingers)  # fail early on an unmappable subject
-    for surf in surfaces.values():
-        check_profile(surf)
 
     def fit_all(ts):
         if model == "load":
@@ -324,13 +311,8 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
                 continue
             params = _training_params(model, sf, ok)
             finger = _heldout_finger(subj, name, fingers, heldout_fingers)
-            lo = min(float(t.x[0]) for t in ttest)
-            hi = max(float(t.x[-1]) for t in ttest)
-            key = (name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(forward_step))
-            if key not in cache:
-                xs = lo + forward_step * np.arange(int(math.ceil((hi - lo) / forward_step - 1e-9)) + 1)
-                cache[key] = (xs, forward_regions(surf, finger, xs, load=load, contact=contact))
-            xs, fwd = cache[key]
+            lo, xs, fwd = _forward_sweep(cache, surf, finger, ttest, load=load, contact=contact,
+                                         step=forward_step)
             flat_level = 0.0
             if model == "paper":
                 flat_level = params.mu * params.p0 * _flat_length_kind(finger, float(load), contact)
@@ -348,6 +330,39 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
             rows.append(_loso_row(model, subj, surf, ttest, ins, got, params))
         rows.append(_loso_row(model, BOTH, surf, test, ins, pooled, None))
     return OutOfSample(table=_in_table1_order(pd.DataFrame(rows), subjects), estimates=estimates)
+
+
+def _loso_inputs(trials, fingers) -> tuple[list[Trial], dict[str, Surface], list]:
+    """The trials as a list, their surfaces by name (at least two, each a profile the
+    forward model takes) and their subjects (each with a finger), checked."""
+    trials = list(trials)
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a fingerfriction.fit.Trial, got {type(t).__name__}")
+    surfaces: dict[str, Surface] = {}
+    for t in trials:
+        surfaces.setdefault(t.surface.name, t.surface)
+    if len(surfaces) < 2:
+        raise ValueError(f"leave-one-surface-out needs trials on at least 2 surfaces, got {sorted(surfaces)}")
+    subjects = sorted({t.subject for t in trials})
+    for s in subjects:
+        _finger_for_label(s, fingers)  # fail early on an unmappable subject
+    for surf in surfaces.values():
+        check_profile(surf)
+    return trials, surfaces, subjects
+
+
+def _forward_sweep(cache: dict, surf: Surface, finger, trials, *, load: float, contact: str, step: float):
+    """``(lo, xs, regions)``: the forward model's sweep over the positions of ``trials``
+    (from ``lo`` by ``step`` mm), computed once per surface, finger, load, contact and
+    span (kept in ``cache``)."""
+    lo = min(float(t.x[0]) for t in trials)
+    hi = max(float(t.x[-1]) for t in trials)
+    key = (surf.name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(step))
+    if key not in cache:
+        xs = lo + step * np.arange(int(math.ceil((hi - lo) / step - 1e-9)) + 1)
+        cache[key] = (xs, forward_regions(surf, finger, xs, load=load, contact=contact))
+    return (lo, *cache[key])
 
 
 def _heldout_finger(subject, surface: str, fingers, heldout_fingers):
