@@ -31,11 +31,6 @@ LAYERS = [
 
 #: Functions longer than 80 lines of code (their docstrings not counted), each with why.
 LONG_FUNCTIONS = {
-    "video/analysis.py:analyze_video": "the video stage's driver: reader, calibration, chunked analysis, "
-                                       "tracking and the result object in one pass over the file",
-    "video/calibrate.py:calibrate": "the calibration of Fig. 7A as the paper describes it, step after step",
-    "sim/writer.py:simulate_study": "the virtual experiment's driver: plan, contact tables, parallel trials, "
-                                    "manifest, truth",
     "video/analysis.py:analyze_chunk": "the per-frame kernel of the video stage, kept in one loop for speed",
 }
 
