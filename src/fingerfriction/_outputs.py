@@ -10,15 +10,24 @@
   ignored.
 
 A command whose ``--out`` is a file creates the file's folder (:func:`output_file`).
+A table (Table 1, the blind spots) is written as CSV, Markdown or LaTeX by
+:func:`write_table`, atomically (public as :func:`fingerfriction.study.store.write_table`).
 """
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["check_output_dir", "output_dir", "output_file"]
+from ._atomic import atomic_write_text
+
+if TYPE_CHECKING:  # pandas is heavy: the command line imports this module at start
+    import pandas as pd
+
+__all__ = ["check_output_dir", "output_dir", "output_file", "write_table"]
 
 
 def check_output_dir(path: str | os.PathLike, *, option: str = "--out",
@@ -79,3 +88,36 @@ def output_file(path: str | os.PathLike, *, option: str = "--out", create: bool 
     if create:
         p.parent.mkdir(parents=True, exist_ok=True)
     return p
+
+
+def write_table(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.3g") -> None:
+    """Write a table atomically; the format follows the suffix: .csv, .md or .tex.
+
+    Raises
+    ------
+    ValueError
+        For another suffix.
+    """
+    path = os.fspath(path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".csv":
+        text = df.to_csv(index=False)
+    elif ext == ".md":
+        text = _markdown(df)
+    elif ext == ".tex":
+        text = df.to_latex(index=False, float_format=lambda v: float_format % v)
+    else:
+        raise ValueError(f"{path}: unknown table format {ext!r}; allowed: .csv, .md, .tex")
+    atomic_write_text(path, text)
+
+
+def _markdown(df: pd.DataFrame) -> str:
+    """Markdown without the optional ``tabulate`` dependency of ``DataFrame.to_markdown``."""
+    def cell(v):
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.3g}"
+        return str(v)
+    head = "| " + " | ".join(map(str, df.columns)) + " |"
+    sep = "|" + "|".join("---" for _ in df.columns) + "|"
+    body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in df.itertuples(index=False)]
+    return "\n".join([head, sep, *body]) + "\n"

@@ -230,6 +230,8 @@ class HapticRenderer:
 
     def query_force(self, x: float) -> float:
         """Target lateral force ``F_T`` (N) at finger position ``x`` (mm)."""
+        # query's lookup, written out again on purpose: a shared helper's extra call would
+        # slow the per-tick query by about a third (benchmarks/render.py, "unpaced")
         t = (x - self.x0) * self._inv_dx
         if t <= 0.0:
             return self._f_list[0]

@@ -1,5 +1,6 @@
 """Pearson correlation of measured and modelled forces per condition (Table 1), and the
-blind-spot table (Fig. 3), with CSV / Markdown / LaTeX export.
+blind-spot table (Fig. 3); pure (no file I/O: tables are written by
+:func:`fingerfriction.study.store.write_table`).
 
 Table 1 of Janko et al. 2018: "Pearson's correlation coefficient values, rho, for the
 ensemble of measurements in each condition ... All correlations were computed on
@@ -21,13 +22,14 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
 from scipy import signal, stats
 
-from ._atomic import atomic_write_text
+from ._outputs import write_table as _write_table
 from .blindspots import blind_spots
 
 __all__ = [
@@ -261,33 +263,8 @@ def blind_spot_table(regions_by_surface: dict, *, min_width: float = 0.0) -> pd.
 
 
 def write_table(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.3g") -> None:
-    """Write a table atomically; the format follows the suffix: .csv, .md or .tex.
-
-    Raises
-    ------
-    ValueError
-        For another suffix.
-    """
-    path = os.fspath(path)
-    ext = os.path.splitext(path)[1].lower()
-    if ext == ".csv":
-        text = df.to_csv(index=False)
-    elif ext == ".md":
-        text = _markdown(df)
-    elif ext == ".tex":
-        text = df.to_latex(index=False, float_format=lambda v: float_format % v)
-    else:
-        raise ValueError(f"{path}: unknown table format {ext!r}; allowed: .csv, .md, .tex")
-    atomic_write_text(path, text)
-
-
-def _markdown(df: pd.DataFrame) -> str:
-    """Markdown without the optional ``tabulate`` dependency of ``DataFrame.to_markdown``."""
-    def cell(v):
-        if isinstance(v, float):
-            return "" if math.isnan(v) else f"{v:.3g}"
-        return str(v)
-    head = "| " + " | ".join(map(str, df.columns)) + " |"
-    sep = "|" + "|".join("---" for _ in df.columns) + "|"
-    body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in df.itertuples(index=False)]
-    return "\n".join([head, sep, *body]) + "\n"
+    """Deprecated alias of :func:`fingerfriction.study.store.write_table` (this module
+    computes and writes nothing; the alias goes after one release)."""
+    warnings.warn("fingerfriction.stats.write_table is deprecated: use "
+                  "fingerfriction.study.store.write_table", DeprecationWarning, stacklevel=2)
+    _write_table(df, path, float_format=float_format)

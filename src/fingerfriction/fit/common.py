@@ -256,6 +256,35 @@ class Trial:
         return _surface_labels(self.surface)[1]
 
 
+def _by_subject(trials) -> dict[str, list[Trial]]:
+    """The trials grouped by subject (in their order); raises for an empty sequence or an
+    item that is not a :class:`Trial`."""
+    trials = list(trials)
+    if not trials:
+        raise ValueError("trials is empty")
+    by: dict[str, list[Trial]] = {}
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+        by.setdefault(t.subject, []).append(t)
+    return by
+
+
+def _one_subject(trials, *, caller: str, purpose: str, group: str) -> tuple[list[Trial], str]:
+    """The trials of one subject as a list, and that subject; the messages name the fitting
+    function (``caller``), what it fits (``purpose``) and its every-subject form (``group``)."""
+    trials = list(trials)
+    if not trials:
+        raise ValueError(f"trials is empty: need at least one Trial to {purpose}")
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
+    subjects = sorted({t.subject for t in trials})
+    if len(subjects) != 1:
+        raise ValueError(f"{caller} needs trials of one subject, got subjects {subjects}; use {group}")
+    return trials, subjects[0]
+
+
 # ------------------------------------------------------------------------ preprocessing
 
 

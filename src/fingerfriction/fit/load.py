@@ -60,8 +60,10 @@ from ..surfaces import Surface
 from .common import (
     FitFlag,
     Trial,
+    _by_subject,
     _check_kernel,
     _fit_labels,
+    _one_subject,
     flat_detrend,
     flat_segment_mask,
     median_filter,
@@ -575,6 +577,18 @@ def _fit_contact(designs, mu_of, options: LoadFitOptions) -> tuple[float, float,
 # ------------------------------------------------------------------------ subject fit
 
 
+def _at_bound_flags(subject: str, fitted, inset: float, kappa: float, options: LoadFitOptions) -> list:
+    """A warning for each fitted contact parameter that ended within 2 % of its bound."""
+    flags = []
+    bounds = (("inset", inset, options.inset_max), ("kappa", kappa, options.kappa_max))
+    for name, value, bound in bounds:
+        if name in fitted and value > 0.98 * bound:
+            what = "load-bearing inset" if name == "inset" else "rise of the pressure with height"
+            flags.append(FitFlag("warning", f"{name}-at-bound", subject, "", "load",
+                                 f"the {what} reached its bound {bound:g}"))
+    return flags
+
+
 def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
                      models: dict | None = None) -> LoadSubjectFit:
     """Fit the load-consistent Eq. (4) to one subject's trials (see the module notes).
@@ -596,17 +610,8 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
         fit is unphysical; never a silent number.
     """
     options = options or LoadFitOptions()
-    trials = list(trials)
-    if not trials:
-        raise ValueError("trials is empty: need at least one Trial to fit a subject")
-    for i, t in enumerate(trials):
-        if not isinstance(t, Trial):
-            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
-    subjects = sorted({t.subject for t in trials})
-    if len(subjects) != 1:
-        raise ValueError(f"fit_load_subject needs trials of one subject, got subjects {subjects}; "
-                         "use fit_load_trials")
-    subject = subjects[0]
+    trials, subject = _one_subject(trials, caller="fit_load_subject", purpose="fit a subject",
+                                   group="fit_load_trials")
     models = {} if models is None else models
     designs = []
     for t in trials:
@@ -648,12 +653,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                                  f"the pressure's rise with height is limited to {kappa:.2f}/mm, where every "
                                  f"trial's deformation weight p1 stays >= 0 (the residual alone would take "
                                  f"{best:.2f}/mm)"))
-    bounds = (("inset", inset, options.inset_max), ("kappa", kappa, options.kappa_max))
-    for name, value, bound in bounds:
-        if name in fitted and value > 0.98 * bound:
-            what = "load-bearing inset" if name == "inset" else "rise of the pressure with height"
-            flags.append(FitFlag("warning", f"{name}-at-bound", subject, "", "load",
-                                 f"the {what} reached its bound {bound:g}"))
+    flags += _at_bound_flags(subject, fitted, inset, kappa, options)
     fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan))
                  for d in designs)
     for f in fits:
@@ -671,13 +671,5 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
 def fit_load_trials(trials: Sequence[Trial],
                     options: LoadFitOptions | None = None) -> dict[str, LoadSubjectFit]:
     """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
-    trials = list(trials)
-    if not trials:
-        raise ValueError("trials is empty")
-    by: dict[str, list[Trial]] = {}
-    for i, t in enumerate(trials):
-        if not isinstance(t, Trial):
-            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
-        by.setdefault(t.subject, []).append(t)
     models: dict = {}
-    return {s: fit_load_subject(ts, options, models=models) for s, ts in sorted(by.items())}
+    return {s: fit_load_subject(ts, options, models=models) for s, ts in sorted(_by_subject(trials).items())}

@@ -52,8 +52,10 @@ from ..surfaces import Surface
 from .common import (
     FitFlag,
     Trial,
+    _by_subject,
     _check_kernel,
     _fit_labels,
+    _one_subject,
     flat_detrend,
     flat_segment_mask,
     median_filter,
@@ -450,6 +452,30 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
     return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, _fit_labels(trial))
 
 
+def _checked_grid(grid) -> np.ndarray:
+    """The ``mu`` grid as a 1-D array (default :func:`mu_grid`), checked."""
+    mus = mu_grid() if grid is None else np.asarray(grid, dtype=float).reshape(-1)
+    if mus.size == 0 or not np.all(np.isfinite(mus)) or np.any(mus < 0) or np.any(mus > 5):
+        raise ValueError(f"grid must be non-empty finite mu values in [0, 5], got {mus!r}")
+    return mus
+
+
+def _objective_curve(d: _Design, mus: np.ndarray, method: str, options: FitOptions) -> np.ndarray:
+    """One trial's objective at every ``mu`` of the grid (``p0, p1`` refitted at each; inf
+    where the fit fails)."""
+    if method == "lstsq":
+        return d.lstsq_curve(mus)[1]
+    # One simplex per grid point, each warm-started from the previous point's solution.
+    obj = np.empty(mus.size)
+    prev = None
+    for i, m in enumerate(mus):
+        res, sc = _nelder_mead(d, float(m), options, prev)
+        ok = bool(res.success) and math.isfinite(float(res.fun))
+        obj[i] = float(res.fun) if ok else math.inf
+        prev = sc * res.x if ok else None
+    return obj
+
+
 def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
                 options: FitOptions | None = None, refine: bool = False) -> SubjectFit:
     """Per-subject ``mu`` by grid search, refitting ``p0, p1`` per trial at each ``mu``.
@@ -488,18 +514,9 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     """
     options = options or FitOptions()
     _check_method(method)
-    trials = list(trials)
-    if not trials:
-        raise ValueError("trials is empty: need at least one Trial to fit a subject's mu")
-    for i, t in enumerate(trials):
-        if not isinstance(t, Trial):
-            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
-    subjects = sorted({t.subject for t in trials})
-    if len(subjects) != 1:
-        raise ValueError(f"fit_subject needs trials of one subject, got subjects {subjects}; use fit_trials")
-    mus = mu_grid() if grid is None else np.asarray(grid, dtype=float).reshape(-1)
-    if mus.size == 0 or not np.all(np.isfinite(mus)) or np.any(mus < 0) or np.any(mus > 5):
-        raise ValueError(f"grid must be non-empty finite mu values in [0, 5], got {mus!r}")
+    trials, subject = _one_subject(trials, caller="fit_subject", purpose="fit a subject's mu",
+                                   group="fit_trials")
+    mus = _checked_grid(grid)
     if method == "lstsq" and options.objective != "nmse":
         raise ValueError(
             f"method='lstsq' minimises the conventional NMSE; objective={options.objective!r} "
@@ -511,20 +528,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
         if t.surface not in models:  # RaisedCosine hashes by value, SampledProfile by identity
             models[t.surface] = FrictionModel(t.surface)
         designs.append(_Design(t, options, models[t.surface]))
-    curve = np.zeros(mus.size)
-    for d in designs:
-        if method == "lstsq":
-            _, obj, _ = d.lstsq_curve(mus)
-        else:
-            # One simplex per grid point, each warm-started from the previous point's solution.
-            obj = np.empty(mus.size)
-            prev = None
-            for i, m in enumerate(mus):
-                res, sc = _nelder_mead(d, float(m), options, prev)
-                ok = bool(res.success) and math.isfinite(float(res.fun))
-                obj[i] = float(res.fun) if ok else math.inf
-                prev = sc * res.x if ok else None
-        curve += obj
+    curve = sum(_objective_curve(d, mus, method, options) for d in designs)
     if not np.any(np.isfinite(curve)):
         j = 0
     else:
@@ -549,7 +553,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
         parts.append(f"{n_bad} of {len(fits)} trial fits failed")
     if mu != float(mus[j]):
         parts.append(f"refined from the grid value {mus[j]:g} by a parabola through 3 grid points")
-    return SubjectFit(subject=subjects[0], mu=mu, grid=mus, curve=curve, trials=fits,
+    return SubjectFit(subject=subject, mu=mu, grid=mus, curve=curve, trials=fits,
                       success=success, message="; ".join(parts), method=method)
 
 
@@ -566,16 +570,8 @@ def _parabola_vertex(x: np.ndarray, y: np.ndarray) -> float:
 def fit_trials(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
                options: FitOptions | None = None, refine: bool = False) -> dict[str, SubjectFit]:
     """:func:`fit_subject` for every subject present in ``trials`` (keyed by subject)."""
-    trials = list(trials)
-    if not trials:
-        raise ValueError("trials is empty")
-    by: dict[str, list[Trial]] = {}
-    for i, t in enumerate(trials):
-        if not isinstance(t, Trial):
-            raise TypeError(f"trials[{i}] must be a Trial, got {type(t).__name__}")
-        by.setdefault(t.subject, []).append(t)
     return {s: fit_subject(ts, grid=grid, method=method, options=options, refine=refine)
-            for s, ts in sorted(by.items())}
+            for s, ts in sorted(_by_subject(trials).items())}
 
 
 def paper_flags(fit: SubjectFit) -> list[FitFlag]:

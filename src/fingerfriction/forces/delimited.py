@@ -82,6 +82,33 @@ def _consistent(lines: list[str], delimiter: str) -> bool:
     return any(all(_is_number(f, dec) for r in data for f in r) for dec in (".", ",") if dec != delimiter)
 
 
+def _first_lines(p: Path, n: int = 50) -> tuple[int, list[str]]:
+    """``(skip, lines)``: how many ``#`` comment and blank lines open the file, and its
+    first ``n`` non-blank lines after them (from its first 64 KiB)."""
+    try:
+        with open(p, encoding="utf-8-sig", errors="replace", newline="") as fh:
+            head = fh.read(1 << 16)
+            more = bool(fh.read(1))
+    except OSError as exc:
+        raise CsvLayoutError(f"cannot read {str(p)!r} as CSV: {exc.strerror or exc}") from None
+    raw = head.splitlines()
+    if more and raw:
+        raw = raw[:-1]  # the last line of the chunk may be cut
+    skip = 0
+    lines: list[str] = []
+    for line in raw:
+        if not lines and (not line.strip() or line.lstrip().startswith("#")):
+            skip += 1
+            continue
+        if line.strip():
+            lines.append(line)
+        if len(lines) >= n:
+            break
+    if not lines:
+        raise CsvLayoutError(f"{str(p)!r} holds no data rows")
+    return skip, lines
+
+
 def csv_layout(path: str | os.PathLike, *, delimiter: str | None = None) -> CsvLayout:
     """Detect the delimiter, decimal mark and header row of a delimited text file.
 
@@ -112,27 +139,7 @@ def csv_layout(path: str | os.PathLike, *, delimiter: str | None = None) -> CsvL
     line is a header unless every field in it is a number.
     """
     p = Path(path)
-    try:
-        with open(p, encoding="utf-8-sig", errors="replace", newline="") as fh:
-            head = fh.read(1 << 16)
-            more = bool(fh.read(1))
-    except OSError as exc:
-        raise CsvLayoutError(f"cannot read {str(p)!r} as CSV: {exc.strerror or exc}") from None
-    raw = head.splitlines()
-    if more and raw:
-        raw = raw[:-1]  # the last line of the chunk may be cut
-    skip = 0
-    lines: list[str] = []
-    for line in raw:
-        if not lines and (not line.strip() or line.lstrip().startswith("#")):
-            skip += 1
-            continue
-        if line.strip():
-            lines.append(line)
-        if len(lines) >= 50:
-            break
-    if not lines:
-        raise CsvLayoutError(f"{str(p)!r} holds no data rows")
+    skip, lines = _first_lines(p)
     delim = delimiter
     if delim is None:
         for cand in ("\t", ";", "|", ",", r"\s+"):

@@ -605,6 +605,56 @@ def _cutoff_standard_error(r: np.ndarray, m: np.ndarray, Js: np.ndarray, scale: 
     return se_w / (2.0 * math.pi) / (1.0 + (w / (2.0 * fs)) ** 2), float(np.mean(taus))  # d fc / d w
 
 
+class _RestModel:
+    """The rests' model of :func:`estimate_highpass`, for ``k`` channels ``y`` (N) sampled
+    at ``fs`` (Hz) with the rest samples ``mask``: the parameters ``p = [w, b_1, a_1, ...]``
+    (``w`` the angular cut-off in rad/s, ``b_c + a_c u`` channel c's drift line, ``u`` the
+    time in record durations), the residual at the rest samples and its Jacobian."""
+
+    def __init__(self, y, mask, fs: float):
+        Y = np.atleast_2d(np.asarray(y, dtype=np.float64))
+        m = np.asarray(mask, dtype=bool)
+        if Y.ndim != 2 or m.ndim != 1 or m.shape[0] != Y.shape[1]:
+            raise ValueError(
+                f"y must be (n,) or (k, n) and mask (n,) with the same n, got {np.shape(y)} and {m.shape}"
+            )
+        if not np.all(np.isfinite(Y)):
+            raise ValueError("y contains NaN or infinite values; fill or remove them before the estimate")
+        self.mask, self.n_rest = m, int(m.sum())
+        if self.n_rest < 8:
+            raise ValueError(f"the cut-off estimate needs at least 8 rest samples in mask, got {self.n_rest}")
+        self.k, n = Y.shape
+        tau = np.arange(n) / fs
+        span = max(float(tau[-1]), 1.0 / fs)
+        u = tau / span  # slope per record duration: columns of order 1
+        self.iy = _trapezoid_integral(Y, fs)[:, m]
+        self.i1 = _trapezoid_integral(np.ones(n), fs)[m]
+        self.iu = _trapezoid_integral(u, fs)[m]
+        self.yr, self.ur = Y[:, m], u[m]
+
+    def drift(self, w: float) -> np.ndarray:
+        """(b_c, a_c) per channel, least squares at a fixed w: (k, 2)."""
+        A = np.column_stack([1.0 + w * self.i1, self.ur + w * self.iu])
+        coef, *_ = np.linalg.lstsq(A, (self.yr + w * self.iy).T, rcond=None)
+        return coef.T
+
+    def residual(self, p: np.ndarray) -> np.ndarray:
+        w, ba = p[0], p[1:].reshape(self.k, 2)
+        r = self.yr + w * self.iy - ba[:, :1] * (1.0 + w * self.i1) - ba[:, 1:] * (self.ur + w * self.iu)
+        return r.ravel()
+
+    def jacobian(self, p: np.ndarray) -> np.ndarray:
+        w, ba = p[0], p[1:].reshape(self.k, 2)
+        n_rest = self.n_rest
+        J = np.zeros((self.k * n_rest, 1 + 2 * self.k))
+        for c in range(self.k):
+            rows = slice(c * n_rest, (c + 1) * n_rest)
+            J[rows, 0] = self.iy[c] - ba[c, 0] * self.i1 - ba[c, 1] * self.iu
+            J[rows, 1 + 2 * c] = -(1.0 + w * self.i1)
+            J[rows, 2 + 2 * c] = -(self.ur + w * self.iu)
+        return J
+
+
 def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0.1) -> HighpassEstimate:
     """Estimate the cut-off of the sensor's first-order high-pass from the unloaded rests.
 
@@ -678,47 +728,10 @@ def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0
     fs = _check_fs(fs, "fs")
     prior = _check_freq("prior", prior, fs)
     max_rel_se = _positive("max_rel_se", max_rel_se, "(dimensionless)")
-    Y = np.atleast_2d(np.asarray(y, dtype=np.float64))
-    m = np.asarray(mask, dtype=bool)
-    if Y.ndim != 2 or m.ndim != 1 or m.shape[0] != Y.shape[1]:
-        raise ValueError(
-            f"y must be (n,) or (k, n) and mask (n,) with the same n, got {np.shape(y)} and {m.shape}"
-        )
-    if not np.all(np.isfinite(Y)):
-        raise ValueError("y contains NaN or infinite values; fill or remove them before the estimate")
-    n_rest = int(m.sum())
-    if n_rest < 8:
-        raise ValueError(f"the cut-off estimate needs at least 8 rest samples in mask, got {n_rest}")
-    k, n = Y.shape
-    tau = np.arange(n) / fs
-    span = max(float(tau[-1]), 1.0 / fs)
-    u = tau / span  # slope per record duration: columns of order 1
-    iy = _trapezoid_integral(Y, fs)[:, m]
-    i1 = _trapezoid_integral(np.ones(n), fs)[m]
-    iu = _trapezoid_integral(u, fs)[m]
-    yr, ur = Y[:, m], u[m]
+    rest = _RestModel(y, mask, fs)
+    k, n_rest, m = rest.k, rest.n_rest, rest.mask
+    drift, residual, jacobian = rest.drift, rest.residual, rest.jacobian
     w_prior = 2.0 * fs * math.tan(math.pi * prior / fs)  # bilinear transform's prewarping
-
-    def drift(w: float) -> np.ndarray:
-        """(b_c, a_c) per channel, least squares at a fixed w: (k, 2)."""
-        A = np.column_stack([1.0 + w * i1, ur + w * iu])
-        coef, *_ = np.linalg.lstsq(A, (yr + w * iy).T, rcond=None)
-        return coef.T
-
-    def residual(p: np.ndarray) -> np.ndarray:
-        w, ba = p[0], p[1:].reshape(k, 2)
-        r = yr + w * iy - ba[:, :1] * (1.0 + w * i1) - ba[:, 1:] * (ur + w * iu)
-        return r.ravel()
-
-    def jacobian(p: np.ndarray) -> np.ndarray:
-        w, ba = p[0], p[1:].reshape(k, 2)
-        J = np.zeros((k * n_rest, 1 + 2 * k))
-        for c in range(k):
-            rows = slice(c * n_rest, (c + 1) * n_rest)
-            J[rows, 0] = iy[c] - ba[c, 0] * i1 - ba[c, 1] * iu
-            J[rows, 1 + 2 * c] = -(1.0 + w * i1)
-            J[rows, 2 + 2 * c] = -(ur + w * iu)
-        return J
 
     def fail(msg: str, nfev: int = 0, rms: float = float("nan"), ac: float = float("nan")):
         return HighpassEstimate(prior, float("nan"), prior, n_rest, k, nfev, rms, ac, False, msg)

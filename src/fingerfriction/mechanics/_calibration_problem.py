@@ -11,7 +11,7 @@ import numpy as np
 
 from ..blindspots import blind_spots
 from ..surfaces import Surface
-from .bem import ContactSolver
+from .bem import ContactSolver, _geometric_regions
 from .finger import FingerParams
 
 __all__: list[str] = []
@@ -430,30 +430,8 @@ def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.nd
     ``min_region`` dropped."""
     out = []
     for i in range(d.shape[0]):
-        di, xi = d[i], X[i]
-        m = di <= tol[i]
-        if not m.any():
-            out.append(np.empty((0, 2)))
-            continue
-        dm = np.diff(m.view(np.int8))
-        starts = np.flatnonzero(dm == 1) + 1
-        ends = np.flatnonzero(dm == -1)
-        if m[0]:
-            starts = np.concatenate(([0], starts))
-        if m[-1]:
-            ends = np.concatenate((ends, [m.size - 1]))
         rows = []
-        for s, e in zip(starts, ends, strict=True):
-            if s > 0:
-                g0, g1 = di[s - 1], di[s]
-                a = xi[s - 1] + (xi[s] - xi[s - 1]) * (g0 - tol[i]) / (g0 - g1)
-            else:
-                a = xi[0]
-            if e < m.size - 1:
-                g0, g1 = di[e], di[e + 1]
-                bb = xi[e] + (xi[e + 1] - xi[e]) * (tol[i] - g0) / (g1 - g0)
-            else:
-                bb = xi[-1]
+        for a, bb in _geometric_regions(X[i], d[i], tol[i]):
             if rows and a - rows[-1][1] < min_gap[i]:
                 rows[-1] = (rows[-1][0], bb)
             else:

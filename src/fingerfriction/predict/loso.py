@@ -27,7 +27,7 @@ from ..fit import (
     flat_segment_mask,
     median_filter,
 )
-from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, load_terms
+from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, T_matrix, load_terms
 from ..stats import BOTH, correlation_table, ensemble_correlation
 from ..study.store import ResultsStore
 from ..surfaces import Surface
@@ -40,15 +40,25 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
+def _paper_estimate(model: FrictionModel, regions: np.ndarray, params: FrictionParams, options,
+                    footing=np.asarray) -> np.ndarray:
+    """The paper model's Eq. (4) in N for fixed parameters, processed as the fit processes
+    it (``fit.paper._Design.estimate``): the median filter on the per-frame integrals S, K,
+    Q ('basis' mode) or on the force ('estimate' mode), and ``footing`` (a linear map of a
+    series, e.g. the flat detrend) where the fit applies it."""
+    raw = model.integrals(regions)  # S, K, Q (mm)
+    coef = T_matrix(params.mu) @ np.array([params.p0, params.p1])
+    if options.median_on == "basis":
+        return footing(median_filter(raw, options.median_kernel)) @ coef
+    return footing(median_filter(raw @ coef, options.median_kernel))
+
+
 def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regions: np.ndarray,
                        params: FrictionParams, options, model: FrictionModel | None = None):
     """Measured and model series as the fit compares them (fit.py's processing), for fixed
     parameters: median filter on the per-frame integrals S, K, Q, then the same linear
     detrend over the flat segment defined by ``regions`` applied to both."""
     model = model or FrictionModel(surface)
-    b0 = model.basis(regions, 0.0)
-    b1 = model.basis(regions, 1.0)
-    raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
     if getattr(options, "detrend", True):
         mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
 
@@ -57,30 +67,14 @@ def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regio
     else:  # absolute forces (FitOptions.detrend=False)
         def footing(y):
             return np.asarray(y, dtype=float)
-    mu = params.mu
-    T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
-    p = np.array([params.p0, params.p1])
-    if options.median_on == "basis":
-        est = footing(median_filter(raw, options.median_kernel)) @ (T @ p)
-    else:
-        est = footing(median_filter(raw @ (T @ p), options.median_kernel))
-    return footing(force), est
+    return footing(force), _paper_estimate(model, regions, params, options, footing)
 
 
 def _predicted_estimate(surface: Surface, force: np.ndarray, regions: np.ndarray, params: FrictionParams,
                         options, flat_level: float, model: FrictionModel):
     """Measured force as given and the prediction minus its flat-ground level (N); the
     model is median-filtered like the fit's (per-frame integrals S, K, Q in 'basis' mode)."""
-    b0 = model.basis(regions, 0.0)
-    b1 = model.basis(regions, 1.0)
-    raw = np.column_stack([b0[:, 0], b1[:, 0] - b0[:, 0], b0[:, 1]])  # S, K, Q (mm)
-    mu = params.mu
-    T = np.array([[1.0, mu], [mu, 0.0], [0.0, 1.0]])
-    p = np.array([params.p0, params.p1])
-    if options.median_on == "basis":
-        est = median_filter(raw, options.median_kernel) @ (T @ p)
-    else:
-        est = median_filter(raw @ (T @ p), options.median_kernel)
+    est = _paper_estimate(model, regions, params, options)
     if not getattr(options, "detrend", True):  # absolute forces: keep the flat level
         flat_level = 0.0
     return np.asarray(force, dtype=float), est - flat_level
@@ -280,22 +274,9 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     """
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
-    trials = list(trials)
-    for i, t in enumerate(trials):
-        if not isinstance(t, Trial):
-            raise TypeError(f"trials[{i}] must be a fingerfriction.fit.Trial, got {type(t).__name__}")
+    trials, surfaces, subjects = _loso_inputs(trials, fingers)
     options = options or FitOptions()
     load_options = load_options or LoadFitOptions()
-    surfaces: dict[str, Surface] = {}
-    for t in trials:
-        surfaces.setdefault(t.surface.name, t.surface)
-    if len(surfaces) < 2:
-        raise ValueError(f"leave-one-surface-out needs trials on at least 2 surfaces, got {sorted(surfaces)}")
-    subjects = sorted({t.subject for t in trials})
-    for s in subjects:
-        _finger_for_label(s, fingers)  # fail early on an unmappable subject
-    for surf in surfaces.values():
-        check_profile(surf)
 
     def fit_all(ts):
         if model == "load":
@@ -330,13 +311,8 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
                 continue
             params = _training_params(model, sf, ok)
             finger = _heldout_finger(subj, name, fingers, heldout_fingers)
-            lo = min(float(t.x[0]) for t in ttest)
-            hi = max(float(t.x[-1]) for t in ttest)
-            key = (name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(forward_step))
-            if key not in cache:
-                xs = lo + forward_step * np.arange(int(math.ceil((hi - lo) / forward_step - 1e-9)) + 1)
-                cache[key] = (xs, forward_regions(surf, finger, xs, load=load, contact=contact))
-            xs, fwd = cache[key]
+            lo, xs, fwd = _forward_sweep(cache, surf, finger, ttest, load=load, contact=contact,
+                                         step=forward_step)
             flat_level = 0.0
             if model == "paper":
                 flat_level = params.mu * params.p0 * _flat_length_kind(finger, float(load), contact)
@@ -354,6 +330,39 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
             rows.append(_loso_row(model, subj, surf, ttest, ins, got, params))
         rows.append(_loso_row(model, BOTH, surf, test, ins, pooled, None))
     return OutOfSample(table=_in_table1_order(pd.DataFrame(rows), subjects), estimates=estimates)
+
+
+def _loso_inputs(trials, fingers) -> tuple[list[Trial], dict[str, Surface], list]:
+    """The trials as a list, their surfaces by name (at least two, each a profile the
+    forward model takes) and their subjects (each with a finger), checked."""
+    trials = list(trials)
+    for i, t in enumerate(trials):
+        if not isinstance(t, Trial):
+            raise TypeError(f"trials[{i}] must be a fingerfriction.fit.Trial, got {type(t).__name__}")
+    surfaces: dict[str, Surface] = {}
+    for t in trials:
+        surfaces.setdefault(t.surface.name, t.surface)
+    if len(surfaces) < 2:
+        raise ValueError(f"leave-one-surface-out needs trials on at least 2 surfaces, got {sorted(surfaces)}")
+    subjects = sorted({t.subject for t in trials})
+    for s in subjects:
+        _finger_for_label(s, fingers)  # fail early on an unmappable subject
+    for surf in surfaces.values():
+        check_profile(surf)
+    return trials, surfaces, subjects
+
+
+def _forward_sweep(cache: dict, surf: Surface, finger, trials, *, load: float, contact: str, step: float):
+    """``(lo, xs, regions)``: the forward model's sweep over the positions of ``trials``
+    (from ``lo`` by ``step`` mm), computed once per surface, finger, load, contact and
+    span (kept in ``cache``)."""
+    lo = min(float(t.x[0]) for t in trials)
+    hi = max(float(t.x[-1]) for t in trials)
+    key = (surf.name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(step))
+    if key not in cache:
+        xs = lo + step * np.arange(int(math.ceil((hi - lo) / step - 1e-9)) + 1)
+        cache[key] = (xs, forward_regions(surf, finger, xs, load=load, contact=contact))
+    return (lo, *cache[key])
 
 
 def _heldout_finger(subject, surface: str, fingers, heldout_fingers):

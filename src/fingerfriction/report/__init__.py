@@ -27,8 +27,7 @@ from markupsafe import Markup
 from .._atomic import atomic_write_text
 from .._progress import ProgressBar
 from ..forces.signals import describe_history
-from ..stats import write_table
-from ..study.store import ResultsStore
+from ..study.store import ResultsStore, write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
 from .flags import collect_flags, flagged_trials, group_flags

@@ -147,6 +147,35 @@ def _curve(ax, ms, colour, *, scale: float = 1e3, offset: float = 0.0, ls: str =
 # --------------------------------------------------------------------------------------
 
 
+def _profile_with_blind_spots(ax_h, ax_o, surf, bs) -> None:
+    """Fig. 3's lower panel: the profile h(x) over the blind-spot span ``bs.span`` (flat
+    without a surface), each blind spot shaded and labelled with its width, and outlined
+    on the occupancy strip above (``ax_o``)."""
+    lo, hi = bs.span
+    xs = np.linspace(lo, hi, 1500)
+    h = surf.h(xs) if surf is not None else np.zeros_like(xs)
+    H = max(float(np.ptp(h)), 0.2)
+    base = float(h.min()) - 0.15 * H
+    ax_h.fill_between(xs, base, h, color="0.82", lw=0)
+    ax_h.plot(xs, h, color="k", lw=0.9)
+    n_bs = len(bs)
+    for k, (a, b) in enumerate(bs.intervals):
+        ax_h.axvspan(a, b, color=BLIND_SPOT, alpha=0.22, lw=0)
+        ax_o.plot([a, a, b, b], [0.0, 1.0, 1.0, 0.0], color=BLIND_SPOT, lw=0.9)
+        seg = (xs >= a) & (xs <= b)
+        ax_h.plot(xs[seg], h[seg], color=BLIND_SPOT, lw=2.2, solid_capstyle="butt")
+        # two neighbours (a bump's pair) are labelled away from each other
+        ha, xt = "center", 0.5 * (a + b)
+        if n_bs == 2:
+            ha, xt = ("right", b) if k == 0 else ("left", a)
+        ax_h.text(xt, float(h.max()) + 0.12 * H, f"{b - a:.2f} mm", ha=ha, va="bottom",
+                  color=BLIND_SPOT, fontsize=7)
+    ax_h.set_ylim(base, float(h.max()) + 0.5 * H)
+    ax_h.set_xlim(lo, hi)
+    ax_h.set_ylabel("h (mm)")
+    ax_h.yaxis.set_major_formatter("{x:.1f}")
+
+
 def fig3_occupancy(data: ReportData) -> Figure:
     """Fig. 3: normalised proportion of time each surface location is in contact.
 
@@ -194,28 +223,7 @@ def fig3_occupancy(data: ReportData) -> Figure:
                 sp.set_visible(True)
             widths = ", ".join(f"{w:.2f}" for w in bs.widths)
             ax_o.set_title(f"{title}: blind spots {widths + ' mm' if widths else 'none'}", loc="left")
-            xs = np.linspace(lo, hi, 1500)
-            h = surf.h(xs) if surf is not None else np.zeros_like(xs)
-            H = max(float(np.ptp(h)), 0.2)
-            base = float(h.min()) - 0.15 * H
-            ax_h.fill_between(xs, base, h, color="0.82", lw=0)
-            ax_h.plot(xs, h, color="k", lw=0.9)
-            n_bs = len(bs)
-            for k, (a, b) in enumerate(bs.intervals):
-                ax_h.axvspan(a, b, color=BLIND_SPOT, alpha=0.22, lw=0)
-                ax_o.plot([a, a, b, b], [0.0, 1.0, 1.0, 0.0], color=BLIND_SPOT, lw=0.9)
-                seg = (xs >= a) & (xs <= b)
-                ax_h.plot(xs[seg], h[seg], color=BLIND_SPOT, lw=2.2, solid_capstyle="butt")
-                # two neighbours (a bump's pair) are labelled away from each other
-                ha, xt = "center", 0.5 * (a + b)
-                if n_bs == 2:
-                    ha, xt = ("right", b) if k == 0 else ("left", a)
-                ax_h.text(xt, float(h.max()) + 0.12 * H, f"{b - a:.2f} mm", ha=ha, va="bottom",
-                          color=BLIND_SPOT, fontsize=7)
-            ax_h.set_ylim(base, float(h.max()) + 0.5 * H)
-            ax_h.set_xlim(lo, hi)
-            ax_h.set_ylabel("h (mm)")
-            ax_h.yaxis.set_major_formatter("{x:.1f}")
+            _profile_with_blind_spots(ax_h, ax_o, surf, bs)
             if i < len(names) - 1:
                 ax_h.tick_params(axis="x", labelbottom=False)
         if all_axes:
@@ -270,6 +278,22 @@ _FOOTING_TEXT = {
 }
 
 
+def _surface_subject_grid(data: ReportData, *, top_in: float):
+    """Fig. 4's and Fig. 6's layout: a panel per surface (row) and subject (column), x
+    shared; the axes labelled (F_T in mN, finger position in mm). ``top_in``: the height
+    in inches above the rows (titles, legend). Returns ``(fig, axes)``, axes
+    ``(n_surfaces, max(n_subjects, 1))``."""
+    names, n_cols = data.surface_names, max(len(data.subjects), 1)
+    fig = new_figure(FULL_WIDTH_IN if n_cols > 1 else FULL_WIDTH_IN / 2 + 0.3, top_in + 1.55 * len(names))
+    axes = fig.subplots(len(names), n_cols, squeeze=False, sharex=True)
+    if data.subjects:
+        for ax in axes[:, 0]:
+            ax.set_ylabel("F_T (mN)")
+    for ax in axes[-1]:
+        ax.set_xlabel("finger position x (mm)")
+    return fig, axes
+
+
 def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
     """Fig. 4: measured F_T(x) per surface and subject, one curve per speed.
 
@@ -288,10 +312,8 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
     if footing == "auto":
         footing = measured_footing(data)
     names, subjects, speeds = data.surface_names, data.subjects, data.speeds
-    n_cols = max(len(subjects), 1)
     with figure_style():
-        fig = new_figure(FULL_WIDTH_IN if n_cols > 1 else FULL_WIDTH_IN / 2 + 0.3, 0.9 + 1.55 * len(names))
-        axes = fig.subplots(len(names), n_cols, squeeze=False, sharex=True)
+        fig, axes = _surface_subject_grid(data, top_in=0.9)
         for i, name in enumerate(names):
             for j, subj in enumerate(subjects):
                 ax = axes[i, j]
@@ -311,10 +333,6 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
                 if not drawn:
                     _empty(ax)
                 ax.set_title(f"{_label(data, name)}, subject {subj}")
-                if j == 0:
-                    ax.set_ylabel("F_T (mN)")
-        for ax in axes[-1]:
-            ax.set_xlabel("finger position x (mm)")
         handles = [Line2D([], [], color=SPEED_COLOURS[k % len(SPEED_COLOURS)],
                           label=f"{v:g} mm/s (+{k * 25} mN)") for k, v in enumerate(speeds)]
         handles.append(Patch(color="0.5", alpha=0.35, label="+- 1 SD (only where n > 1)"))
@@ -370,10 +388,8 @@ def fig6_model(data: ReportData) -> Figure:
     once), while the measured force changes continuously.
     """
     names, subjects = data.surface_names, data.subjects
-    n_cols = max(len(subjects), 1)
     with figure_style():
-        fig = new_figure(FULL_WIDTH_IN if n_cols > 1 else FULL_WIDTH_IN / 2 + 0.3, 1.0 + 1.55 * len(names))
-        axes = fig.subplots(len(names), n_cols, squeeze=False, sharex=True)
+        fig, axes = _surface_subject_grid(data, top_in=1.0)
         for i, name in enumerate(names):
             for j, subj in enumerate(subjects):
                 ax = axes[i, j]
@@ -396,10 +412,6 @@ def fig6_model(data: ReportData) -> Figure:
                         ax.plot(ev, np.zeros_like(ev), ls="none", marker="|", ms=5, mew=0.8, color=MODEL,
                                 alpha=0.6, transform=ax.get_xaxis_transform())
                 ax.set_title(f"{_label(data, name)}, subject {subj}" + (f" (n = {n})" if n else ""))
-                if j == 0:
-                    ax.set_ylabel("F_T (mN)")
-        for ax in axes[-1]:
-            ax.set_xlabel("finger position x (mm)")
         handles = [Line2D([], [], color=MEASURED, label="measured F_T (mean)"),
                    Line2D([], [], color=MODEL, label="model F_hat_T (mean)"),
                    Patch(color="0.5", alpha=0.35, label="+- 1 SD (where n > 1)"),

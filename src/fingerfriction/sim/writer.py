@@ -648,47 +648,61 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
         for key in groups
     }
     if todo:
-        cache.mkdir(exist_ok=True)
-        if workers > 1:
-            ctx = mp.get_context("forkserver") if "forkserver" in mp.get_all_start_methods() else None
-            ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
-        else:
-            ex = _Serial()
-        try:
-            futs = {
-                ex.submit(_table_task, key[0], key[1], load, opts, table_paths[key][j]): (key, load)
-                for key in groups
-                for j, load in enumerate(opts.table_loads)
-            }
-            done_n = 0
-            for f in _as_completed(futs):
-                f.result()
-                done_n += 1
-                if progress:
-                    (surf_spec, subj), load = futs[f]
-                    progress("tables", done_n, len(futs), f"{surf_spec} s{subj} {load:g} N")
-            tfuts = {}
-            for key, plist in groups.items():
-                for p in plist:
-                    tfuts[ex.submit(_trial_task, p, opts, table_paths[key], str(out))] = p.id
-            done_n = 0
-            for f in _as_completed(tfuts):
-                f.result()
-                done_n += 1
-                if progress:
-                    progress("trials", done_n, len(tfuts), tfuts[f])
-        except BaseException:
-            ex.shutdown(wait=True, cancel_futures=True)
-            raise
-        ex.shutdown(wait=True)
-        shutil.rmtree(cache, ignore_errors=True)
+        _run_tasks(out, opts, groups, table_paths, workers, progress)
+    study = _study(opts, [r for _, r in plans], out, description)
+    write_manifest(study, out)
+    return study
 
+
+def _run_tasks(out: Path, opts: SimOptions, groups: dict, table_paths: dict, workers: int,
+               progress) -> None:
+    """The contact tables of every (surface, subject) to simulate, then its trials, in
+    ``workers`` processes (in this one for 1); the tables' cache is removed at the end."""
+    cache = out / ".cache"
+    cache.mkdir(exist_ok=True)
+    if workers > 1:
+        ctx = mp.get_context("forkserver") if "forkserver" in mp.get_all_start_methods() else None
+        ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+    else:
+        ex = _Serial()
+    try:
+        futs = {
+            ex.submit(_table_task, key[0], key[1], load, opts, table_paths[key][j]): (key, load)
+            for key in groups
+            for j, load in enumerate(opts.table_loads)
+        }
+        done_n = 0
+        for f in _as_completed(futs):
+            f.result()
+            done_n += 1
+            if progress:
+                (surf_spec, subj), load = futs[f]
+                progress("tables", done_n, len(futs), f"{surf_spec} s{subj} {load:g} N")
+        tfuts = {}
+        for key, plist in groups.items():
+            for p in plist:
+                tfuts[ex.submit(_trial_task, p, opts, table_paths[key], str(out))] = p.id
+        done_n = 0
+        for f in _as_completed(tfuts):
+            f.result()
+            done_n += 1
+            if progress:
+                progress("trials", done_n, len(tfuts), tfuts[f])
+    except BaseException:
+        ex.shutdown(wait=True, cancel_futures=True)
+        raise
+    ex.shutdown(wait=True)
+    shutil.rmtree(cache, ignore_errors=True)
+
+
+def _study(opts: SimOptions, records: list, out: Path, description: str) -> Study:
+    """The manifest of the simulated study (every trial's record, the surfaces' specs)."""
     surfaces = {}
     for s in opts.surfaces:
         surf = surface_from_spec(s)
         surfaces[surf.name] = surf.to_dict()
-    study = Study(
-        trials=tuple(r for _, r in plans),
+    return Study(
+        trials=tuple(records),
         surfaces=surfaces,
         description=description or (
             f"virtual experiment: {len(opts.subjects)} subjects x {len(opts.surfaces)} surfaces x "
@@ -697,8 +711,6 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
         created_by=f"fingerfriction {__version__} simulate",
         root=out.resolve(),
     )
-    write_manifest(study, out)
-    return study
 
 
 def _as_completed(futs):

@@ -417,28 +417,29 @@ def analyze(
     finally:
         bar.close()
         elapsed = time.perf_counter() - t_start
-        timed = run.t_submit is not None and run.t_done is not None
-        compute = (run.t_done - run.t_submit) if timed else 0.0
-        this_run = {"started": started, "finished": now(), "elapsed_s": round(elapsed, 3),
-                    "compute_s": round(compute, 3),
-                    "scheduler": run.scheduler, "n_workers": run.n_workers, "force": bool(force),
-                    "computed": run.n_ok, "skipped": len(skipped), "failed": run.n_fail,
-                    "interrupted": run.n_ok + run.n_fail + len(skipped) < len(todo_trials)}
-        inputs = {}
-        trial_status = {}
-        for tid in (t.id for t in st.trials):
-            status = store.status(tid) or {}
-            inputs[tid] = status.get("inputs", {})
-            trial_status[tid] = {"status": status.get("status", "not run"),
-                                 "reason": status.get("reason", "")}
-        store.write_run({**base_record, "state": "interrupted" if this_run["interrupted"] else "complete",
-                         "started": started, "finished": this_run["finished"],
-                         "runs": [*previous, this_run], "inputs": inputs, "trial_status": trial_status})
+        this_run = run.summary(started, elapsed, force=force, n_skipped=len(skipped),
+                               n_trials=len(todo_trials))
+        _write_run_record(store, st, base_record, started, [*previous, this_run])
 
     return AnalyzeResult(results=store.root, n_trials=len(todo_trials), n_computed=run.n_ok,
                          n_skipped=len(skipped), n_failed=run.n_fail, failures=tuple(run.failures),
                          elapsed_s=elapsed, scheduler=run.scheduler, n_workers=run.n_workers,
-                         compute_s=compute, plan=plan.trials)
+                         compute_s=run.compute_s, plan=plan.trials)
+
+
+def _write_run_record(store: ResultsStore, st, base_record: dict, started: str, runs: list) -> None:
+    """The run record at the end of a run (``runs[-1]``, complete or interrupted): every
+    trial's input statistics and status as the store now holds them."""
+    inputs = {}
+    trial_status = {}
+    for tid in (t.id for t in st.trials):
+        status = store.status(tid) or {}
+        inputs[tid] = status.get("inputs", {})
+        trial_status[tid] = {"status": status.get("status", "not run"),
+                             "reason": status.get("reason", "")}
+    store.write_run({**base_record, "state": "interrupted" if runs[-1]["interrupted"] else "complete",
+                     "started": started, "finished": runs[-1]["finished"], "runs": runs, "inputs": inputs,
+                     "trial_status": trial_status})
 
 
 class _Run:
@@ -491,6 +492,20 @@ class _Run:
             client.close()
             if cluster is not None:
                 cluster.close()
+
+    @property
+    def compute_s(self) -> float:
+        """Seconds from the first submission to the last result (0 when nothing ran)."""
+        timed = self.t_submit is not None and self.t_done is not None
+        return (self.t_done - self.t_submit) if timed else 0.0
+
+    def summary(self, started: str, elapsed: float, *, force: bool, n_skipped: int, n_trials: int) -> dict:
+        """This run's entry in the run record's ``runs``."""
+        return {"started": started, "finished": now(), "elapsed_s": round(elapsed, 3),
+                "compute_s": round(self.compute_s, 3),
+                "scheduler": self.scheduler, "n_workers": self.n_workers, "force": bool(force),
+                "computed": self.n_ok, "skipped": n_skipped, "failed": self.n_fail,
+                "interrupted": self.n_ok + self.n_fail + n_skipped < n_trials}
 
     def record(self, t: TrialRecord, res: dict, bar: ProgressBar) -> None:
         """Write one trial's result (or failure) into the store; count it; report it."""

@@ -66,6 +66,33 @@ def _mm_per_px(status: dict) -> float | None:
     return None
 
 
+def _trusted_positions(fr) -> np.ndarray:
+    """x(t) in mm from a per-frame table, NaN where the frame is flagged or a contact
+    region is clipped by the field of view."""
+    x = fr["x_mm"].to_numpy(float).copy()
+    bad = np.zeros(len(fr), dtype=bool)
+    if "flag" in fr.columns:
+        bad |= fr["flag"].fillna("").astype(str).to_numpy() != ""
+    if "clipped" in fr.columns:
+        bad |= fr["clipped"].to_numpy(bool)
+    x[bad] = np.nan
+    return x
+
+
+def _measured_load(fo, x: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """The absolute normal force in N at the positions ``x`` (mm), from a per-position
+    table; ``(None, why)`` when the trial has none."""
+    if "F_N_abs_N" not in fo.columns:
+        return None, ("forces.parquet has no F_N_abs_N (analysed by an older version: re-run analyze, "
+                      "or give a load)")
+    fx = fo["x_mm"].to_numpy(float)
+    fn = fo["F_N_abs_N"].to_numpy(float)
+    ok = np.isfinite(fx) & np.isfinite(fn)
+    if not ok.any():
+        return None, "no absolute normal force (F_N_abs_N is NaN): give a load"
+    return np.interp(x, fx[ok], fn[ok], left=np.nan, right=np.nan), ""
+
+
 def trials_from_results(results: str | os.PathLike, subject, *, load: float | None = None,
                         surfaces=None) -> tuple[list[CalibrationTrial], list[tuple[str, str]]]:
     """The subject's analysed trials as calibration inputs.
@@ -122,28 +149,15 @@ def trials_from_results(results: str | os.PathLike, subject, *, load: float | No
             surf = surface_from_spec(specs[m["surface"]])
             fr = store.read_frames(tid)
             fo = store.read_forces(tid)
-            x = fr["x_mm"].to_numpy(float).copy()
+            x = _trusted_positions(fr)
             reg = regions_from_table(fr)
-            bad = np.zeros(len(fr), dtype=bool)
-            if "flag" in fr.columns:
-                bad |= fr["flag"].fillna("").astype(str).to_numpy() != ""
-            if "clipped" in fr.columns:
-                bad |= fr["clipped"].to_numpy(bool)
-            x[bad] = np.nan
             if load is not None:
                 F = np.full(x.size, float(load))
             else:
-                if "F_N_abs_N" not in fo.columns:
-                    skipped.append((tid, "forces.parquet has no F_N_abs_N (analysed by an older version: "
-                                         "re-run analyze, or give a load)"))
+                F, why = _measured_load(fo, x)
+                if F is None:
+                    skipped.append((tid, why))
                     continue
-                fx = fo["x_mm"].to_numpy(float)
-                fn = fo["F_N_abs_N"].to_numpy(float)
-                ok = np.isfinite(fx) & np.isfinite(fn)
-                if not ok.any():
-                    skipped.append((tid, "no absolute normal force (F_N_abs_N is NaN): give a load"))
-                    continue
-                F = np.interp(x, fx[ok], fn[ok], left=np.nan, right=np.nan)
             mmpp = _mm_per_px(st)
             px = mmpp if mmpp is not None else GEOMETRIC_TOL / 3.0
             tol = tol_px * mmpp if mmpp is not None else GEOMETRIC_TOL

@@ -188,29 +188,10 @@ def fit(
     if not meta:
         raise ValueError(f"{str(store.root)!r} has no successfully analysed trial to fit")
 
-    trials, failures = [], []
     bar = ProgressBar(progress, len(meta) + 2, "fit")
-    grids: dict[str, np.ndarray] = {}  # per trial: positions with translated regions
-    cpu: dict[str, float] = {}
     try:
-        for tid in meta:
-            try:  # a trial without a flat segment (the fit detrends over it) must not stop the others
-                trial, grids[tid] = store.read_fit_trial(meta[tid], surfaces, flat_margin=options.flat_margin)
-                trials.append(trial)
-            except (ValueError, KeyError, OSError) as exc:
-                failures.append((tid, one_line(exc)))
-            bar.advance(tid)
-        if not trials:
-            reasons = "; ".join(r for _, r in failures[:3])
-            raise ValueError(f"no trial could be prepared for fitting: {reasons}")
-        c0 = time.process_time()
-        fits = {"load": fitmod.fit_load_trials(trials, load_options)}
-        cpu["load"] = time.process_time() - c0
-        bar.advance("load-consistent model")
-        c0 = time.process_time()
-        fits["paper"] = fitmod.fit_trials(trials, grid=grid, method=method, options=options)
-        cpu["paper"] = time.process_time() - c0
-        bar.advance("paper's model")
+        trials, grids, failures = _read_trials(store, meta, surfaces, options.flat_margin, bar)
+        fits, cpu = _fit_both(trials, grid, method, options, load_options, bar)
     finally:
         bar.close()
 
@@ -248,6 +229,37 @@ def fit(
                       messages=record["messages"], flags=tuple(flags),
                       lines=tuple(summary_lines(fits, flags, model)), table1=table1, cpu_s=cpu,
                       loso=loso, loso_message=loso_message)
+
+
+def _read_trials(store: ResultsStore, meta: dict, surfaces: dict, flat_margin: float, bar):
+    """``(trials, grids, failures)``: the analysed trials as fit inputs, per trial the
+    positions with translated regions, and the trials that could not be prepared (why)."""
+    trials, grids, failures = [], {}, []
+    for tid in meta:
+        try:  # a trial without a flat segment (the fit detrends over it) must not stop the others
+            trial, grids[tid] = store.read_fit_trial(meta[tid], surfaces, flat_margin=flat_margin)
+            trials.append(trial)
+        except (ValueError, KeyError, OSError) as exc:
+            failures.append((tid, one_line(exc)))
+        bar.advance(tid)
+    if not trials:
+        reasons = "; ".join(r for _, r in failures[:3])
+        raise ValueError(f"no trial could be prepared for fitting: {reasons}")
+    return trials, grids, failures
+
+
+def _fit_both(trials: list, grid, method: str, options, load_options, bar) -> tuple[dict, dict]:
+    """Both model variants fitted to every subject: ``(fits, cpu_s)`` keyed by model."""
+    cpu: dict[str, float] = {}
+    c0 = time.process_time()
+    fits = {"load": fitmod.fit_load_trials(trials, load_options)}
+    cpu["load"] = time.process_time() - c0
+    bar.advance("load-consistent model")
+    c0 = time.process_time()
+    fits["paper"] = fitmod.fit_trials(trials, grid=grid, method=method, options=options)
+    cpu["paper"] = time.process_time() - c0
+    bar.advance("paper's model")
+    return fits, cpu
 
 
 def _mu_ci(sf) -> tuple[float, float]:

@@ -299,12 +299,8 @@ class VideoInfo:
                   trial: str | None = None) -> VideoInfo | None:
         """Parse a manifest ``video`` object; with ``problems`` (a list), every mistake is
         appended as a :class:`Problem` and None returned instead of raising at the first."""
-        c = _Collect(problems, trial)
-        d = c(_obj, d, where)
-        if d is None:
-            return None
         opt = {"default": None}
-        kw = dict(
+        return _parse(cls, d, where, problems, trial, lambda c, d: dict(
             path=c(_check_relpath, d.get("path"), f"{where}.path"),
             format=c(_str, d, "format", where, allowed=VIDEO_FORMATS, **opt),
             fps=c(_num, d, "fps", where, positive=True, **opt),
@@ -313,10 +309,21 @@ class VideoInfo:
             n_frames=c(_num, d, "n_frames", where, positive=True, integer=True, **opt),
             t0_s=c(_num, d, "t0_s", where, default=0.0),
             calibration_frame=c(_num, d, "calibration_frame", where, integer=True, nonneg=True, default=0),
-        )
-        if c.failed:
-            return None
-        return c(_within, where, cls, **kw)
+        ))
+
+
+def _parse(cls, d: Any, where: str, problems: list | None, trial: str | None, fields):
+    """A manifest object ``d`` parsed into ``cls``: ``fields(c, d)`` gives the keyword
+    arguments, each read through the collector ``c``; None once a mistake is collected
+    (with ``problems``), else the first mistake raised."""
+    c = _Collect(problems, trial)
+    d = c(_obj, d, where)
+    if d is None:
+        return None
+    kw = fields(c, d)
+    if c.failed:
+        return None
+    return c(_within, where, cls, **kw)
 
 
 def _within(where: str, cls, **kw):
@@ -440,12 +447,8 @@ class ForceInfo:
     def from_dict(cls, d: Any, where: str = "force", problems: list | None = None,
                   trial: str | None = None) -> ForceInfo | None:
         """Parse a manifest ``force`` object (``problems``: as :meth:`VideoInfo.from_dict`)."""
-        c = _Collect(problems, trial)
-        d = c(_obj, d, where)
-        if d is None:
-            return None
         opt = {"default": None}
-        kw = dict(
+        return _parse(cls, d, where, problems, trial, lambda c, d: dict(
             path=c(_check_relpath, d.get("path"), f"{where}.path"),
             format=c(_str, d, "format", where, allowed=FORCE_FORMATS, **opt),
             fs_hz=c(_num, d, "fs_hz", where, positive=True, **opt),
@@ -457,7 +460,4 @@ class ForceInfo:
             gain_v_per_n=d.get("gain_v_per_n"),
             time=d.get("time"),
             delimiter=d.get("delimiter"),
-        )
-        if c.failed:
-            return None
-        return c(_within, where, cls, **kw)
+        ))

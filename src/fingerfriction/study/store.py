@@ -85,6 +85,7 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write, atomic_write_bytes, atomic_write_json, atomic_write_text, jsonable
+from .._outputs import write_table
 from ..fit import FitOptions, Trial, flat_segment_mask, mu_grid
 from ..regions import as_regions, regions_on_grid
 from ..surfaces import Surface, surface_from_spec
@@ -104,6 +105,7 @@ __all__ = [
     "frames_table",
     "regions_from_table",
     "read_fit_table",
+    "write_table",
 ]
 
 logger = logging.getLogger(__name__)

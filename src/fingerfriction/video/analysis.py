@@ -640,52 +640,11 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
     reader = video if isinstance(video, VideoReader) else open_video(video)
     own = not isinstance(video, VideoReader)
     try:
-        n = reader.n_frames
-        if n == 0:
-            raise ValueError(f"{reader.path}: the video has no frames")
-        expected = n if n_frames is None else int(n_frames)
-        if n_frames is not None and expected < n:
-            log.warning("%s holds %d frames, more than the %d expected; analysing %d",
-                        reader.path, n, expected, expected)
-        total = expected
-        stop = total if stop is None else min(int(stop), total)
-        if not 0 <= start < stop:
-            raise ValueError(f"{reader.path}: frame range [{start}, {stop}) is empty or outside "
-                             f"the video's {total} frames")
+        n, expected, stop = _frame_range(reader, n_frames, start, stop)
         if calibration is None:
-            if opt.calibration_frame >= n:
-                raise ValueError(f"{reader.path}: calibration_frame {opt.calibration_frame} is beyond "
-                                 f"the last frame ({n - 1})")
-            frame0 = reader.read_frame(opt.calibration_frame)
-            try:
-                calibration = calibrate(frame0, surface_height_mm, crop=opt.crop, level=opt.level,
-                                        surface=surface)
-            except ValueError as exc:
-                raise ValueError(f"{reader.path}, calibration frame {opt.calibration_frame}: {exc}") from None
+            calibration = _calibrate_reader(reader, opt, surface_height_mm, surface)
         an = FrameAnalyzer(calibration, opt, reader.shape)
-        m = stop - start
-        x = np.full(m, np.nan)
-        x_cf = np.full(m, np.nan)
-        x_chord = np.full(m, np.nan)
-        h_chord, h_left, h_right = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
-        line = np.full(m, np.nan)
-        flags = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
-        regions = np.full((m, opt.n_max_regions, 2), np.nan)
-        too_many = np.zeros(m, bool)
-        t_dec = t_an = 0.0
-        n_an = 0
-        t0 = time.perf_counter()
-        for i0, frames in reader.iter_chunks(opt.chunk_size, start=start, stop=stop):
-            t1 = time.perf_counter()
-            t_dec += t1 - t0
-            r = an.analyze_chunk(i0, frames)
-            s = slice(i0 - start, i0 - start + frames.shape[0])
-            x[s], x_cf[s], x_chord[s], line[s] = r["x"], r["x_cf"], r["x_chord"], r["line_row"]
-            flags[s], regions[s], too_many[s] = r["flags"], r["regions"], r["too_many"]
-            h_chord[s], h_left[s], h_right[s] = r["h_chord"], r["h_left"], r["h_right"]
-            t0 = time.perf_counter()
-            t_an += t0 - t1
-            n_an += frames.shape[0]
+        a, timings = _analyze_frames(reader, an, opt, start, stop)
         truncated = reader.truncated or stop > n
         if stop > n and not reader.truncated:
             reader.error = f"the file holds {n} frames, {expected} expected"
@@ -693,41 +652,26 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
     finally:
         if own:
             reader.close()
-    hyb = hybrid_positions(h_chord, h_left, h_right, calibration_mm=opt.edge_calibration_mm)
+    hyb = hybrid_positions(a["h_chord"], a["h_left"], a["h_right"], calibration_mm=opt.edge_calibration_mm)
     hinfo = {"offsets_mm": hyb.offsets_mm, "calibration_frames": hyb.calibration_frames,
              "calibration_range_mm": hyb.calibration_range_mm, "counts": hyb.counts()}
     if opt.position == "hybrid":
-        has = np.isfinite(hyb.x)
-        x = hyb.x.copy()
-        seen = (flags & ~np.uint8(_CF_ONLY)) == 0
-        flags[has] = 0
-        flags[seen & ~has] |= int(FrameFlag.NO_HYBRID)
-        flags[too_many] |= int(FrameFlag.TOO_MANY_REGIONS)  # stays flagged: no position
-        has &= ~too_many
-        x[too_many] = np.nan
-        x_cf[~has] = np.nan
-        line[~has] = np.nan
-        regions[~has] = np.nan
+        _use_hybrid(a, hyb)
         log.info("%s: hybrid position %s; edge offsets %s mm", reader.path, hinfo["counts"],
                  hinfo["offsets_mm"])
-    kmax = max(int(n_regions(regions).max(initial=0)), 1)
-    regions = regions[:, :kmax]
-    # a run of contact columns that reaches the crop's first or last column ends there
-    # because the field of view does (its interpolated end is half a column outside)
-    lo_mm, hi_mm = (float(v) for v in calibration.col_to_mm(np.array([0.0, calibration.crop.width - 1.0])))
-    with np.errstate(invalid="ignore"):
-        clipped = np.any(regions[..., 0] <= lo_mm, axis=1) | np.any(regions[..., 1] >= hi_mm, axis=1)
+    flags, too_many = a["flags"], a["too_many"]
+    kmax = max(int(n_regions(a["regions"]).max(initial=0)), 1)
+    regions = a["regions"][:, :kmax]
+    clipped = _clipped(regions, calibration)
     if clipped.any():
         log.info("%s: %d frames have a contact region cut by the crop's edge (VideoResult.clipped)",
                  reader.path, int(clipped.sum()))
     n_good = int(np.count_nonzero(flags == 0))
-    msg = f"{n_good} of {m} frames tracked"
+    msg = f"{n_good} of {flags.size} frames tracked"
     if truncated:
         msg += f"; video truncated after frame {reader.n_read - 1}: {reader.error}"
-    timings = {"decode_s": t_dec, "analysis_s": t_an,
-               "frames_per_s": n_an / t_an if t_an > 0 else float("nan")}
-    return VideoResult(path=reader.path, x=x, x_cf=x_cf, x_chord=x_chord, regions=regions, flags=flags,
-                       line_row=line,
+    return VideoResult(path=reader.path, x=a["x"], x_cf=a["x_cf"], x_chord=a["x_chord"], regions=regions,
+                       flags=flags, line_row=a["line_row"],
                        area_px=float(an.area) if an.area is not None else float("nan"),
                        reference_frame=an.reference_frame, calibration=calibration, fps=reader.fps,
                        contact_tol_px=opt.contact_tol_px, contact_metric=opt.contact_metric,
@@ -735,3 +679,87 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
                        x_hybrid=np.where(too_many, np.nan, hyb.x),
                        x_source=np.where(too_many, PositionSource.NONE, hyb.source).astype(np.uint8),
                        hybrid=hinfo, clipped=clipped)
+
+
+def _frame_range(reader: VideoReader, n_frames: int | None, start: int, stop: int | None):
+    """``(n, expected, stop)``: the frames the file holds, the frames it should hold (the
+    manifest's count, else ``n``) and the end of the range to analyse, checked."""
+    n = reader.n_frames
+    if n == 0:
+        raise ValueError(f"{reader.path}: the video has no frames")
+    expected = n if n_frames is None else int(n_frames)
+    if n_frames is not None and expected < n:
+        log.warning("%s holds %d frames, more than the %d expected; analysing %d",
+                    reader.path, n, expected, expected)
+    stop = expected if stop is None else min(int(stop), expected)
+    if not 0 <= start < stop:
+        raise ValueError(f"{reader.path}: frame range [{start}, {stop}) is empty or outside "
+                         f"the video's {expected} frames")
+    return n, expected, stop
+
+
+def _calibrate_reader(reader: VideoReader, opt: AnalysisOptions, surface_height_mm: float,
+                      surface: Surface | None) -> Calibration:
+    """The calibration (Fig. 7A) from the video's finger-free frame ``opt.calibration_frame``."""
+    if opt.calibration_frame >= reader.n_frames:
+        raise ValueError(f"{reader.path}: calibration_frame {opt.calibration_frame} is beyond "
+                         f"the last frame ({reader.n_frames - 1})")
+    frame0 = reader.read_frame(opt.calibration_frame)
+    try:
+        return calibrate(frame0, surface_height_mm, crop=opt.crop, level=opt.level, surface=surface)
+    except ValueError as exc:
+        raise ValueError(f"{reader.path}, calibration frame {opt.calibration_frame}: {exc}") from None
+
+
+def _analyze_frames(reader: VideoReader, an: FrameAnalyzer, opt: AnalysisOptions, start: int,
+                    stop: int) -> tuple[dict, dict]:
+    """Frames ``start..stop-1`` through :meth:`FrameAnalyzer.analyze_chunk`, chunk by chunk:
+    the per-frame arrays (frames the file does not hold stay flagged CORRUPT) and the time
+    spent decoding and analysing."""
+    m = stop - start
+    a = {k: np.full(m, np.nan) for k in ("x", "x_cf", "x_chord", "h_chord", "h_left", "h_right", "line_row")}
+    a["flags"] = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
+    a["regions"] = np.full((m, opt.n_max_regions, 2), np.nan)
+    a["too_many"] = np.zeros(m, bool)
+    t_dec = t_an = 0.0
+    n_an = 0
+    t0 = time.perf_counter()
+    for i0, frames in reader.iter_chunks(opt.chunk_size, start=start, stop=stop):
+        t1 = time.perf_counter()
+        t_dec += t1 - t0
+        r = an.analyze_chunk(i0, frames)
+        s = slice(i0 - start, i0 - start + frames.shape[0])
+        for k, v in a.items():
+            v[s] = r[k]
+        t0 = time.perf_counter()
+        t_an += t0 - t1
+        n_an += frames.shape[0]
+    rate = n_an / t_an if t_an > 0 else float("nan")
+    return a, {"decode_s": t_dec, "analysis_s": t_an, "frames_per_s": rate}
+
+
+def _use_hybrid(a: dict, hyb) -> None:
+    """Make the hybrid position x(t) (:func:`hybrid_positions`) the frames' position, in
+    place: a frame is tracked where it has one, and keeps C_f, the line and the regions
+    only then; a frame with too many regions stays flagged."""
+    flags, too_many = a["flags"], a["too_many"]
+    has = np.isfinite(hyb.x)
+    a["x"] = hyb.x.copy()
+    seen = (flags & ~np.uint8(_CF_ONLY)) == 0
+    flags[has] = 0
+    flags[seen & ~has] |= int(FrameFlag.NO_HYBRID)
+    flags[too_many] |= int(FrameFlag.TOO_MANY_REGIONS)  # stays flagged: no position
+    has &= ~too_many
+    a["x"][too_many] = np.nan
+    a["x_cf"][~has] = np.nan
+    a["line_row"][~has] = np.nan
+    a["regions"][~has] = np.nan
+
+
+def _clipped(regions: np.ndarray, calibration: Calibration) -> np.ndarray:
+    """Frames with a contact region cut by the crop's side, ``(n,)`` bool: a run of contact
+    columns that reaches the crop's first or last column ends there because the field of
+    view does (its interpolated end is half a column outside)."""
+    lo_mm, hi_mm = (float(v) for v in calibration.col_to_mm(np.array([0.0, calibration.crop.width - 1.0])))
+    with np.errstate(invalid="ignore"):
+        return np.any(regions[..., 0] <= lo_mm, axis=1) | np.any(regions[..., 1] >= hi_mm, axis=1)

@@ -179,6 +179,87 @@ def _shape_fn(surface: RaisedCosine):
     return unit.h  # g(u) with u in feature widths, centred at 0, heights 0..1
 
 
+def _threshold(img: np.ndarray, level: float | None) -> tuple[float, str]:
+    """The threshold gray level and how it was chosen: Otsu's of ``img``, or ``level``
+    checked to leave a contour."""
+    if level is None:
+        return otsu_level(img), "otsu"
+    level_v = float(level)
+    lo, hi = float(img.min()), float(img.max())
+    if not lo <= level_v < hi:
+        raise ValueError(
+            f"threshold level {level_v:g} leaves no contour in the calibration frame "
+            f"(gray levels span {lo:g}..{hi:g}); choose a level between them or omit it (Otsu)"
+        )
+    return level_v, "given"
+
+
+@dataclass(frozen=True)
+class _Guess:
+    """A robust first reading of the surface profile (rows and columns in px): the base
+    row left and right of the feature, the lower of the two (``base``, the larger row),
+    the feature's height ``h0``, its centre (a bump's) or half-height crossing (a step's)
+    ``x0`` and, for a bump, twice its width above half height."""
+
+    left: float
+    right: float
+    base: float
+    h0: float
+    x0: float
+    width_px: float | None
+
+
+def _first_guess(rows: np.ndarray) -> _Guess:
+    """:class:`_Guess` from the surface edge rows (px) of the crop's columns."""
+    w = rows.size
+    sm = cv2.medianBlur(rows.astype(np.float32)[None], 5)[0].astype(float)
+    n_edge = max(w // 10, 3)
+    left, right = float(np.median(sm[:n_edge])), float(np.median(sm[-n_edge:]))
+    base = max(left, right)
+    top = float(sm.min())
+    h0 = base - top
+    if h0 < 2.0:
+        raise ValueError(
+            f"no surface feature found in the calibration frame: the profile's height range is "
+            f"{h0:.2f} px (< 2 px); check the crop, the threshold and calibration_frame"
+        )
+    if abs(left - right) > 0.5 * h0:  # a step
+        half = 0.5 * (left + right)
+        s = np.sign(sm - half)
+        cross = np.flatnonzero(s[:-1] != s[1:])
+        if cross.size == 0:
+            raise ValueError("cannot locate the step's half-height crossing in the calibration frame")
+        i = int(cross[np.argmin(np.abs(cross - w / 2))])
+        x0 = i + (sm[i] - half) / (sm[i] - sm[i + 1]) if sm[i] != sm[i + 1] else i + 0.5
+        return _Guess(left, right, base, h0, float(x0), None)
+    above = np.flatnonzero(base - sm > 0.5 * h0)
+    return _Guess(left, right, base, h0, float(0.5 * (above[0] + above[-1])),
+                  (above[-1] - above[0] + 1) * 2.0)
+
+
+def _raised_cosine_fit(rows: np.ndarray, surface: RaisedCosine, H: float, guess: _Guess):
+    """Least-squares fit of the surface's raised-cosine shape to the edge rows:
+    ``(base_row, h0_px, x0_col, mm_per_px_from_width, rms_px)``, or None (logged) when it
+    fails."""
+    g = _shape_fn(surface)
+    b0 = guess.right if surface.shape == "step-down" else guess.left
+    width_px_guess = guess.width_px if guess.width_px is not None else surface.width / (H / guess.h0)
+    cols = np.arange(rows.size, dtype=float)
+
+    def resid(p):
+        b, a, c0, wpx = p
+        return b - a * g((cols - c0) / wpx) - rows
+
+    p0 = [b0, guess.h0, guess.x0, width_px_guess]
+    sol = least_squares(resid, p0, method="lm", x_scale=[1.0, 1.0, 1.0, 10.0])
+    if sol.success and sol.x[1] > 0 and sol.x[3] > 0:
+        b, a, c0, wpx = sol.x
+        return float(b), float(a), float(c0), float(surface.width / wpx), float(np.sqrt(np.mean(sol.fun**2)))
+    log.warning("raised-cosine fit of the calibration profile failed (%s); using the "
+                "profile's maximum", sol.message)
+    return None
+
+
 def calibrate(frame: np.ndarray, surface_height_mm: float, *, crop: Crop | None = None,
               level: float | None = None, surface: Surface | None = None,
               width_tolerance: float = 0.05) -> Calibration:
@@ -222,75 +303,16 @@ def calibrate(frame: np.ndarray, surface_height_mm: float, *, crop: Crop | None 
     crop = central_crop(frame.shape) if crop is None else crop
     crop.check_fits(frame.shape, "calibration frame")
     img = crop.apply(frame)
-    if level is None:
-        level_v, method = otsu_level(img), "otsu"
-    else:
-        level_v, method = float(level), "given"
-        lo, hi = float(img.min()), float(img.max())
-        if not lo <= level_v < hi:
-            raise ValueError(
-                f"threshold level {level_v:g} leaves no contour in the calibration frame "
-                f"(gray levels span {lo:g}..{hi:g}); choose a level between them or omit it (Otsu)"
-            )
+    level_v, method = _threshold(img, level)
     rows, first_dark = surface_edge_rows(img, level_v)
-    w = rows.size
-    cols = np.arange(w, dtype=float)
-    # Robust first guess from the profile itself.
-    sm = cv2.medianBlur(rows.astype(np.float32)[None], 5)[0].astype(float)
-    n_edge = max(w // 10, 3)
-    left, right = float(np.median(sm[:n_edge])), float(np.median(sm[-n_edge:]))
-    base = max(left, right)
-    top = float(sm.min())
-    h0 = base - top
-    if h0 < 2.0:
-        raise ValueError(
-            f"no surface feature found in the calibration frame: the profile's height range is "
-            f"{h0:.2f} px (< 2 px); check the crop, the threshold and calibration_frame"
-        )
-    is_step = abs(left - right) > 0.5 * h0
-    if is_step:
-        half = 0.5 * (left + right)
-        s = np.sign(sm - half)
-        cross = np.flatnonzero(s[:-1] != s[1:])
-        if cross.size == 0:
-            raise ValueError("cannot locate the step's half-height crossing in the calibration frame")
-        i = int(cross[np.argmin(np.abs(cross - w / 2))])
-        x0_guess = i + (sm[i] - half) / (sm[i] - sm[i + 1]) if sm[i] != sm[i + 1] else i + 0.5
-    else:
-        above = np.flatnonzero(base - sm > 0.5 * h0)
-        x0_guess = 0.5 * (above[0] + above[-1])
-    width_px_guess = (above[-1] - above[0] + 1) * 2.0 if not is_step else None
-
-    mm_w = None
-    fit_rms = float("nan")
-    fit_method = "profile"
-    x0 = float(x0_guess)
-    h0_px = float(h0)
-    base_row = base
+    guess = _first_guess(rows)
+    x0, h0_px, base_row = guess.x0, guess.h0, guess.base
+    mm_w, fit_rms, fit_method = None, float("nan"), "profile"
     if isinstance(surface, RaisedCosine):
-        g = _shape_fn(surface)
-        if surface.shape == "step-down":
-            b0 = right
-        else:
-            b0 = left
-        if width_px_guess is None:
-            width_px_guess = surface.width / (H / h0)
-
-        def resid(p):
-            b, a, c0, wpx = p
-            return b - a * g((cols - c0) / wpx) - rows
-
-        p0 = [b0, h0, x0_guess, width_px_guess]
-        sol = least_squares(resid, p0, method="lm", x_scale=[1.0, 1.0, 1.0, 10.0])
-        if sol.success and sol.x[1] > 0 and sol.x[3] > 0:
-            b, a, c0, wpx = sol.x
-            base_row, h0_px, x0 = float(b), float(a), float(c0)
-            mm_w = float(surface.width / wpx)
-            fit_rms = float(np.sqrt(np.mean(sol.fun**2)))
+        fitted = _raised_cosine_fit(rows, surface, H, guess)
+        if fitted is not None:
+            base_row, h0_px, x0, mm_w, fit_rms = fitted
             fit_method = "raised-cosine fit"
-        else:
-            log.warning("raised-cosine fit of the calibration profile failed (%s); using the "
-                        "profile's maximum", sol.message)
     mm_per_px = H / h0_px
     if mm_w is not None and abs(mm_w / mm_per_px - 1) > width_tolerance:
         warnings.warn(

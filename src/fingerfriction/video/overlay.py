@@ -13,6 +13,7 @@ make one for many trials (about 0.5 s per trial instead of the analysis' seconds
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 from dataclasses import dataclass
@@ -106,6 +107,60 @@ def _draw(an: FrameAnalyzer, frame: np.ndarray, index: int, res: dict, t: int) -
     return img
 
 
+def _checked_output(out, fps: float, scale: float, *, count_name: str, count: int,
+                    unit: str = "") -> tuple[str, str]:
+    """The output path and its extension, after the checks both overlays make (the
+    extension, ``count_name`` >= 1, the playback rate in Hz, the resize factor)."""
+    out = os.fspath(out)
+    ext = os.path.splitext(out)[1].lower()
+    if ext not in (".mp4", ".gif"):
+        raise ValueError(f"overlay output must end in .mp4 or .gif, got {out!r}")
+    if int(count) < 1:
+        raise ValueError(f"{count_name} must be >= 1{unit}, got {count!r}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive frame rate in Hz, got {fps!r}")
+    if not (np.isfinite(scale) and 0.1 <= scale <= 4):
+        raise ValueError(f"scale must be in [0.1, 4], got {scale!r}")
+    return out, ext
+
+
+def _output_size(cal, scale: float) -> tuple[int, int]:
+    """Width and height in px of the drawn crop resized by ``scale`` (even, as H.264 needs)."""
+    return int(round(cal.crop.width * scale)) // 2 * 2, int(round(cal.crop.height * scale)) // 2 * 2
+
+
+def _resized(img: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    if size != (img.shape[1], img.shape[0]):
+        img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
+    return img
+
+
+@contextlib.contextmanager
+def _encoder(path, ext: str, fps: float, size: tuple[int, int], crf: str):
+    """Yield ``put(img)``, which encodes one BGR image of ``size`` (px) into the MP4 (H.264
+    at quality ``crf``) or GIF at ``path``; the stream is flushed on a normal exit."""
+    import av  # heavy (FFmpeg bindings), only to encode an overlay
+
+    with av.open(str(path), "w") as container:
+        if ext == ".mp4":
+            st = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
+            st.pix_fmt = "yuv420p"
+            st.options = {"crf": crf, "preset": "veryfast"}
+        else:
+            st = container.add_stream("gif", rate=Fraction(fps).limit_denominator(1000))
+            st.pix_fmt = "rgb8"
+        st.width, st.height = size
+
+        def put(img: np.ndarray) -> None:
+            vf = av.VideoFrame.from_ndarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB), format="rgb24")
+            for pkt in st.encode(vf.reformat(format=st.pix_fmt)):
+                container.mux(pkt)
+
+        yield put
+        for pkt in st.encode():
+            container.mux(pkt)
+
+
 def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
                   surface: Surface | None = None, options: AnalysisOptions | None = None,
                   start: int = 0, stop: int | None = None, step: int = 1, fps: float = 30.0,
@@ -141,18 +196,7 @@ def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
     ValueError
         For an unknown output extension, bad frame range, or an unusable video.
     """
-    import av  # heavy (FFmpeg bindings), only to encode the overlay
-
-    out = os.fspath(out)
-    ext = os.path.splitext(out)[1].lower()
-    if ext not in (".mp4", ".gif"):
-        raise ValueError(f"overlay output must end in .mp4 or .gif, got {out!r}")
-    if int(step) < 1:
-        raise ValueError(f"step must be >= 1 frame, got {step!r}")
-    if not (np.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive frame rate in Hz, got {fps!r}")
-    if not (np.isfinite(scale) and 0.1 <= scale <= 4):
-        raise ValueError(f"scale must be in [0.1, 4], got {scale!r}")
+    out, ext = _checked_output(out, fps, scale, count_name="step", count=step, unit=" frame")
     opt = options or AnalysisOptions()
     reader = open_video(video)
     target = None
@@ -162,32 +206,16 @@ def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
         cal = calibrate(reader.read_frame(opt.calibration_frame), surface_height_mm, crop=opt.crop,
                         level=opt.level, surface=surface)
         an = FrameAnalyzer(cal, opt, reader.shape)
-        w = int(round(cal.crop.width * scale)) // 2 * 2
-        h = int(round(cal.crop.height * scale)) // 2 * 2
-        with av.open(str(target.tmp), "w") as container:
-            if ext == ".mp4":
-                st = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
-                st.pix_fmt = "yuv420p"
-                st.options = {"crf": "20", "preset": "veryfast"}
-            else:
-                st = container.add_stream("gif", rate=Fraction(fps).limit_denominator(1000))
-                st.pix_fmt = "rgb8"
-            st.width, st.height = w, h
+        size = _output_size(cal, scale)
+        with _encoder(target.tmp, ext, fps, size, crf="20") as put:
             for i0, frames in reader.iter_chunks(opt.chunk_size, start=start, stop=stop):
                 res = an.analyze_chunk(i0, frames)
                 for t in range(frames.shape[0]):
                     if (i0 + t - start) % step:
                         continue
-                    img = _draw(an, frames[t], i0 + t, res, t)
-                    if (w, h) != (img.shape[1], img.shape[0]):
-                        img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
-                    vf = av.VideoFrame.from_ndarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB), format="rgb24")
-                    for pkt in st.encode(vf.reformat(format=st.pix_fmt)):
-                        container.mux(pkt)
+                    put(_resized(_draw(an, frames[t], i0 + t, res, t), size))
                     n_written += 1
                     n_flagged += int(res["flags"][t] != 0)
-            for pkt in st.encode():
-                container.mux(pkt)
         if n_written == 0:
             raise ValueError(f"{reader.path}: no frame in the range start={start}, stop={stop}")
         target.commit()
@@ -197,6 +225,24 @@ def write_overlay(video, surface_height_mm: float, out: str | os.PathLike, *,
             target.discard()
     log.info("overlay: %d frames written to %s", n_written, out)
     return OverlayInfo(path=out, n_frames=n_written, n_flagged=n_flagged)
+
+
+def _caption(img: np.ndarray, lines: list[str]) -> None:
+    """Write ``lines`` in red on a white band across the top of ``img`` (in place)."""
+    cv2.rectangle(img, (0, 0), (img.shape[1] - 1, 8 + 18 * len(lines)), (255, 255, 255), -1)
+    for j, text in enumerate(lines):
+        cv2.putText(img, text, (6, 18 + 18 * j), cv2.FONT_HERSHEY_SIMPLEX, 0.5, _RED, 1, cv2.LINE_AA)
+
+
+def _stored_caption(frame: int, x: float, source: str | None, flag: str) -> list[str]:
+    """The caption of a frame of stored results: its number, x in mm and the estimator that
+    gave it; the first reason of its flag, if any."""
+    lines = [f"frame {frame}" + (f"  x = {x:+.2f} mm" if np.isfinite(x) else "  no x")]
+    if source and np.isfinite(x):
+        lines[0] += f" ({source})"
+    if flag:
+        lines.append(flag.split(";")[0].split(":")[0][:70])
+    return lines
 
 
 def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tuple[int, np.ndarray]]:
@@ -303,18 +349,7 @@ def write_results_overlay(video, frames, surface_height_mm: float, out: str | os
     ValueError
         Unknown extension, bad options, an unusable video, or no frame to draw.
     """
-    import av  # heavy (FFmpeg bindings): only when an overlay is written
-
-    out = os.fspath(out)
-    ext = os.path.splitext(out)[1].lower()
-    if ext not in (".mp4", ".gif"):
-        raise ValueError(f"overlay output must end in .mp4 or .gif, got {out!r}")
-    if int(max_frames) < 1:
-        raise ValueError(f"max_frames must be >= 1, got {max_frames!r}")
-    if not (np.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive frame rate in Hz, got {fps!r}")
-    if not (np.isfinite(scale) and 0.1 <= scale <= 4):
-        raise ValueError(f"scale must be in [0.1, 4], got {scale!r}")
+    out, ext = _checked_output(out, fps, scale, count_name="max_frames", count=max_frames)
     opt = options or AnalysisOptions()
     idx, x_all, regions, flags, source = _stored(frames)
     row_of = {int(f): r for r, f in enumerate(idx)}
@@ -330,42 +365,19 @@ def write_results_overlay(video, frames, surface_height_mm: float, out: str | os
         if not sample:
             raise ValueError(f"{reader.path}: no frame with the finger in view to draw")
         target = AtomicFile(out)
-        w = int(round(cal.crop.width * scale)) // 2 * 2
-        h = int(round(cal.crop.height * scale)) // 2 * 2
-        with av.open(str(target.tmp), "w") as container:
-            if ext == ".mp4":
-                st = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
-                st.pix_fmt = "yuv420p"
-                st.options = {"crf": "26", "preset": "veryfast"}
-            else:
-                st = container.add_stream("gif", rate=Fraction(fps).limit_denominator(1000))
-                st.pix_fmt = "rgb8"
-            st.width, st.height = w, h
+        size = _output_size(cal, scale)
+        with _encoder(target.tmp, ext, fps, size, crf="26") as put:
             for i, frame in sample:
                 r = row_of.get(i)
                 if r is None:
                     continue
                 res = {"line_row": [np.nan], "x": [x_all[r]], "regions": [regions[r]], "flags": [0]}
-                img = _draw(an, frame, i, res, 0)
-                if (w, h) != (img.shape[1], img.shape[0]):
-                    img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+                img = _resized(_draw(an, frame, i, res, 0), size)
                 # the text is written at the output size (readable), over _draw's own
-                lines = [f"frame {i}" + (f"  x = {x_all[r]:+.2f} mm" if np.isfinite(x_all[r]) else "  no x")]
-                if source is not None and source[r] and np.isfinite(x_all[r]):
-                    lines[0] += f" ({source[r]})"
-                if flags[r]:
-                    lines.append(flags[r].split(";")[0].split(":")[0][:70])
-                    n_flagged += 1
-                cv2.rectangle(img, (0, 0), (w - 1, 8 + 18 * len(lines)), (255, 255, 255), -1)
-                for j, text in enumerate(lines):
-                    cv2.putText(img, text, (6, 18 + 18 * j), cv2.FONT_HERSHEY_SIMPLEX, 0.5, _RED, 1,
-                                cv2.LINE_AA)
-                vf = av.VideoFrame.from_ndarray(cv2.cvtColor(img, cv2.COLOR_BGR2RGB), format="rgb24")
-                for pkt in st.encode(vf.reformat(format=st.pix_fmt)):
-                    container.mux(pkt)
+                _caption(img, _stored_caption(i, x_all[r], None if source is None else source[r], flags[r]))
+                n_flagged += bool(flags[r])
+                put(img)
                 n_written += 1
-            for pkt in st.encode():
-                container.mux(pkt)
         target.commit()
     finally:
         reader.close()

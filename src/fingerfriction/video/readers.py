@@ -85,6 +85,23 @@ class VideoReader:
         """
         raise NotImplementedError
 
+    def _read_images(self, start: int, stop: int, out: np.ndarray, read, unreadable, misshapen) -> int:
+        """:meth:`_read_range` of a format read one image at a time: ``read(i)`` gives image
+        ``i`` (gray); the first image that cannot be read, or whose shape is not
+        ``self.shape``, stops the reading, and ``self.error`` says why:
+        ``unreadable(i, exc)`` or ``misshapen(i, shape)``."""
+        for k, i in enumerate(range(start, stop)):
+            try:
+                img = read(i)
+            except Exception as exc:  # noqa: BLE001 - any decoder failure = corrupt frame
+                self.error = unreadable(i, exc)
+                return k
+            if img.shape != self.shape:
+                self.error = misshapen(i, img.shape)
+                return k
+            out[k] = img
+        return stop - start
+
     # -- common interface -----------------------------------------------------------
     def iter_chunks(self, chunk_size: int = 256, *, start: int = 0,
                     stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
@@ -207,18 +224,11 @@ class TiffStackReader(VideoReader):
     def _read_range(self, start, stop, out):
         import tifffile  # only for TIFF files
 
-        for k, i in enumerate(range(start, stop)):
-            f = self.files[i]
-            try:
-                img = _to_gray(tifffile.imread(f), f)
-            except Exception as exc:  # noqa: BLE001 - any decoder failure = corrupt frame
-                self.error = f"{f}: cannot read TIFF image ({type(exc).__name__}: {exc})"
-                return k
-            if img.shape != self.shape:
-                self.error = f"{f}: image is {img.shape}, the stack's frames are {self.shape}"
-                return k
-            out[k] = img
-        return stop - start
+        f = self.files
+        return self._read_images(
+            start, stop, out, lambda i: _to_gray(tifffile.imread(f[i]), f[i]),
+            unreadable=lambda i, exc: f"{f[i]}: cannot read TIFF image ({type(exc).__name__}: {exc})",
+            misshapen=lambda i, shape: f"{f[i]}: image is {shape}, the stack's frames are {self.shape}")
 
 
 class MultiPageTiffReader(VideoReader):
@@ -250,17 +260,10 @@ class MultiPageTiffReader(VideoReader):
         self.fps = fps
 
     def _read_range(self, start, stop, out):
-        for k, i in enumerate(range(start, stop)):
-            try:
-                img = _to_gray(self._tf.pages[i].asarray(), self.path)
-            except Exception as exc:  # noqa: BLE001
-                self.error = f"page {i} cannot be read ({type(exc).__name__}: {exc})"
-                return k
-            if img.shape != self.shape:
-                self.error = f"page {i} is {img.shape}, the first page is {self.shape}"
-                return k
-            out[k] = img
-        return stop - start
+        return self._read_images(
+            start, stop, out, lambda i: _to_gray(self._tf.pages[i].asarray(), self.path),
+            unreadable=lambda i, exc: f"page {i} cannot be read ({type(exc).__name__}: {exc})",
+            misshapen=lambda i, shape: f"page {i} is {shape}, the first page is {self.shape}")
 
     def close(self) -> None:
         self._tf.close()

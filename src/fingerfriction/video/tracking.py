@@ -206,6 +206,29 @@ class HybridPositions:
         return {s.name: int(np.count_nonzero(self.source == s)) for s in PositionSource}
 
 
+def _edge_stand_in(xc: np.ndarray, xe: np.ndarray, sign: float, calibration_mm: float, min_frames: int):
+    """One outline edge as a stand-in for the chord midpoint (:func:`hybrid_positions`):
+    ``(offset_mm, n_calibration_frames, calibration_range_mm, x)``, ``x`` the edge plus its
+    offset beyond the calibration range where the chord is missing (NaN elsewhere), or
+    None when fewer than ``min_frames`` frames have both. ``sign``: +1 for the left
+    (trailing) edge, calibrated at the right end of the chord's range; -1 for the right."""
+    has_c = np.isfinite(xc)
+    both = np.flatnonzero(has_c & np.isfinite(xe))
+    if both.size < min_frames:
+        return float("nan"), 0, (float("nan"), float("nan")), None
+    # signed distance from the chord range's end on this side (left edge: right end)
+    depth = sign * (xc[both].max() if sign > 0 else xc[both].min()) - sign * xc[both]
+    sel = both[depth <= calibration_mm]
+    if sel.size < min_frames:
+        sel = both[np.argsort(depth, kind="stable")[:min_frames]]
+    o = float(np.median(xc[sel] - xe[sel]))
+    rng = (float(xc[sel].min()), float(xc[sel].max()))
+    xs = xe + o
+    # beyond the calibration range only, on this side (where the finger is on the flat)
+    beyond = (xs >= rng[0]) if sign > 0 else (xs <= rng[1])
+    return o, int(sel.size), rng, np.where(~has_c & np.isfinite(xs) & beyond, xs, np.nan)
+
+
 def hybrid_positions(x_chord, x_left, x_right, *, calibration_mm: float = 1.0,
                      min_frames: int = 3) -> HybridPositions:
     """Chord midpoint where it exists, one offset-corrected outline edge beyond its range.
@@ -257,22 +280,10 @@ def hybrid_positions(x_chord, x_left, x_right, *, calibration_mm: float = 1.0,
     offsets, n_cal, ranges = {}, {}, {}
     est = {}
     for side, xe, sign in (("left", xl, 1.0), ("right", xr, -1.0)):
-        both = np.flatnonzero(has_c & np.isfinite(xe))
-        offsets[side], n_cal[side], ranges[side] = float("nan"), 0, (float("nan"), float("nan"))
-        if both.size < int(min_frames):
-            continue
-        # signed distance from the chord range's end on this side (left edge: right end)
-        depth = sign * (xc[both].max() if sign > 0 else xc[both].min()) - sign * xc[both]
-        sel = both[depth <= calibration_mm]
-        if sel.size < int(min_frames):
-            sel = both[np.argsort(depth, kind="stable")[: int(min_frames)]]
-        o = float(np.median(xc[sel] - xe[sel]))
-        offsets[side], n_cal[side] = o, int(sel.size)
-        ranges[side] = (float(xc[sel].min()), float(xc[sel].max()))
-        xs = xe + o
-        # beyond the calibration range only, on this side (where the finger is on the flat)
-        beyond = (xs >= ranges[side][0]) if sign > 0 else (xs <= ranges[side][1])
-        est[side] = np.where(~has_c & np.isfinite(xs) & beyond, xs, np.nan)
+        offsets[side], n_cal[side], ranges[side], e = _edge_stand_in(xc, xe, sign, calibration_mm,
+                                                                     int(min_frames))
+        if e is not None:
+            est[side] = e
     nan = np.full(xc.shape, np.nan)
     el, er = est.get("left", nan), est.get("right", nan)
     use_l, use_r = np.isfinite(el), np.isfinite(er)

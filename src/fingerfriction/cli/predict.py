@@ -1,0 +1,257 @@
+"""The forward model's commands: predict-contact, predict, render, validate and
+calibrate-finger (``fingerfriction.mechanics``, ``fingerfriction.predict``,
+``fingerfriction.render``)."""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from .._outputs import check_output_dir, output_dir, output_file
+from ..surfaces import surface_from_spec
+from ._common import console, csv_list, fail, read_fingers
+
+
+def predict_contact(
+    surface: str = typer.Option(
+        ..., "--surface", help="Paper surface name (bump-4mm ...), spec 'bump:W=3,H=0.5' or x,h CSV (mm)."
+    ),
+    subject: int = typer.Option(1, "--subject", help="Calibrated finger of subject 1 or 2."),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N."),
+    step: float = typer.Option(0.01, "--step", help="Finger position step in mm over the 26 mm window."),
+    kind: str = typer.Option(
+        "geometric", "--kind", help="Contact definition: geometric (gap <= 70 um) or mechanical."
+    ),
+    out: str = typer.Option(
+        "predict-contact", "--out", help="Folder for the occupancy figure (PNG); created if missing."
+    ),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
+) -> None:
+    """Predict tactile blind spots and simultaneous contacts of a finger sliding over a surface."""
+    from ..mechanics import default_positions, get_subject, sweep  # heavy (numba); when the command runs
+    from ..mechanics.figures import save_occupancy_figure  # heavy (matplotlib); when the command runs
+
+    try:
+        if kind not in ("geometric", "mechanical"):
+            raise ValueError(f"--kind must be 'geometric' or 'mechanical', got {kind!r}")
+        surf = surface_from_spec(surface)
+        owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
+                "what": "folder of occupancy figures"}
+        check_output_dir(out, **owns)
+        finger = get_subject(subject) if finger_path is None else read_fingers(finger_path)
+        positions = default_positions(surf, step=step)
+        with console.status(f"solving the contact at {positions.size} finger positions..."):
+            res = sweep(surf, finger, positions, load=load)
+        bs = res.blind_spots(kind)
+        name = f"occupancy-{surf.name}-s{subject}.png"
+        png = save_occupancy_figure(res, surf, output_dir(out, **owns) / name, kind=kind)
+    except (ValueError, TypeError, OSError) as exc:
+        fail(str(exc))
+        return
+    who = f"subject {subject}" if finger_path is None else f"finger {finger.name or finger_path}"
+    table = Table(title=f"Tactile blind spots: {surf.name}, {who}, {load:g} N ({kind} contact)")
+    table.add_column("#", justify="right")
+    table.add_column("start (mm)", justify="right")
+    table.add_column("end (mm)", justify="right")
+    table.add_column("width (mm)", justify="right")
+    for i, row in enumerate(bs.as_table(), start=1):
+        table.add_row(str(i), f"{row['start_mm']:.3f}", f"{row['end_mm']:.3f}", f"{row['width_mm']:.3f}")
+    if len(bs) == 0:
+        table.add_row("-", "-", "-", "none")
+    console.print(table)
+    console.print(f"maximum simultaneous contacts: {res.max_contacts(kind)} ({kind}), "
+                  f"{res.max_contacts('mechanical' if kind == 'geometric' else 'geometric')} "
+                  f"({'mechanical' if kind == 'geometric' else 'geometric'})")
+    if not res.all_converged:
+        console.print(
+            f"[yellow]warning:[/] {len(res.messages)} positions did not converge; first: {res.messages[0]}"
+        )
+    console.print(f"occupancy figure: {png}")
+
+
+def _predict_inputs(params):
+    """--params: None or a JSON path (parameters, a fit's fit.json or its RESULTS folder)."""
+    return None if params is None else str(params)
+
+
+#: The files ``predict`` writes in its folder (``Prediction.write``).
+PREDICTION_FILES = {"forces.csv", "regions.csv", "occupancy.csv", "blind_spots.csv", "prediction.json",
+                    "forces.png", "occupancy.png"}
+
+
+def predict_cmd(
+    surface: str = typer.Option(..., "--surface", help="Name (bump-4mm), spec (bump:W=3,H=0.5) or CSV."),
+    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger)."),
+    params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
+    model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
+    out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files "
+                            "(created if missing)."),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
+    contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
+    figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
+) -> None:
+    """Predict F_T(x), F_int, F_def, contact occupancy and blind spots on any relief."""
+    from ..predict import predict  # heavy (the forward model); imported when the command runs
+
+    finger = None if finger_path is None else read_fingers(finger_path)
+    try:
+        owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
+        check_output_dir(out, **owns)
+        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact,
+                       model=model, finger=finger)
+        paths = pred.write(output_dir(out, **owns), figures=figures)
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc))
+    t = Table(title=f"prediction: {pred.surface.name}, subject {pred.subject} ({pred.contact} contact)")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    t.add_row("parameters", pred.params_text)
+    t.add_row("parameters from", pred.params_source)
+    t.add_row("F_T on flat ground", f"{1e3 * pred.flat_level:.1f} mN")
+    t.add_row("F_T max / min", f"{1e3 * pred.F_T.max():.1f} / {1e3 * pred.F_T.min():.1f} mN")
+    t.add_row("F_def max", f"{1e3 * pred.F_def.max():.1f} mN")
+    t.add_row("max simultaneous contacts", str(pred.max_contacts))
+    spots = "; ".join(f"[{a:.2f}, {b:.2f}] ({b - a:.2f} mm)" for a, b in pred.blind_spots.intervals)
+    t.add_row("blind spots (mm)", spots or "none")
+    console.print(t)
+    for kind, path in paths.items():
+        console.print(f"  {kind:14s} {path}", highlight=False)
+
+
+def render_cmd(
+    surface: str = typer.Option(..., "--surface", help="Paper surface name, spec or CSV profile."),
+    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2."),
+    out: str = typer.Option(..., "--out", help="Command signal file: .wav (float32) or .csv."),
+    params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
+    model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
+    speed: float = typer.Option(80.0, "--speed", help="Sliding speed in mm/s."),
+    rate: float = typer.Option(2000.0, "--rate", help="Display update rate in Hz."),
+    normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N."),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N of the prediction."),
+    mu_min: float = typer.Option(0.0, "--mu-min", help="Lowest mu the display can produce."),
+    mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce."),
+    table: str = typer.Option(None, "--table", help="Also write the table CSV (x_mm, F_T_N, mu_cmd)."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction."),
+    finger_path: str = typer.Option(
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+    ),
+) -> None:
+    """Friction command for a flat friction-modulating display, as a signal in time."""
+    from ..render import HapticRenderer  # heavy (the forward model); imported when the command runs
+
+    finger = None if finger_path is None else read_fingers(finger_path)
+    try:
+        output_file(out, create=False), table and output_file(table, option="--table", create=False)
+        r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
+                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max),
+                                       model=model, finger=finger)
+        files = r.write_command(output_file(out), speed, rate)
+        if table:
+            files["table"] = r.write_table(output_file(table, option="--table"))
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc))
+    d = r.display
+    console.print(
+        f"{r.prediction.surface.name}, subject {r.prediction.subject}: "
+        f"mu_cmd {r.mu_cmd.min():.3f}..{r.mu_cmd.max():.3f}"
+        f" (lateral force = mu_cmd x {d.effective_normal_force:.3f} N; "
+        f"{r.n_clipped} table entries clipped to [{d.mu_min:g}, {d.mu_max:g}])",
+        highlight=False,
+    )
+    for kind, path in files.items():
+        console.print(f"  {kind:8s} {path}", highlight=False)
+
+
+def validate_cmd(
+    results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
+    out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps."),
+    finger: Annotated[
+        list[str] | None,
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger); repeat."),
+    ] = None,
+    calibrated: bool = typer.Option(False, "--calibrated-fingers", help="Also predict each held-out surface "
+                                    "with each subject's finger calibrated on the other surfaces (slow)."),
+) -> None:
+    """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
+    its geometry alone (no video), rho next to the in-sample Table 1."""
+    from ..predict import validate_results  # heavy (the forward model); imported when the command runs
+    from ..study.finger_calibration import calibrate_held_out  # heavy (numba); likewise
+
+    fingers = read_fingers(items=finger)
+    try:
+        held = None
+        if calibrated:
+            with console.status("calibrating the fingers without each surface...") as st:
+                held = calibrate_held_out(results, progress=lambda k, n, what: st.update(
+                    f"calibrated {k} of {n} fingers ({what})"))
+            for (surf, subj), why in held.errors.items():
+                console.print(f"[yellow]no calibrated finger[/] for subject {subj} without {surf}: {why}",
+                              highlight=False, soft_wrap=True)
+        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step,
+                               fingers=fingers, calibrated_fingers=held and held.fingers())
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc))
+    t = Table(title="out-of-sample validation (leave one surface out)")
+    cal = "rho_out_of_sample_calibrated_finger" in res.table.columns
+    for col in ("model", "subject", "surface", "trials", "rho in sample", "rho held-out params, video",
+                "rho out of sample", *(["rho out of sample, calibrated finger"] if cal else [])):
+        t.add_column(col, justify="right" if col.startswith(("rho", "trials")) else "left")
+    for r in res.table.itertuples():
+        t.add_row(r.model, str(r.subject), r.surface, str(r.n_trials), f"{r.rho_in_sample:.2f}",
+                  f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}",
+                  *([f"{r.rho_out_of_sample_calibrated_finger:.2f}"] if cal else []))
+    console.print(t)
+
+
+def calibrate_finger_cmd(
+    results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze'."),
+    subject: str = typer.Option(..., "--subject", help="Subject label as in the study's manifest."),
+    out: str = typer.Option(None, "--out", help="Finger JSON to write (default finger-s<SUBJECT>.json)."),
+    initial: str = typer.Option(None, "--initial", help="Starting finger JSON (default: the subject's "
+                                "default finger, or subject 1's)."),
+    load: float = typer.Option(None, "--load", help="Assume this constant normal force in N (studies "
+                               "without an absolute F_N; the modulus is then relative to it)."),
+    surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap uncertainties."),
+) -> None:
+    """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
+    and write it as a finger JSON that predict, predict-contact, validate and render accept."""
+    from ..mechanics.calibrate import CalibrationOptions  # heavy (numba); when the command runs
+    from ..study.finger_calibration import calibrate_results  # heavy (the forward model); likewise
+
+    start = None if initial is None else read_fingers(initial)
+    target = out or f"finger-s{subject}.json"
+    try:
+        output_file(target, create=False)  # a folder given as the file fails before the work
+        opts = CalibrationOptions(seed=seed)
+        t0 = time.process_time()
+        with console.status(f"calibrating the finger of subject {subject}..."):
+            res = calibrate_results(results, subject, initial=start, options=opts, load=load,
+                                    surfaces=csv_list(surfaces))
+        cpu = time.process_time() - t0
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    console.print(escape(res.summary()), highlight=False)
+    console.print(f"CPU {cpu:.1f} s ({res.n_solves} contact solves)", highlight=False)
+    if not res.success:
+        fail(f"the calibration of subject {subject} did not succeed: {res.message}; no finger written")
+    from ..mechanics.finger_file import write_finger_file  # small; only once there is a finger
+
+    try:
+        path = write_finger_file(output_file(target), res.finger, calibration={
+            "results": os.path.abspath(results), "subject": subject, **res.to_dict()})
+    except OSError as exc:
+        fail(f"cannot write {target}: {exc}")
+    console.print(f"[green]wrote[/] {path}", highlight=False)

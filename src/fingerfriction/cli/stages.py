@@ -1,0 +1,103 @@
+"""One trial's stages on their own: the video overlay and the force processing
+(``fingerfriction.video``, ``fingerfriction.forces``), each run as ``analyze`` runs it."""
+
+from __future__ import annotations
+
+import numpy as np
+import typer
+from rich.markup import escape
+
+from .._outputs import output_file
+from ._common import console, fail
+
+
+def overlay_cmd(
+    study: str = typer.Argument(..., help="Study folder (or its manifest.json)."),
+    trial: str = typer.Argument(..., help="Trial id, as in the manifest."),
+    out: str = typer.Option(None, "--out", help="Output .mp4 or .gif (default: <trial>-overlay.mp4)."),
+    start: int = typer.Option(0, "--start", help="First frame."),
+    stop: int = typer.Option(None, "--stop", help="Stop before this frame (default: the last)."),
+    step: int = typer.Option(1, "--step", help="Draw every STEP-th frame."),
+    fps: float = typer.Option(30.0, "--fps", help="Playback frame rate of the output (Hz)."),
+    level: float = typer.Option(None, "--level", help="Threshold gray level (default: Otsu)."),
+    scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop."),
+) -> None:
+    """Write a video of a trial's frames with the traced contours and contact regions drawn."""
+    from ..study.params import video_options  # heavy (video stage); imported when the command runs
+    from ..study.trial import TrialInput  # heavy (both stages); imported when the command runs
+    from ..video.overlay import write_overlay  # heavy (OpenCV, PyAV); imported when the command runs
+
+    try:
+        tr = TrialInput.from_study(study, trial)
+        opts = video_options({"level": level}, tr.record.video.calibration_frame)  # as `analyze`
+        info = write_overlay(
+            tr.path(tr.record.video.path, "video.path"), tr.height_mm, out or f"{trial}-overlay.mp4",
+            surface=tr.surface, options=opts, start=start, stop=stop, step=step, fps=fps, scale=scale,
+        )
+    except KeyError as exc:
+        fail(str(exc.args[0]) if exc.args else str(exc))
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    console.print(f"[green]wrote[/] {info.path}: {info.n_frames} frames ({info.n_flagged} flagged)")
+
+
+def forces_cmd(
+    study: str = typer.Argument(..., help="study folder (with manifest.json)"),
+    trial: str = typer.Argument(..., help="trial id"),
+    out: str = typer.Option(None, "--out", help="write F_T(x) to this CSV (x_mm, F_T_N, F_N_N, n_samples)"),
+    positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
+    from_video: bool = typer.Option(False, "--from-video", help="x(t) and contact regions from the video"),
+    from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
+    highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none"),
+    notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches"),
+    estimate_highpass: bool = typer.Option(
+        False, "--estimate-highpass", help="fit the sensor cut-off on the rests (--highpass-hz: the prior)"
+    ),
+) -> None:
+    """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window.
+
+    With --from-video, x(t) and the contact regions come from the video stage run exactly as
+    `analyze` runs it (the same options)."""
+    from ..forces import ForceProcessingParams  # heavy (scipy); imported when the command runs
+    from ..study.trial import TrialInput, finger_positions, process_trial_forces  # heavy: both stages
+
+    try:
+        tr = TrialInput.from_study(study, trial)
+        x, regions = finger_positions(tr, positions=positions, from_truth=from_truth, from_video=from_video)
+        params = ForceProcessingParams(
+            sensor_highpass_hz=highpass_hz or None, notch_q=notch_q, estimate_highpass=estimate_highpass
+        )
+        prof = process_trial_forces(tr, x, params=params, regions=regions, on_error="flag")
+        if out is not None:
+            prof.write_csv(output_file(out))
+    except KeyError as exc:
+        fail(str(exc.args[0]) if exc.args else str(exc))
+        return
+    except (ValueError, OSError) as exc:
+        fail(str(exc).strip("'\""))
+        return
+    for f in prof.flags:
+        colour = "red" if f.severity == "error" else "yellow"
+        tag = escape(f"[{f.code}]")
+        console.print(f"[{colour}]{f.severity}[/] {tag} {escape(f.message)}", highlight=False)
+    if not prof.success:
+        fail(prof.message)
+    ok = ~np.isnan(prof.f_t)
+    console.print(
+        f"trial {trial}: F_T(x) on {prof.x.size} positions "
+        f"[{prof.window_mm[0]:g}, {prof.window_mm[1]:g}] mm, "
+        f"flat segment [{prof.flat_segment_mm[0]:.2f}, {prof.flat_segment_mm[1]:.2f}] mm; "
+        f"F_T from {np.min(prof.f_t[ok]) * 1e3:.1f} to {np.max(prof.f_t[ok]) * 1e3:.1f} mN "
+        f"(peak at x = {prof.x[np.argmax(prof.f_t)]:.2f} mm)",
+        highlight=False,
+    )
+    console.print("steps: " + ", ".join(h["step"] for h in prof.history), highlight=False)
+    est = next((h for h in prof.history if h["step"] == "estimate_highpass"), None)
+    if est is not None and est["success"]:
+        console.print(
+            f"sensor cut-off estimated on the rests: {est['cutoff_hz']:.4f} +- {est['se_hz']:.4f} Hz "
+            f"(prior {est['prior_hz']:g} Hz)",
+            highlight=False,
+        )
+    if out is not None:
+        console.print(f"wrote {out}", highlight=False)

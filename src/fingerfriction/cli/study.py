@@ -1,0 +1,419 @@
+"""The study's commands, in the order of its pipeline: init, check, analyze, fit, report;
+and demo, all of them on the built-in virtual study (``fingerfriction.study``,
+``fingerfriction.report``, ``fingerfriction.demo``)."""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from .. import __version__
+from .._console import console_log, one_line, summary_line
+from .._outputs import output_dir
+from ._common import (
+    QUIET,
+    VERBOSE,
+    console,
+    csv_list,
+    echo,
+    fail,
+    grouped_failures,
+    plural,
+    print_problems,
+    print_summary,
+    show_progress,
+    verbosity_of,
+    warn,
+)
+
+
+def init_cmd(
+    study: Annotated[str, typer.Argument(metavar="STUDY", help="Folder of the recordings; manifest.json is "
+                                         "written there, with paths relative to it.")],
+    video: Annotated[list[str], typer.Option(
+        "--video", metavar="PATTERN", help="File-name pattern of the videos, relative to STUDY, e.g. "
+        "'raw/S{subject}_{surface}_{speed}mms_{repetition}.cine'; {subject}, {surface}, {speed} (mm/s) are "
+        "needed, {repetition} and other {fields} are optional, * matches anything. Repeat for several.")],
+    forces: Annotated[list[str], typer.Option(
+        "--forces", metavar="PATTERN", help="File-name pattern of the force files, with the same fields "
+                                            "(repeat for several).")],
+    surface: Annotated[list[str] | None, typer.Option(
+        "--surface", metavar="TOKEN=SURFACE", help="The surface a file-name token stands for: a built-in "
+        "name (bump-2mm), a spec (bump:W=3,H=0.5) or an x,h CSV (repeat). Default: the token itself.")
+    ] = None,
+    channels: Annotated[list[str] | None, typer.Option(
+        "--channels", metavar="[FORMAT:]F1,F2", help="Names (or CSV column indices) of the two piezo "
+        "channels, e.g. 'Piezo/ai0,Piezo/ai1' or 'csv:1,2'. Default F1,F2.")] = None,
+    time: Annotated[list[str] | None, typer.Option(
+        "--time", metavar="[FORMAT:]COLUMN", help="A time column in s (name or CSV index): its rate is "
+        "checked against --fs-hz or gives it, its first value places sample 0.")] = None,
+    units: Annotated[list[str] | None, typer.Option(
+        "--units", metavar="[FORMAT:]N|V|mV", help="Units of the channels in the files (default N).")] = None,
+    sensitivity: Annotated[list[str] | None, typer.Option(
+        "--sensitivity", metavar="[FORMAT:]N_PER_V[,N_PER_V]", help="Channels in volts: the charge "
+        "amplifiers' sensitivity in N/V, one for both or F1,F2.")] = None,
+    gain: Annotated[list[str] | None, typer.Option(
+        "--gain", metavar="[FORMAT:]V_PER_N[,V_PER_N]", help="Channels in volts: the gain in V/N "
+        "(instead of --sensitivity).")] = None,
+    fs_hz: Annotated[list[str] | None, typer.Option(
+        "--fs-hz", metavar="[FORMAT:]HZ", help="Force sampling rate in Hz for files that do not state it "
+        "(checked against those that do).")] = None,
+    force_t0_s: Annotated[list[str] | None, typer.Option(
+        "--force-t0-s", metavar="[FORMAT:]SECONDS", help="Clock offset: time in s of force sample 0 "
+        "(default 0).")] = None,
+    fps: Annotated[float | None, typer.Option(
+        "--fps", metavar="HZ", help="Video frame rate in Hz for files that do not state it (TIFF); checked "
+                                    "against those that do.")] = None,
+    video_t0_s: Annotated[float, typer.Option(
+        "--video-t0-s", metavar="SECONDS", help="Clock offset: time in s of video frame 0 (default 0).")
+    ] = 0.0,
+    calibration_frame: Annotated[int, typer.Option(
+        "--calibration-frame", metavar="INDEX", min=0, help="The finger-free frame used for calibration.")
+    ] = 0,
+    surface_height_mm: Annotated[list[str] | None, typer.Option(
+        "--surface-height-mm", metavar="[SURFACE=]MM", help="Feature height H in mm that calibrates the "
+        "image scale (default: the surface's own).")] = None,
+    description: Annotated[str, typer.Option("--description", metavar="TEXT",
+                                             help="Free text for the manifest.")] = "",
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Print what was found; write nothing.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing manifest.json.")
+                         ] = False,
+    skip_bad: Annotated[bool, typer.Option("--skip-bad", help="Write the trials without problems when "
+                                                                "some have problems.")] = False,
+) -> None:
+    """Build STUDY/manifest.json from a folder of recordings named after a pattern.
+
+    Frame counts, frame rates, image sizes, sample counts and sampling rates are read from
+    the files. The table of the trials found, and the files that were not used, are printed
+    before anything is written."""
+    from ..study.init import InitOptions, build_manifest, write_init  # reads the files; when the command runs
+
+    try:
+        opts = InitOptions.from_command_line(
+            video=video, forces=forces, surface=surface, channels=channels, time=time, units=units,
+            sensitivity=sensitivity, gain=gain, fs_hz=fs_hz, force_t0_s=force_t0_s, fps=fps,
+            video_t0_s=video_t0_s, calibration_frame=calibration_frame, surface_height_mm=surface_height_mm,
+            description=description)
+        res = build_manifest(study, opts, created_by=f"fingerfriction {__version__} init")
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    _print_init_table(res)
+    if res.unmatched:
+        console.print(f"{len(res.unmatched)} file(s) not used:", highlight=False)
+        for u in res.unmatched[:40]:
+            console.print(f"  {escape(u.path)}: {escape(u.reason)}", highlight=False)
+        if len(res.unmatched) > 40:
+            console.print(f"  ... and {len(res.unmatched) - 40} more", highlight=False)
+    print_problems(res.problems)
+    try:
+        path = write_init(res, study, dry_run=dry_run, overwrite=overwrite, skip_bad=skip_bad)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    n_bad = len(res.trials) - res.n_ok
+    left = f" ({n_bad} with problems left out)" if n_bad else ""
+    if dry_run:
+        console.print(f"dry run: {path} would hold {res.n_ok} trials{left}; nothing was written",
+                      highlight=False)
+    else:
+        console.print(f"[green]wrote[/] {path}: {res.n_ok} trials{left}", highlight=False)
+
+
+def _print_init_table(res) -> None:
+    t = Table(title=f"{len(res.trials)} trials found ({res.n_ok} without problems)")
+    for c in ("trial", "surface", "video", "frames @ fps", "force file", "samples @ Hz"):
+        t.add_column(c, overflow="fold")
+    for r in res.trials:
+        frames = "" if r.n_frames is None else f"{r.n_frames} @ {r.fps:g}"
+        samples = "" if r.n_samples is None else f"{r.n_samples} @ {r.fs_hz:g}"
+        t.add_row(r.id, r.surface, os.path.basename(r.video), frames, os.path.basename(r.force), samples,
+                  style="red" if r.problem else None)
+    console.print(t)
+
+
+def check_cmd(
+    study: str = typer.Argument(..., help="Study folder (with manifest.json), or the manifest."),
+) -> None:
+    """Validate a study and list every problem at once: each manifest field of each trial,
+    and each recording against its entry (present, readable, frame count and rate, image
+    size, force channels, sample count and rate). Exit status 2 if there is any."""
+    from ..study.check import check_study  # heavy (video and force readers); imported when run
+
+    res = check_study(study)
+    print_problems(res.problems)
+    n_ok = len(res.study.trials) if res.study is not None else 0
+    if res.problems:
+        whole = "" if res.study is not None else "; the manifest as a whole cannot be read"
+        fail(f"{len(res.problems)} problem(s): {n_ok} of {res.n_entries} trials are fine, "
+             f"{len(res.by_trial())} have problems{whole}")
+    console.print(f"{res.manifest}: {n_ok} trials, no problem found", highlight=False)
+
+
+def analyze_cmd(
+    study: str = typer.Argument(..., help="Study folder (with manifest.json)."),
+    out: str = typer.Option(..., "--out", "-o", help="Results folder (created; resumed if it exists)."),
+    scheduler: str = typer.Option(None, "--scheduler", help="Address of a running Dask scheduler, "
+                                  "e.g. tcp://10.0.0.5:8786 (default: a local cluster on all cores)."),
+    workers: int = typer.Option(None, "--workers", "-j", min=1, help="Local workers (default: all cores)."),
+    force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
+    window_mm: float = typer.Option(None, "--window-mm", help="Force position window in mm, centred on the "
+                                    "feature (default: the paper's 26 mm)."),
+    position: str = typer.Option("hybrid", "--position", help="x(t) estimator: hybrid (chord midpoint, "
+                                 "else an outline edge; default) or cf-centroid (the paper's C_f centroid) "
+                                 "or chord."),
+    simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
+                                   "experiment (only matter with --position cf-centroid: narrower window, "
+                                   "x(t) extended; see README)."),
+    dry_run: bool = typer.Option(False, "--dry-run", help="List the trials that would be computed and why "
+                                 "(new, input changed, manifest entry changed, parameters changed); run "
+                                 "and write nothing."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
+) -> None:
+    """Every trial through video analysis and force processing, in parallel (resumable).
+
+    The study is checked first (as `fingerfriction check`): mistakes in the manifest stop
+    the run; a trial whose recordings do not match its entry fails, the others go on. A
+    finished trial is computed again when its input files, its manifest entry or the
+    analysis parameters changed."""
+    from ..study.analyze import StudyCheckError, analyze, plan_analysis  # heavy (Dask, both stages)
+    from ..study.params import POSITIONS, AnalysisParams, sim_params  # heavy (both stages), as above
+
+    try:
+        if position not in POSITIONS:
+            raise ValueError(f"--position must be one of {', '.join(POSITIONS)}, got {position!r}")
+        opts = sim_params(position) if simulated else {"video": {"position": position}, "forces": {}}
+        if window_mm is not None:
+            opts["forces"]["window_mm"] = window_mm
+        params = AnalysisParams(**opts)
+        verbosity = verbosity_of(verbose, quiet)
+        if dry_run:
+            plan = plan_analysis(study, out, params=params, force=force)
+        else:
+            with console_log(verbosity, echo) as log:
+                res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force,
+                              progress=show_progress(verbosity), params=params)
+    except StudyCheckError as exc:
+        print_problems(exc.problems)
+        fail(f"{len(exc.problems)} problem(s) in the manifest; nothing was run")
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    if dry_run:
+        for p in plan.trials:
+            console.print(f"{p.trial_id}: {p.action} ({p.reason})", highlight=False, soft_wrap=True)
+        console.print(f"would compute {len(plan.todo)} and skip {len(plan.skipped)} of {len(plan.trials)} "
+                      "trials; nothing was run or written", highlight=False)
+        return
+    grouped_failures(res.failures, "analysis", verbosity)
+    print_summary(summary_line(
+        "analyze", [f"{res.n_computed} computed", f"{res.n_skipped} already done",
+                    f"{res.n_failed} failed of {plural(res.n_trials, 'trial')}",
+                    f"{res.scheduler} scheduler, {res.n_workers} workers"],
+        elapsed_s=res.elapsed_s, output=str(res.results), log=log))
+
+
+def fit_cmd(
+    results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
+    model: str = typer.Option("load", help="Default model, load (load-consistent Eq. 4) or paper (as "
+                                           "printed); both are fitted, this one is used downstream."),
+    method: str = typer.Option("lstsq", help="Paper model's p0, p1 fit: lstsq or nelder-mead (the paper's)."),
+    mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid."),
+    mu_max: float = typer.Option(0.90, help="Largest mu of the paper model's grid."),
+    mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid."),
+    median: int = typer.Option(11, help="Median filter window on the models, samples (odd; 1 = off)."),
+    seed: int = typer.Option(0, help="Seed of the bootstrap confidence intervals."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
+) -> None:
+    """Both model variants: mu per subject, per-trial parameters, Table 1 with CIs, flags."""
+    from ..study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
+    from ..study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
+
+    verbosity = verbosity_of(verbose, quiet)
+    t0 = time.perf_counter()
+    try:
+        with console_log(verbosity, echo) as log:
+            res = fit(results, model=model, mu_grid=(mu_min, mu_max, mu_step), method=method,
+                      median_kernel=median, progress=show_progress(verbosity), seed=seed)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    store = ResultsStore(results)
+    _fit_warnings(res, store, verbosity)
+    print_summary(summary_line("fit", _fit_facts(res), elapsed_s=time.perf_counter() - t0,
+                          output=str(store.fit_dir), log=log))
+
+
+def _fit_facts(res) -> list[str]:
+    """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
+    n_err = sum(f.level == "error" for f in res.flags)
+    mu = ", ".join(("not measured" if m != m else f"{m:.3f}")
+                   + (f" [{res.mu_ci[s][0]:.3f}, {res.mu_ci[s][1]:.3f}]"
+                      if s in res.mu_ci and all(v == v for v in res.mu_ci[s]) else "")
+                   + f" (subject {s})" for s, m in res.mu.items())
+    val = ("validated (leave one surface out)" if res.loso is not None
+           else f"not validated: {res.loso_message}")
+    return [plural(res.n_trials, "trial"), f"both models, {res.model} the default", f"mu {mu}",
+            f"{res.n_failed} failed", f"{n_err} error flags, {len(res.flags) - n_err} warnings", val]
+
+
+def _fit_warnings(res, store, verbosity: int) -> None:
+    """One warning line per subject: its flags of both models grouped by kind, each with a
+    count and one example (with --verbose: each subject's and model's summary line and every
+    flag); trials that could not be prepared for the fit, one line."""
+    if verbosity < 0:
+        return
+    unread = [(t, r) for t, r in res.failures if not any(f.trial == t for f in res.flags)]
+    if verbosity > 0:
+        for line in res.lines:
+            echo(line)
+        for f in res.flags:
+            where = f.trial or (f"subject {f.subject}" if f.subject else "study")
+            warn(f"{f.level} {f.code} ({f.model} model) {where}: {one_line(f.message, 300)}")
+        for tid, reason in unread:
+            warn(f"not fitted: {tid}: {one_line(reason, 300)}")
+        return
+    if unread:
+        warn(f"{plural(len(unread), 'trial')} could not be prepared for the fit (e.g. {unread[0][0]}: "
+             f"{one_line(unread[0][1], 100)})")
+    by_subject: dict = {}
+    for f in res.flags:
+        if f.level in ("error", "warning"):
+            by_subject.setdefault(f.subject or "", {}).setdefault((f.model, f.code), []).append(f)
+    for subj, groups in by_subject.items():
+        parts = []
+        for (model, code), fs in groups.items():
+            n_tr = len({f.trial for f in fs if f.trial})
+            first = fs[0]
+            where = f"{first.trial}: " if first.trial else ""
+            parts.append(f"{model} model {code}" + (f" in {plural(n_tr, 'trial')}" if n_tr else "")
+                         + f" (e.g. {where}{one_line(first.message, 90)})")
+        warn((f"subject {subj}: " if subj else "") + "; ".join(parts))
+
+
+def _print_tables(rep) -> None:
+    from ..report.tables import format_p, table1_display  # heavy (matplotlib); when a table is printed
+
+    if rep.table1 is not None:
+        wide = table1_display(rep.table1)
+        t = Table(title="Table 1: Pearson rho, measured vs model (* p < 0.01)")
+        for c in wide.columns:
+            t.add_column(str(c))
+        for row in wide.itertuples(index=False):
+            t.add_row(*[str(v) for v in row])
+        console.print(t)
+    if getattr(rep, "loso", None) is not None:
+        t = Table(title="Out of sample (leave one surface out): rho per held-out surface")
+        for c in ("subject", "held-out surface", "trials", "rho in sample", "rho out of sample", "p out"):
+            t.add_column(c)
+        for r in rep.loso.itertuples(index=False):
+            t.add_row(str(r.subject), str(r.surface), str(r.n_trials), f"{r.rho_in_sample:.2f}",
+                      f"{r.rho_out_of_sample:.2f}", format_p(r.p_out_of_sample))
+        console.print(t)
+    t = Table(title="Tactile blind spots (all trials pooled)")
+    for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):
+        t.add_column(c)
+    for r in rep.blindspots.itertuples(index=False):
+        none = r.start_mm != r.start_mm  # NaN: a surface without blind spots
+        t.add_row(str(r.surface), str(r.n_trials), "-" if none else f"{r.start_mm:.2f}",
+                  "-" if none else f"{r.end_mm:.2f}", "none" if none else f"{r.width_mm:.2f}")
+    console.print(t)
+    for key, df in rep.truth.items():
+        t = Table(title=f"Recovered vs ground truth: {key}")
+        for c in df.columns:
+            t.add_column(str(c))
+        for row in df.itertuples(index=False):
+            t.add_row(*[f"{v:.3f}" if isinstance(v, float) else str(v) for v in row])
+        console.print(t)
+
+
+def report_cmd(
+    results: str = typer.Argument(..., help="Results folder (after analyze; fit for Fig. 6/S3, Table 1)."),
+    sample: int = typer.Option(6, "--sample", min=0,
+                               help="Trial pages for every flagged trial and this many of the others."),
+    all_trials: bool = typer.Option(False, "--all-trials", help="A page for every trial."),
+    animations: bool = typer.Option(True, "--animations/--no-animations",
+                                    help="Overlay animation on each trial page (needs the study's videos)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
+) -> None:
+    """Figures (PNG, SVG), Table 1, blind-spot table, a self-contained HTML report and a page
+    per flagged (and sampled) trial."""
+    from ..report import make_report  # heavy (matplotlib, jinja2); imported when the command runs
+
+    verbosity = verbosity_of(verbose, quiet)
+    t0 = time.perf_counter()
+    try:
+        with console_log(verbosity, echo) as log:
+            rep = make_report(results, progress=show_progress(verbosity),
+                              sample=None if all_trials else sample, animations=animations)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    if verbosity >= 0:
+        _print_tables(rep)
+        for note in rep.notices:  # e.g. not fitted: said before the path, as at the top of the page
+            console.print(f"[bold yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+    kinds: dict = {}
+    for f in rep.flags:
+        if f["level"] != "info":
+            kinds.setdefault(f["code"], []).append(f)
+    flagged = " ".join(f"{c} x{len(v)}" for c, v in kinds.items())
+    print_summary(summary_line(
+        "report", [plural(rep.n_trials + rep.n_failed, "trial"), "not fitted" if not rep.fitted else "",
+                   plural(len(rep.pages), "trial page"),
+                   f"flags: {flagged}" if flagged else "nothing flagged", f"{len(rep.files)} files"],
+        elapsed_s=time.perf_counter() - t0, output=str(rep.html), log=log))
+
+
+def demo(
+    out: str = typer.Option("fingerfriction-demo", "--out", "-o",
+                            help="Folder for the simulated study and its results (resumed if it exists)."),
+    full: bool = typer.Option(False, "--full", help="The paper's 180 trials (default: 36, 1 per condition)."),
+    reps: int = typer.Option(None, "--reps", min=1, help="Repetitions per condition (overrides --full)."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the virtual experiment."),
+    workers: int = typer.Option(None, "--workers", "-j", min=1, help="Worker processes (default: all)."),
+    subjects: str = typer.Option(None, hidden=True, help="Comma-separated subjects (a smaller design)."),
+    surfaces: str = typer.Option(None, hidden=True, help="Comma-separated surfaces (a smaller design)."),
+    speeds: str = typer.Option(None, hidden=True, help="Comma-separated speeds in mm/s (a smaller design)."),
+    verbose: bool = VERBOSE,
+    quiet: bool = QUIET,
+) -> None:
+    """Simulate the built-in default study, analyze it, fit the model, write the report;
+    print Table 1 and the blind-spot table."""
+    from ..demo import demo as run_demo  # heavy (every stage); imported when the command runs
+    from ..study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
+
+    verbosity = verbosity_of(verbose, quiet)
+    try:
+        design = {}
+        for key, val in (("subjects", csv_list(subjects)), ("surfaces", csv_list(surfaces))):
+            if val:
+                design[key] = val
+        if speeds:
+            try:
+                design["speeds"] = tuple(float(v) for v in csv_list(speeds))
+            except ValueError:
+                raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
+                    from None
+        output_dir(out, owns={"study", "results"}, what="demo folder (study/, results/)")
+        with console_log(verbosity, echo) as log:
+            res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers,
+                           progress=show_progress(verbosity), design=design)
+    except (ValueError, OSError) as exc:
+        fail(str(exc))
+    a, f = res.analysis, res.fit
+    grouped_failures(a.failures, "analysis", verbosity)
+    _fit_warnings(f, ResultsStore(res.results), verbosity)
+    if verbosity >= 0:
+        _print_tables(res.report)
+    t = res.elapsed_s
+    print_summary(summary_line(
+        "demo", [plural(a.n_trials, "trial"), f"simulate {t['simulate']:.0f} s",
+                 f"analyze {t['analyze']:.0f} s ({a.n_computed} computed, {a.n_skipped} already done, "
+                 f"{a.n_failed} failed)", f"fit {t['fit']:.0f} s ({f.n_failed} failed, {f.model} model: mu "
+                 + ", ".join(f"{m:.2f} (subject {s})" for s, m in f.mu.items()) + ")",
+                 f"report {t['report']:.0f} s ({plural(len(res.report.pages), 'trial page')})"],
+        elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
