@@ -12,9 +12,10 @@ contact. Its parameters are fitted in three steps, each where the data pin it:
    exp(-u / lambda))`` is fitted (``u`` the distance from the start of the flat segment,
    ``lambda`` shared by the subject's trials): a static-to-sliding
    transient at the start of the slide (the paper's Discussion) would otherwise bias the
-   ratio upwards (kept where the trials agree on it). The subject's ``mu`` is the mean of the trials' ``mu_k``, with a seeded
-   bootstrap confidence interval over trials; each trial's model uses its own ``mu_k``
-   (``LoadFitOptions.mu_per``: friction varies from trial to trial).
+   ratio upwards (kept where the trials agree on it). The subject's ``mu`` is the mean of
+   the trials' ``mu_k``, with a seeded bootstrap confidence interval over trials; each
+   trial's model uses its own ``mu_k`` (``LoadFitOptions.mu_per``: friction varies from
+   trial to trial).
 2. **The load-bearing contact per subject**: the inset ``delta`` (mm) of the geometric
    regions (``LoadParams.inset``) and the rise ``kappa`` (1/mm) of a region's pressure with
    its height (``LoadParams.kappa``; 0 = one uniform pressure, the paper's) minimise the
