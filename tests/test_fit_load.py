@@ -246,3 +246,25 @@ def test_each_trial_uses_its_own_flat_ground_mu_by_default():
     assert np.median(np.abs(err_own)) < 0.02
     assert np.median(np.abs(err_mean)) > 3 * np.median(np.abs(err_own))
     assert [t.mu for t in own.trials] == pytest.approx([own.flat.mu_trials[t.id] for t in trials])
+
+
+def test_a_trial_with_the_wrong_force_sign_is_flagged_and_left_out_of_mu():
+    trials = _study(0, noise=0.02)
+    bad = trials[3]
+    flipped = Trial(x=bad.x, force=-bad.force, regions=bad.regions, surface=bad.surface, subject=bad.subject,
+                    labels=dict(bad.labels), force_abs=-bad.force_abs, normal_abs=bad.normal_abs)
+    trials[3] = flipped
+    fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
+    flags = [f for f in fit.flags if f.code == "negative-mu"]
+    assert len(flags) == 1 and flags[0].trial == flipped.id and flags[0].level == "error"
+    assert "wrong sign" in flags[0].message
+    assert flipped.id not in fit.flat.mu_trials
+    assert fit.mu == pytest.approx(0.55, rel=0.01)
+    assert not fit.trials[3].success and not fit.success
+    # the others as without the flipped trial (the fixture's bump tops unload to ~0 N, where
+    # noise makes F_N negative: flagged negative-pressure, see the 10 % noise test)
+    clean = fit_load_subject(_study(0, noise=0.02), LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
+    assert [t.success for i, t in enumerate(fit.trials) if i != 3] == \
+        [t.success for i, t in enumerate(clean.trials) if i != 3]
+    with pytest.raises(ValueError, match="wrong sign"):
+        flat_ground_mu([flipped])

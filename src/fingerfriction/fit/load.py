@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import optimize
@@ -657,6 +657,10 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     flags += _at_bound_flags(subject, fitted, inset, kappa, options)
     fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan))
                  for d in designs)
+    wrong_sign = {f.trial for f in flat.flags if f.code == "negative-mu"}
+    fits = tuple(replace(f, success=False, message="flat-ground F_T / F_N <= 0 (wrong sign); "
+                                     + f.message) if d.trial.id in wrong_sign else f
+                 for d, f in zip(designs, fits, strict=True))
     for f in fits:
         flags.extend(f.flags)
     n_bad = sum(not f.success for f in fits)

@@ -162,8 +162,18 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
                                  f"less than {min_flat_mm:g} mm of flat ground before the feature: "
                                  "the trial takes no part in mu"))
             continue
+        ratio = float(d[1].sum() / d[2].sum())
+        if not ratio > 0:
+            flags.append(FitFlag("error", "negative-mu", subject, t.id, "load",
+                                 f"flat-ground friction ratio F_T / F_N = {ratio:.3g} <= 0: the tangential "
+                                 "force has the wrong sign (sensor axis or sliding direction?); the trial "
+                                 "takes no part in mu"))
+            continue
         data.append(d)
         ids.append(t.id)
+    if not data and any(f.code == "negative-mu" for f in flags):
+        raise ValueError(f"subject {subject}: every trial's flat-ground F_T / F_N is <= 0 (the tangential "
+                         "force has the wrong sign): mu cannot be measured")
     if not data:
         raise ValueError(f"subject {subject}: no trial has {min_flat_mm:g} mm of flat ground with "
                          "absolute forces before the feature: mu cannot be measured")
