@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize
@@ -422,7 +422,7 @@ class _LoadDesign:
 
 
 def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: float,
-                model_name: str = "load") -> LoadTrialFit:
+                model_name: str = "load", *, wrong_sign: bool = False) -> LoadTrialFit:
     t = d.trial
     labels = _fit_labels(t)
     tid = t.id
@@ -468,6 +468,9 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
         if level == "error":
             success = False
             parts.insert(0, f"{n_out} of {n} positions left out")
+    if wrong_sign:  # flagged negative-mu by the flat-ground fit
+        success = False
+        parts.insert(0, "flat-ground F_T / F_N <= 0 (wrong sign)")
     if np.any(d.FN[used] < 0):
         success = False
         flags.append(FitFlag("error", "negative-pressure", t.subject, tid, model_name,
@@ -655,12 +658,9 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                                  f"trial's deformation weight p1 stays >= 0 (the residual alone would take "
                                  f"{best:.2f}/mm)"))
     flags += _at_bound_flags(subject, fitted, inset, kappa, options)
-    fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan))
-                 for d in designs)
     wrong_sign = {f.trial for f in flat.flags if f.code == "negative-mu"}
-    fits = tuple(replace(f, success=False, message="flat-ground F_T / F_N <= 0 (wrong sign); "
-                                     + f.message) if d.trial.id in wrong_sign else f
-                 for d, f in zip(designs, fits, strict=True))
+    fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan),
+                             wrong_sign=d.trial.id in wrong_sign) for d in designs)
     for f in fits:
         flags.extend(f.flags)
     n_bad = sum(not f.success for f in fits)

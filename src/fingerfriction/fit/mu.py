@@ -99,6 +99,55 @@ def _t_statistic(v: np.ndarray) -> float:
     return float(np.mean(v)) / (sd / math.sqrt(v.size)) if sd > 0 else math.nan
 
 
+def _flat_segments(trials, subject: str, min_load: float, min_flat_mm: float):
+    """``(data, ids, flags)``: each usable trial's flat segment ``(u, F_T, F_N)``; trials
+    with too little flat ground or a wrong-signed force are flagged and left out."""
+    data, ids, flags = [], [], []
+    for t in trials:
+        d = _flat_data(t, min_load, min_flat_mm)
+        if d is None:
+            flags.append(FitFlag("warning", "short-flat", subject, t.id, "load",
+                                 f"less than {min_flat_mm:g} mm of flat ground before the feature: "
+                                 "the trial takes no part in mu"))
+            continue
+        ratio = float(d[1].sum() / d[2].sum())
+        if not ratio > 0:
+            flags.append(FitFlag("error", "negative-mu", subject, t.id, "load",
+                                 f"flat-ground friction ratio F_T / F_N = {ratio:.3g} <= 0: the tangential "
+                                 "force has the wrong sign (sensor axis or sliding direction?); the trial "
+                                 "takes no part in mu"))
+            continue
+        data.append(d)
+        ids.append(t.id)
+    if not data and any(f.code == "negative-mu" for f in flags):
+        raise ValueError(f"subject {subject}: every trial's flat-ground F_T / F_N is <= 0 (the tangential "
+                         "force has the wrong sign): mu cannot be measured")
+    if not data:
+        raise ValueError(f"subject {subject}: no trial has {min_flat_mm:g} mm of flat ground with "
+                         "absolute forces before the feature: mu cannot be measured")
+    return data, ids, flags
+
+
+def _fit_transient(data, hi: float) -> tuple[float, np.ndarray, bool]:
+    """``(lambda, mu_k, at_bound)`` of the start-transient model (``lambda`` NaN when the
+    trials do not agree on a transient; ``at_bound``: a kept transient at ``hi`` mm)."""
+    grid = np.geomspace(0.05, hi, 40)
+    rss = np.array([_transient_rss(data, g)[0] for g in grid])
+    j = int(np.argmin(rss))
+    lo_b, hi_b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+    res = optimize.minimize_scalar(lambda g: _transient_rss(data, g)[0], bounds=(lo_b, hi_b),
+                                   method="bounded", options={"xatol": 1e-3})
+    lam = float(res.x)
+    _, mus, amps = _transient_rss(data, lam)
+    # The transient is kept only where the trials agree on it: its amplitude's mean over
+    # the trials at least 3 standard errors (trials are independent, positions are not)
+    # from 0. On data without one the residual is flat in lambda, its minimum falls
+    # anywhere, the bound included, and the term only adds scatter to the mu_k.
+    if not _t_statistic(amps) > 3.0:
+        return math.nan, _transient_rss(data, None)[1], False
+    return lam, mus, j == grid.size - 1
+
+
 def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient_max_mm: float = 3.0,
                    min_load: float = 0.05, min_flat_mm: float = 1.0, n_boot: int = 2000, seed: int = 0,
                    level: float = 0.95) -> FlatGroundMu:
@@ -137,14 +186,10 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
     -----
     Per trial, over the flat segment (every contact region before the feature and
     ``F_N >= min_load``), ``F_T = F_N (mu_k + A_k exp(-u / lambda))`` with one ``lambda``
-    for the subject, chosen on a log grid over ``[0.05, transient_max_mm]`` mm and refined
-    by a bounded scalar search of the summed residual; ``mu_k`` is the steady-sliding
-    level (moment equations that stay unbiased under noise in ``F_N``, see
-    ``_transient_rss``). The transient is kept only when the trials agree on it (the mean
-    of the ``A_k`` at least 3 standard errors from 0; ``transient_mm`` is NaN otherwise).
-    Without it ``mu_k`` is the ratio of sums ``sum F_T / sum F_N``. The
-    subject's ``mu`` is the mean of the ``mu_k``; its confidence interval is the percentile
-    interval of ``n_boot`` bootstrap means over trials (seeded Generator).
+    for the subject; the transient is kept only when the trials agree on it (mean ``A_k``
+    at least 3 standard errors from 0), else ``mu_k = sum F_T / sum F_N``. ``mu`` is the
+    mean of the ``mu_k``, its CI the percentile interval of ``n_boot`` bootstrap means over
+    trials. Details and measurements: ``docs/fit.md``.
     """
     trials = [t for t in trials if t.has_absolute]
     subjects = sorted({t.subject for t in trials})
@@ -154,53 +199,16 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
         raise ValueError("no trial with absolute forces: mu cannot be measured on flat ground "
                          "(fit the paper's model instead)")
     subject = subjects[0]
-    data, ids, flags = [], [], []
-    for t in trials:
-        d = _flat_data(t, min_load, min_flat_mm)
-        if d is None:
-            flags.append(FitFlag("warning", "short-flat", subject, t.id, "load",
-                                 f"less than {min_flat_mm:g} mm of flat ground before the feature: "
-                                 "the trial takes no part in mu"))
-            continue
-        ratio = float(d[1].sum() / d[2].sum())
-        if not ratio > 0:
-            flags.append(FitFlag("error", "negative-mu", subject, t.id, "load",
-                                 f"flat-ground friction ratio F_T / F_N = {ratio:.3g} <= 0: the tangential "
-                                 "force has the wrong sign (sensor axis or sliding direction?); the trial "
-                                 "takes no part in mu"))
-            continue
-        data.append(d)
-        ids.append(t.id)
-    if not data and any(f.code == "negative-mu" for f in flags):
-        raise ValueError(f"subject {subject}: every trial's flat-ground F_T / F_N is <= 0 (the tangential "
-                         "force has the wrong sign): mu cannot be measured")
-    if not data:
-        raise ValueError(f"subject {subject}: no trial has {min_flat_mm:g} mm of flat ground with "
-                         "absolute forces before the feature: mu cannot be measured")
-    lam = math.nan
+    data, ids, flags = _flat_segments(trials, subject, min_load, min_flat_mm)
     if transient:
-        hi = float(transient_max_mm)
-        grid = np.geomspace(0.05, hi, 40)
-        rss = np.array([_transient_rss(data, g)[0] for g in grid])
-        j = int(np.argmin(rss))
-        lo_b, hi_b = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-        res = optimize.minimize_scalar(lambda g: _transient_rss(data, g)[0], bounds=(lo_b, hi_b),
-                                       method="bounded", options={"xatol": 1e-3})
-        lam = float(res.x)
-        _, mus, amps = _transient_rss(data, lam)
-        # The transient is kept only where the trials agree on it: its amplitude's mean over
-        # the trials at least 3 standard errors (trials are independent, positions are
-        # not) from 0. On data without one the residual is flat in lambda, its minimum
-        # falls anywhere, the bound included, and the term only adds scatter to the mu_k.
-        t_amp = _t_statistic(amps)
-        if not t_amp > 3.0:
-            lam, mus = math.nan, _transient_rss(data, None)[1]
-        elif j == grid.size - 1:
+        lam, mus, at_bound = _fit_transient(data, float(transient_max_mm))
+        if at_bound:
             flags.append(FitFlag("warning", "transient-at-bound", subject, "", "load",
-                                 f"the start transient's decay length reached its bound {hi:g} mm: the "
-                                 "flat-ground ratio drifts over the whole flat segment"))
+                                 f"the start transient's decay length reached its bound "
+                                 f"{transient_max_mm:g} mm: the flat-ground ratio drifts over the whole "
+                                 "flat segment"))
     else:
-        mus = _transient_rss(data, None)[1]
+        lam, mus = math.nan, _transient_rss(data, None)[1]
     mu = float(np.mean(mus))
     if mus.size >= 2:
         rng = np.random.default_rng(seed)

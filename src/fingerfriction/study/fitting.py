@@ -153,16 +153,14 @@ def fit(
     mu_grid : (start, stop, step)
         Inclusive ``mu`` grid of the paper variant (default 0.30 to 0.90 by 0.01).
     method : {'lstsq', 'nelder-mead'}
-        How the paper variant fits ``p0, p1`` (closed form by default; Nelder-Mead as the
-        paper).
+        How the paper variant fits ``p0, p1`` (closed form, or Nelder-Mead as the paper).
     median_kernel : int
         Median filter window in samples on the models (odd; 1 = off).
     progress : bool
         Show a progress bar.
     validate : bool
-        Also run the out-of-sample validation of both models (leave one surface out,
-        :func:`fingerfriction.predict.validate_results`) when the study has at least two
-        surfaces: ``fit/loso.csv`` and ``fit/loso.png``.
+        Also run the leave-one-surface-out validation of both models
+        (:func:`fingerfriction.predict.validate_results`) on two surfaces or more.
     seed : int
         Seed of the bootstrap confidence intervals.
 
@@ -170,11 +168,8 @@ def fit(
     -------
     FitSummary
 
-    Writes ``fit/fit.json``, ``fit/subjects.csv``, ``fit/trials.csv``, ``fit/table1.csv``
-    (both models, column ``model``), ``fit/model/<trial-id>.parquet`` and, with
-    ``validate``, ``fit/loso.csv`` and ``fit/loso.png`` (layout in
-    :mod:`fingerfriction.study.store`). A validation that fails is logged and recorded in
-    ``fit.json`` (``loso``); the fit itself stands.
+    Writes ``RESULTS/fit/`` (layout in :mod:`fingerfriction.study.store`, both models); a
+    validation that fails is logged and recorded in ``fit.json``, the fit itself stands.
     """
     if model not in MODELS:
         raise ValueError(f"model must be one of {MODELS}, got {model!r}")
@@ -203,22 +198,8 @@ def fit(
                        ignore_index=True)
     _write_outputs(store, trials, grids, meta, fits, model)
     store.write_fit_csv("table1", table1)
-    record = {
-        "model": model,
-        "model_notes": MODEL_NOTES,
-        "footing": FOOTING[model],
-        "mu": {s: sf.mu for s, sf in fits[model].items()},
-        "mu_ci": {s: list(_mu_ci(sf)) for s, sf in fits[model].items()},
-        "models": {m: _model_record(m, fits[m], cpu[m]) for m in MODELS},
-        "mu_grid": {"start": start, "stop": stop, "step": step, "n": int(grid.size)},
-        "method": method, "options": dataclasses.asdict(options),
-        "load_options": dataclasses.asdict(load_options),
-        "curves": {s: {"grid": sf.grid, "objective": sf.curve} for s, sf in fits["paper"].items()},
-        "messages": {s: sf.message for s, sf in fits[model].items()},
-        "flags": [f.to_dict() for f in flags],
-        "n_trials": len(trials), "failures": [{"trial": t, "reason": r} for t, r in failures],
-        "finished": now(),
-    }
+    record = _fit_record(model, fits, cpu, (start, stop, step, int(grid.size)), method, options, load_options,
+                         flags, len(trials), failures)
     store.write_fit_record(record)  # validate_results reads the grid and options from it
     loso, loso_message = _validate_after_fit(store, trials, validate)
     record["loso"] = {"computed": loso is not None, "message": loso_message,
@@ -229,6 +210,27 @@ def fit(
                       messages=record["messages"], flags=tuple(flags),
                       lines=tuple(summary_lines(fits, flags, model)), table1=table1, cpu_s=cpu,
                       loso=loso, loso_message=loso_message)
+
+
+def _fit_record(model: str, fits: dict, cpu: dict, grid: tuple, method: str, options, load_options,
+                flags: list, n_trials: int, failures: list) -> dict:
+    """The content of ``fit/fit.json`` (without ``loso``, added once validated)."""
+    return {
+        "model": model,
+        "model_notes": MODEL_NOTES,
+        "footing": FOOTING[model],
+        "mu": {s: sf.mu for s, sf in fits[model].items()},
+        "mu_ci": {s: list(_mu_ci(sf)) for s, sf in fits[model].items()},
+        "models": {m: _model_record(m, fits[m], cpu[m]) for m in MODELS},
+        "mu_grid": dict(zip(("start", "stop", "step", "n"), grid, strict=True)),
+        "method": method, "options": dataclasses.asdict(options),
+        "load_options": dataclasses.asdict(load_options),
+        "curves": {s: {"grid": sf.grid, "objective": sf.curve} for s, sf in fits["paper"].items()},
+        "messages": {s: sf.message for s, sf in fits[model].items()},
+        "flags": [f.to_dict() for f in flags],
+        "n_trials": n_trials, "failures": [{"trial": t, "reason": r} for t, r in failures],
+        "finished": now(),
+    }
 
 
 def _read_trials(store: ResultsStore, meta: dict, surfaces: dict, flat_margin: float, bar):
