@@ -155,6 +155,20 @@ def test_flat_ground_mu_ci_covers_trial_to_trial_scatter():
     assert set(res.mu_trials) == {f"t{k}" for k in range(40)}
 
 
+def test_flat_ground_mu_without_a_transient_neither_models_nor_flags_one():
+    """No start transient in the data: the residual is flat in lambda, whose minimum can
+    fall on the bound; the term is dropped (the trials do not agree on an amplitude) and
+    nothing is flagged, while a real transient is kept."""
+    for seed in range(4):
+        rng = np.random.default_rng(10 + seed)
+        res = flat_ground_mu(_flat_trials(rng, np.full(30, 0.55), amp=0.0))
+        assert math.isnan(res.transient_mm)
+        assert not [f for f in res.flags if f.code == "transient-at-bound"]
+        assert res.ci[0] <= 0.55 <= res.ci[1]
+    with_transient = flat_ground_mu(_flat_trials(np.random.default_rng(3), np.full(30, 0.55)))
+    assert math.isfinite(with_transient.transient_mm)
+
+
 def test_hac_standard_error_matches_the_scatter_of_p1():
     """White noise: the Newey-West SE agrees with the spread of p1 over noise draws."""
     rng = np.random.default_rng(5)
@@ -210,3 +224,47 @@ def test_two_subjects_and_option_validation():
     with pytest.raises(ValueError, match="Trial.force_abs and Trial.normal_abs go together"):
         Trial(x=X, force=np.zeros(X.size), regions=np.tile([[-5.0, 5.0]], (X.size, 1, 1)), surface="bump-2mm",
               force_abs=np.zeros(X.size))
+
+
+def test_each_trial_uses_its_own_flat_ground_mu_by_default():
+    """Friction that varies from trial to trial (10 % SD): with the trial's own flat-ground
+    mu (the default) every p1 comes back; with the subject's mean the friction error on
+    the slopes is pushed into p1."""
+    rng = np.random.default_rng(7)
+    trials = []
+    for s in SURFACE_NAMES:
+        for r in range(3):
+            mu = 0.55 * (1 + 0.1 * rng.normal())
+            trials.append(synthetic_trial(s, mu=mu, p0=0.03, p1=0.2, rng=rng, noise=0.02, absolute=True,
+                                          labels={"trial": f"S1-{s}-{r}"}))
+    fixed = {"inset": 0.0, "kappa": 0.0, **FIXTURE}
+    assert LoadFitOptions().mu_per == "trial"
+    own = fit_load_subject(trials, LoadFitOptions(**fixed))
+    mean = fit_load_subject(trials, LoadFitOptions(mu_per="subject", **fixed))
+    err_own = np.array([t.p1 / 0.2 - 1 for t in own.trials])
+    err_mean = np.array([t.p1 / 0.2 - 1 for t in mean.trials])
+    assert np.median(np.abs(err_own)) < 0.02
+    assert np.median(np.abs(err_mean)) > 3 * np.median(np.abs(err_own))
+    assert [t.mu for t in own.trials] == pytest.approx([own.flat.mu_trials[t.id] for t in trials])
+
+
+def test_a_trial_with_the_wrong_force_sign_is_flagged_and_left_out_of_mu():
+    trials = _study(0, noise=0.02)
+    bad = trials[3]
+    flipped = Trial(x=bad.x, force=-bad.force, regions=bad.regions, surface=bad.surface, subject=bad.subject,
+                    labels=dict(bad.labels), force_abs=-bad.force_abs, normal_abs=bad.normal_abs)
+    trials[3] = flipped
+    fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
+    flags = [f for f in fit.flags if f.code == "negative-mu"]
+    assert len(flags) == 1 and flags[0].trial == flipped.id and flags[0].level == "error"
+    assert "wrong sign" in flags[0].message
+    assert flipped.id not in fit.flat.mu_trials
+    assert fit.mu == pytest.approx(0.55, rel=0.01)
+    assert not fit.trials[3].success and not fit.success
+    # the others as without the flipped trial (the fixture's bump tops unload to ~0 N, where
+    # noise makes F_N negative: flagged negative-pressure, see the 10 % noise test)
+    clean = fit_load_subject(_study(0, noise=0.02), LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
+    assert [t.success for i, t in enumerate(fit.trials) if i != 3] == \
+        [t.success for i, t in enumerate(clean.trials) if i != 3]
+    with pytest.raises(ValueError, match="wrong sign"):
+        flat_ground_mu([flipped])

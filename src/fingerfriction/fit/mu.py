@@ -34,7 +34,8 @@ class FlatGroundMu:
     mu_trials : dict of str to float
         ``mu_k`` per trial id (trials with too little flat ground are absent).
     transient_mm : float
-        Decay length ``lambda`` in mm of the start transient (NaN when not modelled).
+        Decay length ``lambda`` in mm of the start transient (NaN when not modelled, or
+        when the trials do not agree on one).
     flags : tuple of FitFlag
     """
 
@@ -61,8 +62,9 @@ def _flat_data(trial: Trial, min_load: float, min_flat_mm: float):
     return x - x[0], trial.force_abs[mask], trial.normal_abs[mask]
 
 
-def _transient_rss(data, lam: float | None) -> tuple[float, np.ndarray]:
-    """Summed residual of ``F_T = F_N (mu_k + A_k exp(-u / lam))`` over trials, and the mu_k.
+def _transient_rss(data, lam: float | None) -> tuple[float, np.ndarray, np.ndarray]:
+    """Summed residual of ``F_T = F_N (mu_k + A_k exp(-u / lam))`` over trials, the mu_k
+    and the A_k (0 without a transient).
 
     ``(mu_k, A_k)`` solve the moment equations with the instruments ``1`` and
     ``exp(-u / lam)``: ``sum w (F_T - F_N (mu + A e)) = 0``. They do not involve the noise
@@ -70,7 +72,7 @@ def _transient_rss(data, lam: float | None) -> tuple[float, np.ndarray]:
     ``F_T / F_N``, or least squares on ``F_N``, would not). Without a transient
     (``lam=None``) ``mu_k`` is the ratio of sums ``sum F_T / sum F_N``.
     """
-    total, mus = 0.0, np.empty(len(data))
+    total, mus, amps = 0.0, np.empty(len(data)), np.zeros(len(data))
     for k, (u, ft, fn) in enumerate(data):
         if lam is not None:
             e = np.exp(-u / lam)
@@ -81,12 +83,20 @@ def _transient_rss(data, lam: float | None) -> tuple[float, np.ndarray]:
                 r1, r2 = ft.sum(), e @ ft
                 mu = (a22 * r1 - a12 * r2) / det
                 amp = (a11 * r2 - a21 * r1) / det
-                mus[k] = mu
+                mus[k], amps[k] = mu, amp
                 total += float(np.sum((ft - fn * (mu + amp * e)) ** 2))
                 continue
         mus[k] = ft.sum() / fn.sum()
         total += float(np.sum((ft - fn * mus[k]) ** 2))
-    return total, mus
+    return total, mus, amps
+
+
+def _t_statistic(v: np.ndarray) -> float:
+    """Mean over its standard error (NaN with fewer than 3 values or no scatter)."""
+    if v.size < 3:
+        return math.nan
+    sd = float(np.std(v, ddof=1))
+    return float(np.mean(v)) / (sd / math.sqrt(v.size)) if sd > 0 else math.nan
 
 
 def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient_max_mm: float = 3.0,
@@ -130,8 +140,9 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
     for the subject, chosen on a log grid over ``[0.05, transient_max_mm]`` mm and refined
     by a bounded scalar search of the summed residual; ``mu_k`` is the steady-sliding
     level (moment equations that stay unbiased under noise in ``F_N``, see
-    ``_transient_rss``). Without ``transient`` it is the ratio of sums
-    ``sum F_T / sum F_N``. The
+    ``_transient_rss``). The transient is kept only when the trials agree on it (the mean
+    of the ``A_k`` at least 3 standard errors from 0; ``transient_mm`` is NaN otherwise).
+    Without it ``mu_k`` is the ratio of sums ``sum F_T / sum F_N``. The
     subject's ``mu`` is the mean of the ``mu_k``; its confidence interval is the percentile
     interval of ``n_boot`` bootstrap means over trials (seeded Generator).
     """
@@ -151,8 +162,18 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
                                  f"less than {min_flat_mm:g} mm of flat ground before the feature: "
                                  "the trial takes no part in mu"))
             continue
+        ratio = float(d[1].sum() / d[2].sum())
+        if not ratio > 0:
+            flags.append(FitFlag("error", "negative-mu", subject, t.id, "load",
+                                 f"flat-ground friction ratio F_T / F_N = {ratio:.3g} <= 0: the tangential "
+                                 "force has the wrong sign (sensor axis or sliding direction?); the trial "
+                                 "takes no part in mu"))
+            continue
         data.append(d)
         ids.append(t.id)
+    if not data and any(f.code == "negative-mu" for f in flags):
+        raise ValueError(f"subject {subject}: every trial's flat-ground F_T / F_N is <= 0 (the tangential "
+                         "force has the wrong sign): mu cannot be measured")
     if not data:
         raise ValueError(f"subject {subject}: no trial has {min_flat_mm:g} mm of flat ground with "
                          "absolute forces before the feature: mu cannot be measured")
@@ -166,8 +187,15 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
         res = optimize.minimize_scalar(lambda g: _transient_rss(data, g)[0], bounds=(lo_b, hi_b),
                                        method="bounded", options={"xatol": 1e-3})
         lam = float(res.x)
-        mus = _transient_rss(data, lam)[1]
-        if j == grid.size - 1:
+        _, mus, amps = _transient_rss(data, lam)
+        # The transient is kept only where the trials agree on it: its amplitude's mean over
+        # the trials at least 3 standard errors (trials are independent, positions are
+        # not) from 0. On data without one the residual is flat in lambda, its minimum
+        # falls anywhere, the bound included, and the term only adds scatter to the mu_k.
+        t_amp = _t_statistic(amps)
+        if not t_amp > 3.0:
+            lam, mus = math.nan, _transient_rss(data, None)[1]
+        elif j == grid.size - 1:
             flags.append(FitFlag("warning", "transient-at-bound", subject, "", "load",
                                  f"the start transient's decay length reached its bound {hi:g} mm: the "
                                  "flat-ground ratio drifts over the whole flat segment"))
