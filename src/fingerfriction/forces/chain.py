@@ -126,16 +126,10 @@ class ForceProfile:
 
 
 
-def process_forces(
-    record: ForceRecord,
-    t_frames,
-    x_frames,
-    *,
-    feature_extent_mm: tuple[float, float] = (0.0, 0.0),
-    params: ForceProcessingParams | None = None,
-    regions=None,
-    on_error: str = "raise",
-) -> ForceProfile:
+def process_forces(record: ForceRecord, t_frames, x_frames, *,
+                   feature_extent_mm: tuple[float, float] = (0.0, 0.0),
+                   params: ForceProcessingParams | None = None, regions=None,
+                   on_error: str = "raise") -> ForceProfile:
     """Run the Methods' force processing on one trial: ``F_T(x)`` on the position grid.
 
     Steps, one call each: input checks (:mod:`.checks`); decomposition and the sensor
@@ -189,63 +183,36 @@ def process_forces(
     if flat_mm is None:
         flat_mm = flat_segment_from_positions(feature_start, window=window,
                                               contact_half_width_mm=params.contact_half_width_mm)
-
-    def finish_error() -> ForceProfile:
-        err = next(f for f in flags if f.severity == "error")
-        if on_error == "raise":
-            raise ForceDataError(err.message)
-        return _empty_profile(params, window, flat_mm, flags)
-
-    f1, f2 = check_channels(record, params, flags)
-    t = record.times()
-    xf = _extended_positions(tf, xf, window, params, flags)
-    if xf is None:
-        return finish_error()
-    x_at = positions_at_times(t, tf, xf)
-    if not check_window_covered(xf, window, params, flags):
-        return finish_error()
-    check_record_covers_slide(record, tf, xf, window, flags)
-    if any(f.severity == "error" for f in flags):
-        return finish_error()
+    checked = _checked_inputs(record, tf, xf, window, params, flags)
+    if checked is None:
+        return _failed(on_error, params, window, flat_mm, flags)
+    f1, f2, t, x_at = checked
     sig, base, post = _sensor_chain(ForceSignals.from_record(replace(record, f1=f1, f2=f2)), params, flags)
     mask, flat_mm, how = _flat_segment(t, tf, x_at, regions, feature_start, flat_mm, window, params)
     if not check_flat_segment(x_at, mask, how, params, flags):
-        return finish_error()
+        return _failed(on_error, params, window, flat_mm, flags)
     check_flat_rest(t, x_at, mask, window, flags)
-    # The absolute footing is the signal before the paper's flat-segment line: it keeps the
-    # flat-ground level mu F_N that the line removes.
-    absolute, absolute_message = _absolute_footing(params, base, post)
-    if not absolute:
-        flags.append(Flag("no-absolute", absolute_message))
+    absolute, absolute_message = _absolute_footing(params, base, post, flags)
     sig_abs, sig = sig, sig.remove_drift(mask, segment=how)
-    try:
-        res_t, res_n, f_t_abs, f_n_abs = _on_positions(x_at, sig, sig_abs if absolute else None, window,
-                                                       params.resolution_mm)
-    except ValueError as exc:  # the force samples, not just the frames, must span the window
-        flags.append(Flag("window", f"at the force sample times, {exc}", "error"))
-        return finish_error()
-    check_resampling(res_t, params, flags)
+    on_grid = _on_positions(x_at, sig, sig_abs if absolute else None, window, params, flags)
+    if on_grid is None:
+        return _failed(on_error, params, window, flat_mm, flags)
+    res_t, res_n, f_t_abs, f_n_abs = on_grid
     for f in flags:  # returned in the profile's flags; logged for the record
         logger.info("forces: %s: %s", f.code, f.message)
-    return ForceProfile(
-        x=res_t.x,
-        f_t=res_t.values,
-        f_n=res_n.values,
-        counts=res_t.counts,
-        signals=sig,
-        x_at_samples=x_at,
-        flat_segment_mm=flat_mm,
-        window_mm=window,
-        flags=tuple(flags),
-        flat_mask=mask,
-        success=True,
-        message="ok",
-        params=params,
-        f_t_abs=f_t_abs,
-        f_n_abs=f_n_abs,
-        absolute=absolute,
-        absolute_message=absolute_message,
-    )
+    return ForceProfile(x=res_t.x, f_t=res_t.values, f_n=res_n.values, counts=res_t.counts, signals=sig,
+                        x_at_samples=x_at, flat_segment_mm=flat_mm, window_mm=window, flags=tuple(flags),
+                        flat_mask=mask, success=True, message="ok", params=params, f_t_abs=f_t_abs,
+                        f_n_abs=f_n_abs, absolute=absolute, absolute_message=absolute_message)
+
+
+def _failed(on_error: str, params: ForceProcessingParams, window, flat_mm, flags: list) -> ForceProfile:
+    """After an error flag: raise the first error as :class:`ForceDataError`
+    (``on_error="raise"``), or return the empty profile that carries the flags ("flag")."""
+    err = next(f for f in flags if f.severity == "error")
+    if on_error == "raise":
+        raise ForceDataError(err.message)
+    return _empty_profile(params, window, flat_mm, flags)
 
 
 def _arguments(record: ForceRecord, feature_extent_mm, params, on_error: str):
@@ -270,6 +237,26 @@ def _arguments(record: ForceRecord, feature_extent_mm, params, on_error: str):
         )
     centre = 0.5 * (a + b)
     return params, (centre - params.window_mm / 2, centre + params.window_mm / 2), a
+
+
+def _checked_inputs(record: ForceRecord, t_frames: np.ndarray, x_frames: np.ndarray, window,
+                    params: ForceProcessingParams, flags: list):
+    """The checks of the channels and of the finger's positions against the window and the
+    record: ``(f1, f2, t, x_at)``, the checked channels (N), the sample times (s) and the
+    finger position at each sample (mm, extended when the frames do not cover the window);
+    None when an error flag was raised."""
+    f1, f2 = check_channels(record, params, flags)
+    t = record.times()
+    xf = _extended_positions(t_frames, x_frames, window, params, flags)
+    if xf is None:
+        return None
+    x_at = positions_at_times(t, t_frames, xf)
+    if not check_window_covered(xf, window, params, flags):
+        return None
+    check_record_covers_slide(record, t_frames, xf, window, flags)
+    if any(f.severity == "error" for f in flags):
+        return None
+    return f1, f2, t, x_at
 
 
 def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, params: ForceProcessingParams,
@@ -366,28 +353,42 @@ def _flat_segment(t, t_frames, x_at, regions, feature_start: float, flat_mm, win
     return mask, flat_mm, f"finger centre in [{flat_mm[0]:.3f}, {flat_mm[1]:.3f}] mm"
 
 
-def _on_positions(x_at, sig: ForceSignals, sig_abs: ForceSignals | None, window, resolution: float):
-    """Both forces (and, when given, their absolute footing) resampled onto the position grid:
-    ``(res_t, res_n, f_t_abs or None, f_n_abs or None)``; ValueError when the samples do not
-    span the window."""
-    res_t = resample_to_positions(x_at, sig.f_t, window=window, resolution=resolution)
-    res_n = resample_to_positions(x_at, sig.f_n, window=window, resolution=resolution)
-    if sig_abs is None:
-        return res_t, res_n, None, None
-    f_t_abs = resample_to_positions(x_at, sig_abs.f_t, window=window, resolution=resolution).values
-    f_n_abs = resample_to_positions(x_at, sig_abs.f_n, window=window, resolution=resolution).values
+def _on_positions(x_at, sig: ForceSignals, sig_abs: ForceSignals | None, window,
+                  params: ForceProcessingParams, flags: list):
+    """Both forces (and, when given, their absolute footing) resampled onto the position grid,
+    with the resampling's check: ``(res_t, res_n, f_t_abs or None, f_n_abs or None)``; None,
+    with an error flag, when the force samples do not span the window."""
+    resolution = params.resolution_mm
+    try:  # the force samples, not just the frames, must span the window
+        res_t = resample_to_positions(x_at, sig.f_t, window=window, resolution=resolution)
+        res_n = resample_to_positions(x_at, sig.f_n, window=window, resolution=resolution)
+        f_t_abs = f_n_abs = None
+        if sig_abs is not None:
+            f_t_abs = resample_to_positions(x_at, sig_abs.f_t, window=window, resolution=resolution).values
+            f_n_abs = resample_to_positions(x_at, sig_abs.f_n, window=window, resolution=resolution).values
+    except ValueError as exc:
+        flags.append(Flag("window", f"at the force sample times, {exc}", "error"))
+        return None
+    check_resampling(res_t, params, flags)
     return res_t, res_n, f_t_abs, f_n_abs
 
 
-def _absolute_footing(params: ForceProcessingParams, base, post) -> tuple[bool, str]:
-    """Whether the forces have an absolute level, and why not (a one-line message)."""
+def _absolute_footing(params: ForceProcessingParams, base, post, flags: list) -> tuple[bool, str]:
+    """Whether the forces have an absolute level, and why not (a one-line message, flagged).
+
+    The absolute footing is the signal before the paper's flat-segment line: it keeps the
+    flat-ground level mu F_N that the line removes.
+    """
+    message = ""
     if params.sensor_highpass_hz is None:
-        return False, ("sensor_highpass_hz=None: the sensor's high-pass is not inverted, so the forces "
-                       "are known only relative to the flat segment (the paper's footing)")
-    if base is None and post is None:
-        return False, ("no unloaded rest before the touch or after the lift-off anchors the drift: the "
-                       "forces are known only relative to the flat segment (the paper's footing)")
-    return True, ""
+        message = ("sensor_highpass_hz=None: the sensor's high-pass is not inverted, so the forces "
+                   "are known only relative to the flat segment (the paper's footing)")
+    elif base is None and post is None:
+        message = ("no unloaded rest before the touch or after the lift-off anchors the drift: the "
+                   "forces are known only relative to the flat segment (the paper's footing)")
+    if message:
+        flags.append(Flag("no-absolute", message))
+    return not message, message
 
 
 def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list) -> np.ndarray | None:

@@ -647,20 +647,48 @@ def _check_lengths(data: dict, chans: dict, p: Path) -> int:
     return int(f1.size)
 
 
-def read_force_file(
-    path: str | os.PathLike,
-    *,
-    fs_hz: float | None = None,
-    channels: Mapping | None = None,
-    format: str | None = None,
-    t0_s: float = 0.0,
-    n_samples: int | None = None,
-    units: str = "N",
-    sensitivity_n_per_v=None,
-    gain_v_per_n=None,
-    time=None,
-    delimiter: str | None = None,
-) -> ForceRecord:
+def _clock(data: dict, info: dict, n: int, fs: float | None, time, n_samples, p: Path) -> tuple[float, float]:
+    """The sampling rate in Hz of a file read by :func:`read_force_file` and the time in s of
+    its first sample after the file's time zero (a time column's first value, TDMS
+    ``wf_start_offset``): the file's own rate, if any, checked against ``fs`` when given, and
+    the file's length ``n`` against ``n_samples``; ForceFileError when they disagree."""
+    file_fs, rtol, what = info.get("fs_hz"), 1e-6, "states a sampling rate of"
+    if "time" in data:
+        if data["time"].size != n:
+            raise ForceFileError(f"time column {time!r} of {str(p)!r} has {data['time'].size} samples, "
+                                 f"the channels {n}")
+        file_fs, t_first = _time_axis(data["time"], name=time, path=p)
+        rtol, what = TIME_COLUMN_RTOL, f"time column {time!r} gives a sampling rate of"
+    else:
+        t_first = float(info.get("time0_s", 0.0))  # TDMS wf_start_offset
+    if fs is None:
+        if file_fs is None:
+            raise ForceFileError(
+                f"force file {str(p)!r} states no sampling rate; give fs_hz (manifest force.fs_hz) "
+                "or a time column (force.time)"
+            )
+        fs = float(file_fs)
+    elif file_fs is not None and abs(file_fs - fs) > rtol * fs:
+        hint = ""
+        if "time" in data and abs(file_fs * 1e3 / fs - 1) < 0.01:
+            hint = " (is the time column in ms? it must be in s)"
+        raise ForceFileError(
+            f"force file {str(p)!r} {what} {file_fs:.6g} Hz but fs_hz={fs:g} Hz was given "
+            f"(manifest force.fs_hz); they must agree{hint}"
+        )
+    if n_samples is not None and int(n_samples) != n:
+        raise ForceFileError(
+            f"force file {str(p)!r} holds {n} samples per channel but the manifest says "
+            f"n_samples={int(n_samples)} ({int(n_samples) / fs:.4g} s at fs_hz={fs:g} Hz, the file "
+            f"lasts {n / fs:.4g} s); check force.fs_hz, force.n_samples and the file"
+        )
+    return fs, t_first
+
+
+def read_force_file(path: str | os.PathLike, *, fs_hz: float | None = None, channels: Mapping | None = None,
+                    format: str | None = None, t0_s: float = 0.0, n_samples: int | None = None,
+                    units: str = "N", sensitivity_n_per_v=None, gain_v_per_n=None, time=None,
+                    delimiter: str | None = None) -> ForceRecord:
     """Read the two transducer channels of one trial, in newtons.
 
     Parameters
@@ -725,37 +753,8 @@ def read_force_file(
         wanted["time"] = _check_name("time", time)
     data, info = _read(p, fmt, wanted, delimiter)
     n = _check_lengths(data, chans, p)
-    file_fs, rtol, what = info.get("fs_hz"), 1e-6, "states a sampling rate of"
-    if "time" in data:
-        if data["time"].size != n:
-            raise ForceFileError(f"time column {time!r} of {str(p)!r} has {data['time'].size} samples, "
-                                 f"the channels {n}")
-        file_fs, t_first = _time_axis(data["time"], name=time, path=p)
-        rtol, what = TIME_COLUMN_RTOL, f"time column {time!r} gives a sampling rate of"
-        t0 += t_first
-    else:
-        t0 += float(info.get("time0_s", 0.0))  # TDMS wf_start_offset
-    if fs is None:
-        if file_fs is None:
-            raise ForceFileError(
-                f"force file {str(p)!r} states no sampling rate; give fs_hz (manifest force.fs_hz) "
-                "or a time column (force.time)"
-            )
-        fs = float(file_fs)
-    elif file_fs is not None and abs(file_fs - fs) > rtol * fs:
-        hint = ""
-        if "time" in data and abs(file_fs * 1e3 / fs - 1) < 0.01:
-            hint = " (is the time column in ms? it must be in s)"
-        raise ForceFileError(
-            f"force file {str(p)!r} {what} {file_fs:.6g} Hz but fs_hz={fs:g} Hz was given "
-            f"(manifest force.fs_hz); they must agree{hint}"
-        )
-    if n_samples is not None and int(n_samples) != n:
-        raise ForceFileError(
-            f"force file {str(p)!r} holds {n} samples per channel but the manifest says "
-            f"n_samples={int(n_samples)} ({int(n_samples) / fs:.4g} s at fs_hz={fs:g} Hz, the file "
-            f"lasts {n / fs:.4g} s); check force.fs_hz, force.n_samples and the file"
-        )
+    fs, t_first = _clock(data, info, n, fs, time, n_samples, p)
+    t0 += t_first
     f1, f2 = data["F1"] * scale["F1"], data["F2"] * scale["F2"]
     logger.debug("read %d samples x 2 channels from %s (%s, %s)", n, p, fmt, units)
     return ForceRecord(f1=f1, f2=f2, fs_hz=fs, t0_s=t0, path=str(p), format=fmt, channels=chans,

@@ -488,8 +488,8 @@ class HighpassEstimate:
         Standard error of ``fc_hz`` in Hz propagated from the noise seen in the fit
         residuals (its autocovariance summed over lags: low-passed noise is not white)
         through the linearised fit, including the noise the compensation's integral
-        carries from the whole record into the rest after the lift-off (see the Notes of
-        :func:`estimate_highpass`); NaN when not determined. It covers the noise only, not
+        carries from the whole record into the rest after the lift-off (see docs/forces.md,
+        'High-pass estimate'); NaN when not determined. It covers the noise only, not
         a sensor that is not first order.
     prior_hz : float
         The cut-off in Hz the fit started from.
@@ -576,7 +576,7 @@ def _rest_runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def _cutoff_standard_error(r: np.ndarray, m: np.ndarray, Js: np.ndarray, scale: np.ndarray, w: float,
                            fs: float) -> tuple[float, float]:
     """Standard error in Hz of the estimated cut-off and the residuals' mean integrated
-    autocorrelation time in samples (see the Notes of :func:`estimate_highpass`).
+    autocorrelation time in samples (see docs/forces.md, 'High-pass estimate').
 
     The linearised estimate is ``w + g . e``, with ``e`` the residual at the truth,
     ``C_w[noise] = noise + w I[noise]`` on the rest samples. The integral carries the noise
@@ -658,27 +658,9 @@ class _RestModel:
 def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0.1) -> HighpassEstimate:
     """Estimate the cut-off of the sensor's first-order high-pass from the unloaded rests.
 
-    Beyond the paper (which states "approximately 5 Hz"). The compensation
-    (:func:`compensate_highpass`) at angular cut-off ``w`` is ``C_w[y] = y + w I[y]``,
-    ``I`` the running trapezoid integral from the first sample: affine in ``w``. Where the
-    true force is zero (the rest before the touch and the rest after the lift-off) the
-    signal compensated at the *true* ``w`` is the image of the residual drift ``b + a t``
-    alone (:func:`fit_rest_drift`), so ``(w, b_c, a_c)`` are fitted jointly by least
-    squares of
-
-        ``y_c + w I[y_c] - b_c (1 + w I[1]) - a_c (t + w I[t])``
-
-    over the rest samples of every channel ``c`` (``F_N`` and ``F_T`` share the sensor's
-    ``w``, each has its own drift): a separable problem, bilinear in ``w`` and the drift,
-    solved by Levenberg-Marquardt (:func:`scipy.optimize.least_squares`) from the prior and
-    the drift fitted at the prior. Iterating to convergence makes the estimate independent
-    of the prior (a single linearisation at the prior is not). ``w`` is the
-    bilinear-transform (prewarped) cut-off, converted back to Hz exactly.
-
-    The information comes from the rest after the lift-off: there the recorded signal is
-    the high-pass's decaying response to the whole loading, whose integral the inverse must
-    cancel. On the rest before the touch alone, ``I[y]`` is the drift's integral, collinear
-    with the drift columns: the cut-off is then not determined (``success=False``).
+    Beyond the paper (which states "approximately 5 Hz"): the cut-off and each channel's
+    drift are fitted jointly on the rests, iterated from the prior (Levenberg-Marquardt);
+    only the rest after the lift-off determines the cut-off.
 
     Parameters
     ----------
@@ -710,20 +692,8 @@ def estimate_highpass(y, mask, fs: float, prior: float, *, max_rel_se: float = 0
 
     Notes
     -----
-    The standard error is the linearised fit's response to the noise: at the truth the
-    residual is the compensated noise ``n + w I[n]``, whose integral accumulates over the
-    whole record, the contact included, and reaches the rest after the lift-off as a
-    random offset, besides the short-range noise seen in the residuals (its
-    autocovariance, estimated on the rest runs, summed over lags). Both parts are
-    propagated; the channels are taken as independent (how well the standard error matches
-    the scatter of the estimates, and why the white-noise formula would understate it:
-    ``docs/forces.md``).
-
-    References
-    ----------
-    .. [1] A. D. Sokal, "Monte Carlo methods in statistical mechanics: foundations and new
-       algorithms" (1996), section 3: the integrated autocorrelation time and its
-       self-consistent window.
+    The model, the fit and the standard error (Sokal's integrated autocorrelation time):
+    see docs/forces.md, 'High-pass estimate'.
     """
     fs = _check_fs(fs, "fs")
     prior = _check_freq("prior", prior, fs)

@@ -11,7 +11,7 @@ Public API
 
 Finger position convention: ``x_finger`` is the horizontal position (mm, surface
 coordinates) of the finger's centre (the circle's centre, i.e. the lowest point of the
-undeformed outline).
+undeformed outline). Choices and measured figures: ``docs/mechanics.md``.
 """
 
 from .bem import GEOMETRIC_TOL, ContactSolution, ContactSolver, solve_contact

@@ -181,8 +181,7 @@ def sweep(
         ``finger.default_half_width()``).
     tol : float, optional
         Convergence tolerance per position (default 1e-6, looser than a single solve's
-        1e-8: with warm starts it changed no blind-spot edge by more than 1e-4 mm on the
-        paper's surfaces, and it saves about a third of the iterations).
+        1e-8; why: docs/mechanics.md, 'Sweep tolerance').
     max_iter, gap_tol : optional
         As in :meth:`ContactSolver.solve`.
     keep_profiles : bool, optional
@@ -210,6 +209,22 @@ def sweep(
     elif solver.finger != finger:
         raise ValueError("solver was built for a different finger")
     solver.check_resolution(F)
+    opts = {"load": F, "tol": tol, "max_iter": max_iter, "gap_tol": gap_tol, "check": False}
+    mech_rows, geom_rows, ok, its, ys, ps, msgs = _warm_sweep(solver, surface, pos, opts, keep_profiles)
+    if msgs:
+        log.warning("%d of %d sweep positions did not converge; first: %s", len(msgs), pos.size, msgs[0])
+    return SweepResult(
+        positions=pos, load=F, mechanical_regions=_pad_regions(mech_rows),
+        geometric_regions=_pad_regions(geom_rows), gap_tol=float(gap_tol), success=ok,
+        iterations=its, offsets=solver.u.copy(), finger=finger, finger_y=ys, pressure=ps,
+        messages=msgs,
+    )
+
+
+def _warm_sweep(solver: ContactSolver, surface, pos: np.ndarray, opts: dict, keep_profiles: bool):
+    """The solves of :func:`sweep`, each warm-started from the previous position's pressure
+    (linearly extrapolated over equal steps; retried cold when it fails):
+    ``(mech_rows, geom_rows, success, iterations, finger_y, pressure, messages)``."""
     m = pos.size
     mech_rows: list[np.ndarray] = []
     geom_rows: list[np.ndarray] = []
@@ -220,7 +235,6 @@ def sweep(
     msgs: list[str] = []
     prev = None
     prev2 = None
-    opts = {"load": F, "tol": tol, "max_iter": max_iter, "gap_tol": gap_tol, "check": False}
     for i, xf in enumerate(pos):
         guess = None
         if prev is not None:
@@ -243,14 +257,7 @@ def sweep(
             ps[i] = sol.pressure  # type: ignore[index]
         prev2 = prev if sol.success else None
         prev = sol if sol.success else None
-    if msgs:
-        log.warning("%d of %d sweep positions did not converge; first: %s", len(msgs), m, msgs[0])
-    return SweepResult(
-        positions=pos, load=F, mechanical_regions=_pad_regions(mech_rows),
-        geometric_regions=_pad_regions(geom_rows), gap_tol=float(gap_tol), success=ok,
-        iterations=its, offsets=solver.u.copy(), finger=finger, finger_y=ys, pressure=ps,
-        messages=msgs,
-    )
+    return mech_rows, geom_rows, ok, its, ys, ps, msgs
 
 
 @dataclass

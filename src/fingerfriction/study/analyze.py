@@ -322,18 +322,10 @@ def _base_record(study: Study, pdict: dict, pdigest: str) -> dict:
     }
 
 
-def analyze(
-    study: str | os.PathLike,
-    out: str | os.PathLike,
-    *,
-    scheduler: str | None = None,
-    n_workers: int | None = None,
-    force: bool = False,
-    progress: bool = True,
-    params: AnalysisParams | None = None,
-    callback: Callable[[TrialOutcome], None] | None = None,
-    trials: Sequence[str] | None = None,
-) -> AnalyzeResult:
+def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str | None = None,
+            n_workers: int | None = None, force: bool = False, progress: bool = True,
+            params: AnalysisParams | None = None, callback: Callable[[TrialOutcome], None] | None = None,
+            trials: Sequence[str] | None = None) -> AnalyzeResult:
     """Analyse every trial of a study in parallel on Dask; resumable.
 
     Parameters
@@ -380,21 +372,13 @@ def analyze(
         raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
     plan = plan_analysis(study, out, params=params, force=force, trials=trials)
     st, pdict, pdigest = plan.study, plan.params, plan.params_sha256
-    study_dir = Path(st.root)
     todo_trials = [st.trial(p.trial_id) for p in plan.trials]
     store = ResultsStore(out)
     raw = {"video": dict(params.video), "forces": dict(params.forces)}
     t_start = time.perf_counter()
     started = now()
     skipped = plan.skipped
-    # the recordings of the trials to compute are checked against their entries first (and
-    # the fields the manifest leaves to them read); a trial whose files do not match fails
-    # with the check's reason, the others go on
-    checked, file_problems = check_files(st, [st.trial(i) for i in plan.todo], index=plan.index)
-    bad: dict[str, list[str]] = {}
-    for p in file_problems:
-        bad.setdefault(p.trial, []).append(str(p))
-    todo = [checked[i] for i in plan.todo if i in checked]
+    todo, bad = _checked_todo(st, plan)
     store.root.mkdir(parents=True, exist_ok=True)
     previous = _previous_runs(store)
     base_record = _base_record(st, pdict, pdigest)
@@ -404,16 +388,7 @@ def analyze(
     run = _Run(store, pdigest, callback, pdict, entries)
     bar = ProgressBar(progress, len(todo_trials), "analyze")
     try:
-        for tid in skipped:
-            bar.advance(f"{tid} (done before)")
-            if callback is not None:
-                callback(TrialOutcome(tid, "skipped"))
-        for tid, lines in bad.items():
-            run.record(st.trial(tid), {"ok": False, "reason": "check: " + " | ".join(lines),
-                                       "inputs": _input_stats(st, st.trial(tid))}, bar)
-        if todo:
-            run.on_dask([TrialInput(study_dir, t, dict(st.surfaces[t.surface])) for t in todo], raw,
-                        scheduler, n_workers, bar)
+        run.run_all(st, skipped, bad, todo, raw, scheduler, n_workers, bar)
     finally:
         bar.close()
         elapsed = time.perf_counter() - t_start
@@ -425,6 +400,21 @@ def analyze(
                          n_skipped=len(skipped), n_failed=run.n_fail, failures=tuple(run.failures),
                          elapsed_s=elapsed, scheduler=run.scheduler, n_workers=run.n_workers,
                          compute_s=run.compute_s, plan=plan.trials)
+
+
+def _checked_todo(st: Study, plan: AnalysisPlan) -> tuple[list[TrialRecord], dict[str, list[str]]]:
+    """The trials to compute whose recordings match their entries, and the problems of the
+    others by trial id.
+
+    The recordings of the trials to compute are checked against their entries first (and
+    the fields the manifest leaves to them read); a trial whose files do not match fails
+    with the check's reason, the others go on.
+    """
+    checked, file_problems = check_files(st, [st.trial(i) for i in plan.todo], index=plan.index)
+    bad: dict[str, list[str]] = {}
+    for p in file_problems:
+        bad.setdefault(p.trial, []).append(str(p))
+    return [checked[i] for i in plan.todo if i in checked], bad
 
 
 def _write_run_record(store: ResultsStore, st, base_record: dict, started: str, runs: list) -> None:
@@ -453,6 +443,22 @@ class _Run:
         self.failures: list[tuple[str, str]] = []
         self.scheduler, self.n_workers = "none", 0
         self.t_submit = self.t_done = None
+
+    def run_all(self, st: Study, skipped: list[str], bad: dict[str, list[str]], todo: list[TrialRecord],
+                raw: dict, scheduler: str | None, n_workers: int | None, bar: ProgressBar) -> None:
+        """The trials of the run: those finished before reported as skipped, those whose files
+        failed their check recorded as failed, the others (``todo``) run on Dask."""
+        for tid in skipped:
+            bar.advance(f"{tid} (done before)")
+            if self.callback is not None:
+                self.callback(TrialOutcome(tid, "skipped"))
+        for tid, lines in bad.items():
+            self.record(st.trial(tid), {"ok": False, "reason": "check: " + " | ".join(lines),
+                                        "inputs": _input_stats(st, st.trial(tid))}, bar)
+        if todo:
+            study_dir = Path(st.root)
+            self.on_dask([TrialInput(study_dir, t, dict(st.surfaces[t.surface])) for t in todo], raw,
+                         scheduler, n_workers, bar)
 
     def on_dask(self, todo: list[TrialInput], raw: dict, scheduler: str | None, n_workers: int | None,
                 bar: ProgressBar) -> None:

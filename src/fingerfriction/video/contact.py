@@ -20,7 +20,7 @@ and surface contour points (checked in the tests against a brute-force pairwise 
 Contact columns form runs; each run becomes one region ``[a_i, b_i]`` whose ends are
 interpolated where the distance crosses the tolerance, then mapped to surface mm.
 Runs closer than ``min_gap_px`` are merged and runs shorter than ``min_region_px`` dropped
-(pixel-scale flicker of slowly opening contact edges; see :func:`contact_regions`).
+(pixel-scale flicker of slowly opening contact edges; see docs/video.md).
 """
 
 from __future__ import annotations
@@ -231,16 +231,7 @@ def contact_regions(d: np.ndarray, tol_px: float, col_to_mm, *, n_max: int = 8,
 
     Notes
     -----
-    Why a cleanup: with a flat-bottomed (soft, conforming) finger the gap near a contact
-    edge grows very slowly, so over a stretch of many columns it stays within a fraction
-    of a pixel of the 3 px criterion; there the pixelated, blurred outline crosses the
-    tolerance back and forth and a region flickers into fragments separated by 1-2 px
-    gaps (measured on a simulated study: ``docs/video.md``). Those gaps
-    are far below any real blind spot (the paper's smallest is 0.47 mm, about 20 px at
-    23 um/px), so gaps shorter than ``min_gap_px`` are bridged; isolated specks shorter
-    than ``min_region_px`` are dropped. Both are in pixels of the image (the scale of
-    the artefact), both default to 0 here (the raw runs) and are set by
-    :class:`~fingerfriction.video.analysis.AnalysisOptions`.
+    Why a cleanup, and the measured defaults: see docs/video.md, 'Contact-region cleanup'.
     """
     if on_overflow not in ("raise", "mask"):
         raise ValueError(f"on_overflow must be 'raise' or 'mask', got {on_overflow!r}")
@@ -248,25 +239,8 @@ def contact_regions(d: np.ndarray, tol_px: float, col_to_mm, *, n_max: int = 8,
         if not (math.isfinite(v) and v >= 0):
             raise ValueError(f"{name} must be a finite number of px >= 0, got {v!r}")
     d = np.atleast_2d(d)
-    n, w = d.shape
-    m = d <= tol_px  # NaN -> False
-    pad = np.zeros((n, 1), dtype=bool)
-    dm = np.diff(np.concatenate([pad, m, pad], axis=1).astype(np.int8), axis=1)
-    st_t, st_c = np.nonzero(dm == 1)  # first contact column
-    en_t, en_c = np.nonzero(dm == -1)  # one past the last contact column
-    dpad = np.concatenate([np.full((n, 1), np.nan), d, np.full((n, 1), np.nan)], axis=1)
-    # start: crossing between column c-1 (out) and c (in); dpad index = column + 1
-    d_out = dpad[st_t, st_c]
-    d_in = dpad[st_t, st_c + 1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fr = np.where(np.isfinite(d_out) & (d_out > d_in), (d_out - tol_px) / (d_out - d_in), 0.5)
-    a_col = st_c - 1 + np.clip(fr, 0.0, 1.0)
-    e_in = dpad[en_t, en_c]  # column en_c - 1 (last in)
-    e_out = dpad[en_t, en_c + 1]  # column en_c (first out)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fr = np.where(np.isfinite(e_out) & (e_out > e_in), (tol_px - e_in) / (e_out - e_in), 0.5)
-    b_col = en_c - 1 + np.clip(fr, 0.0, 1.0)
-    t = st_t
+    n = d.shape[0]
+    t, a_col, b_col = _runs(d, tol_px)
     if min_gap_px > 0 and t.size > 1:
         # runs come sorted by (frame, column): bridge short gaps to the previous run
         join = np.r_[False, (t[1:] == t[:-1]) & (a_col[1:] - b_col[:-1] < min_gap_px)]
@@ -292,3 +266,28 @@ def contact_regions(d: np.ndarray, tol_px: float, col_to_mm, *, n_max: int = 8,
     if on_overflow == "mask":
         return out, too_many
     return out
+
+
+def _runs(d: np.ndarray, tol_px: float):
+    """The runs of contact columns of every frame of ``d`` (n_frames, width), sorted by
+    (frame, column): ``(frame, a_col, b_col)``, the ends in fractional columns, interpolated
+    where the distance crosses ``tol_px`` (0.5 where it cannot be)."""
+    n = d.shape[0]
+    m = d <= tol_px  # NaN -> False
+    pad = np.zeros((n, 1), dtype=bool)
+    dm = np.diff(np.concatenate([pad, m, pad], axis=1).astype(np.int8), axis=1)
+    st_t, st_c = np.nonzero(dm == 1)  # first contact column
+    en_t, en_c = np.nonzero(dm == -1)  # one past the last contact column
+    dpad = np.concatenate([np.full((n, 1), np.nan), d, np.full((n, 1), np.nan)], axis=1)
+    # start: crossing between column c-1 (out) and c (in); dpad index = column + 1
+    d_out = dpad[st_t, st_c]
+    d_in = dpad[st_t, st_c + 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fr = np.where(np.isfinite(d_out) & (d_out > d_in), (d_out - tol_px) / (d_out - d_in), 0.5)
+    a_col = st_c - 1 + np.clip(fr, 0.0, 1.0)
+    e_in = dpad[en_t, en_c]  # column en_c - 1 (last in)
+    e_out = dpad[en_t, en_c + 1]  # column en_c (first out)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fr = np.where(np.isfinite(e_out) & (e_out > e_in), (tol_px - e_in) / (e_out - e_in), 0.5)
+    b_col = en_c - 1 + np.clip(fr, 0.0, 1.0)
+    return st_t, a_col, b_col
