@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 
-from fingerfriction._console import console_log, one_line, summary_line
+from fingerfriction._console import console_log, one_line, summary_line, with_ci
 
 log = logging.getLogger("fingerfriction.fit")
 
@@ -44,3 +44,10 @@ def test_summary_line_and_one_line():
         "report: 180 trials, 79 trial pages; 35 s; output in r/report"
     assert one_line("a\n  b\tc") == "a b c"
     assert one_line("x" * 200, 20) == "x" * 17 + "..."
+
+
+def test_a_value_with_its_interval_shows_the_interval_width():
+    assert with_ci(0.550031, 0.549972, 0.550091) == "0.55003 [0.54997, 0.55009]"
+    assert with_ci(0.55147, 0.54085, 0.56223) == "0.551 [0.541, 0.562]"
+    assert with_ci(0.5, 0.5, 0.5) == "0.500 [0.500, 0.500]"
+    assert with_ci(0.6, 0.6 - 1e-9, 0.6 + 1e-9) == "0.60000 [0.60000, 0.60000]"  # at most 5 decimals

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -23,6 +24,19 @@ __all__ = ["WarningKind", "WarningLog", "console_log", "summary_line", "one_line
 
 #: The package's root logger.
 LOGGER = "fingerfriction"
+
+
+def with_ci(value: float, lo: float, hi: float) -> str:
+    """``value [lo, hi]`` with enough decimals (3 to 5) that the interval's width shows.
+
+    >>> with_ci(0.550031, 0.549972, 0.550091)
+    '0.55003 [0.54997, 0.55009]'
+    >>> with_ci(0.55147, 0.54085, 0.56223)
+    '0.551 [0.541, 0.562]'
+    """
+    half = abs(hi - lo) / 2
+    d = 3 if not half > 0 else min(5, max(3, math.ceil(-math.log10(half)) + 1))
+    return f"{value:.{d}f} [{lo:.{d}f}, {hi:.{d}f}]"
 
 
 def one_line(text: str, limit: int = 160) -> str:

@@ -4,6 +4,7 @@ and demo, all of them on the built-in virtual study (``fingerfriction.study``,
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from typing import Annotated
@@ -13,7 +14,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from .. import __version__
-from .._console import console_log, one_line, summary_line
+from .._console import console_log, one_line, summary_line, with_ci
 from .._outputs import output_dir
 from ._common import (
     QUIET,
@@ -250,10 +251,13 @@ def fit_cmd(
 def _fit_facts(res) -> list[str]:
     """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
     n_err = sum(f.level == "error" for f in res.flags)
-    mu = ", ".join(("not measured" if m != m else f"{m:.3f}")
-                   + (f" [{res.mu_ci[s][0]:.3f}, {res.mu_ci[s][1]:.3f}]"
-                      if s in res.mu_ci and all(v == v for v in res.mu_ci[s]) else "")
-                   + f" (subject {s})" for s, m in res.mu.items())
+    def one(s, m) -> str:
+        lo, hi = res.mu_ci.get(s, (math.nan, math.nan))
+        if m != m:
+            return "not measured"
+        return with_ci(m, lo, hi) if lo == lo and hi == hi else f"{m:.3f}"
+
+    mu = ", ".join(f"{one(s, m)} (subject {s})" for s, m in res.mu.items())
     val = ("validated (leave one surface out)" if res.loso is not None
            else f"not validated: {res.loso_message}")
     return [plural(res.n_trials, "trial"), f"both models, {res.model} the default", f"mu {mu}",
