@@ -89,3 +89,12 @@ def test_trial_page_has_three_plots_and_says_why_there_is_no_animation(results):
     # the synthetic results have no study folder with videos
     assert 'id="animation-missing"' in page and "manifest is not reachable" in page
     assert "No flag" in page
+
+
+def test_record_values_read_as_text_not_python_reprs():
+    from fingerfriction.report.trial_pages import readable
+
+    assert readable({"CALIBRATION": 1, "OUT_OF_VIEW": 5}) == "CALIBRATION 1, OUT_OF_VIEW 5"
+    assert readable([-12.998532789218679, -8.807356476971798]) == "-12.9985, -8.80736"
+    assert readable([]) == "none" and readable({}) == "none" and readable(None) == ""
+    assert readable("ok") == "ok" and readable(True) == "True" and readable(3) == "3"

@@ -207,6 +207,26 @@ def _cell(v) -> str:
     return "" if v is None else str(v)
 
 
+def readable(v) -> str:
+    """A record value as a reader wants it: counts as ``NAME n, ...``, numbers to 6
+    significant digits, an empty list as ``none`` (not Python's repr).
+
+    >>> readable({"CALIBRATION": 1, "OUT_OF_VIEW": 5})
+    'CALIBRATION 1, OUT_OF_VIEW 5'
+    >>> readable([-12.998532789218679, -8.807356476971798])
+    '-12.9985, -8.80736'
+    >>> readable([])
+    'none'
+    """
+    if isinstance(v, dict):
+        return ", ".join(f"{k} {readable(x)}" for k, x in v.items()) or "none"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(readable(x) for x in v) or "none"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return "" if v is None else str(v)
+
+
 def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str], out_dir: Path, *,
                       animations: bool = True, max_frames: int = 40, progress=None) -> dict[str, Path]:
     """Write the pages of ``trial_ids`` into ``out_dir`` (``report/trials``).
@@ -216,6 +236,7 @@ def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str],
     out_dir.mkdir(parents=True, exist_ok=True)
     env = jinja2.Environment(autoescape=jinja2.select_autoescape(["html", "j2"]),
                              undefined=jinja2.StrictUndefined)
+    env.filters["readable"] = readable
     template = env.from_string(
         resources.files("fingerfriction.report").joinpath("templates/trial.html.j2").read_text("utf-8"))
     study, no_study = _study(data) if animations else (None, "animations switched off for this report")
