@@ -27,3 +27,13 @@ def test_demo_bad_options_are_one_line_errors(tmp_path):
     assert r.exit_code == 2 and "--speeds must be numbers" in r.output and "Traceback" not in r.output
     r = CliRunner().invoke(app, ["demo", "--out", str(tmp_path / "d"), "--surfaces", "no-such-surface"])
     assert r.exit_code == 2 and "no-such-surface" in r.output and "Traceback" not in r.output
+
+
+def test_demo_and_fit_summaries_give_mu_with_its_interval():
+    from types import SimpleNamespace
+
+    from fingerfriction.cli.study import _mu_text
+
+    res = SimpleNamespace(mu={"1": 0.550031, "2": 0.6, "3": float("nan")},
+                          mu_ci={"1": (0.549972, 0.550091), "2": (float("nan"), float("nan"))})
+    assert _mu_text(res) == "0.55003 [0.54997, 0.55009] (subject 1), 0.600 (subject 2), not measured (subject 3)"

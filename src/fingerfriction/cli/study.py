@@ -248,16 +248,21 @@ def fit_cmd(
                           output=str(store.fit_dir), log=log))
 
 
-def _fit_facts(res) -> list[str]:
-    """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
-    n_err = sum(f.level == "error" for f in res.flags)
+def _mu_text(res) -> str:
+    """Each subject's mu of a FitSummary with its confidence interval (where it has one)."""
     def one(s, m) -> str:
         lo, hi = res.mu_ci.get(s, (math.nan, math.nan))
         if m != m:
             return "not measured"
         return with_ci(m, lo, hi) if lo == lo and hi == hi else f"{m:.3f}"
 
-    mu = ", ".join(f"{one(s, m)} (subject {s})" for s, m in res.mu.items())
+    return ", ".join(f"{one(s, m)} (subject {s})" for s, m in res.mu.items())
+
+
+def _fit_facts(res) -> list[str]:
+    """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
+    n_err = sum(f.level == "error" for f in res.flags)
+    mu = _mu_text(res)
     val = ("validated (leave one surface out)" if res.loso is not None
            else f"not validated: {res.loso_message}")
     return [plural(res.n_trials, "trial"), f"both models, {res.model} the default", f"mu {mu}",
@@ -417,7 +422,7 @@ def demo(
     print_summary(summary_line(
         "demo", [plural(a.n_trials, "trial"), f"simulate {t['simulate']:.0f} s",
                  f"analyze {t['analyze']:.0f} s ({a.n_computed} computed, {a.n_skipped} already done, "
-                 f"{a.n_failed} failed)", f"fit {t['fit']:.0f} s ({f.n_failed} failed, {f.model} model: mu "
-                 + ", ".join(f"{m:.2f} (subject {s})" for s, m in f.mu.items()) + ")",
+                 f"{a.n_failed} failed)",
+                 f"fit {t['fit']:.0f} s ({f.n_failed} failed, {f.model} model: mu {_mu_text(f)})",
                  f"report {t['report']:.0f} s ({plural(len(res.report.pages), 'trial page')})"],
         elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
