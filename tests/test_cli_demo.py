@@ -36,4 +36,5 @@ def test_demo_and_fit_summaries_give_mu_with_its_interval():
 
     res = SimpleNamespace(mu={"1": 0.550031, "2": 0.6, "3": float("nan")},
                           mu_ci={"1": (0.549972, 0.550091), "2": (float("nan"), float("nan"))})
-    assert _mu_text(res) == "0.55003 [0.54997, 0.55009] (subject 1), 0.600 (subject 2), not measured (subject 3)"
+    assert _mu_text(res) == ("0.55003 [0.54997, 0.55009] (subject 1), 0.600 (subject 2), "
+                             "not measured (subject 3)")
