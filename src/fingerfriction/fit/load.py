@@ -505,10 +505,13 @@ def _physical_kappa(designs: list, mu_of, inset: float, kappa: float, *, steps: 
     positions, then a check of every trial with every position (what the trials' own
     fits use), stepping down by 2 % until it holds.
     """
-    def negative(k: float, full: bool, among: list) -> list:
-        return [d for d in among if d.solve(mu_of(d), inset, k, full=full)[0] < 0]
+    def p1(d, k: float, full: bool) -> float:
+        return d.solve(mu_of(d), inset, k, full=full)[0]
 
-    bad = negative(kappa, True, designs)
+    def negative(k: float, full: bool, among: list) -> bool:  # stops at the first p1 < 0
+        return any(p1(d, k, full) < 0 for d in among)
+
+    bad = [d for d in designs if p1(d, kappa, True) < 0]
     if not bad:
         return kappa
     lo, hi = 0.0, kappa
