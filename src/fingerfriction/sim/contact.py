@@ -45,6 +45,7 @@ from scipy.ndimage import gaussian_filter1d
 
 from .. import mechanics
 from ..mechanics import ContactSolver, sweep
+from ..mechanics.fe import FEProvider
 from ..surfaces import Surface
 from ._io import write_npz
 
@@ -339,9 +340,7 @@ def get_provider(name: str, *, fingers: dict | None = None):
         if fingers:
             raise ValueError("the bridged-foundation contact model takes no finger files")
         return BridgedFoundation()
-    if name == "fe":
-        from ..mechanics.fe import FEProvider
-
+    if name == FEProvider.name:
         return FEProvider(fingers=fingers)
     raise ValueError(
         f"unknown contact model {name!r}; known: {MechanicsProvider.name}, {BridgedFoundation.name}, fe"

@@ -23,6 +23,8 @@ import json
 import math
 from dataclasses import asdict, dataclass, fields
 
+import numpy as np
+
 __all__ = ["FEFingerParams", "FEMeshParams", "LITERATURE_FINGER", "HOMOGENEOUS_FINGER"]
 
 
@@ -141,8 +143,6 @@ class FEFingerParams:
 
     def outline(self, u):
         """Undeformed lower outline height (mm) above the lowest point at offsets ``u`` (mm)."""
-        import numpy as np
-
         u = np.asarray(u, float)
         return self.semi_height * (1.0 - np.sqrt(np.clip(1.0 - (u / self.radius) ** 2, 0.0, None)))
 

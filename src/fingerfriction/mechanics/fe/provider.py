@@ -21,6 +21,7 @@ the deformed lower outline ``y_f`` and the pressure ``p`` on the relative grid `
 from __future__ import annotations
 
 import dataclasses
+import io
 import logging
 import math
 import os
@@ -143,10 +144,10 @@ class FEProvider:
         y, p = self._compute(surface, subject, xc, float(load))
         self.computed += 1
         if path is not None:
-            from ...sim._io import npz_bytes
-
+            buf = io.BytesIO()
+            np.savez_compressed(buf, y_f=y, p=p)
             path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_bytes(path, npz_bytes({"y_f": y, "p": p}, compress=True))
+            atomic_write_bytes(path, buf.getvalue())
         return y, p
 
     def _compute(self, surface, subject, xc, load):

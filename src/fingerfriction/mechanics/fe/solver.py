@@ -154,7 +154,7 @@ class FEContactSolver:
     """
 
     def __init__(self, finger: FEFingerParams, mesh: FEMeshParams | None = None):
-        import skfem
+        import skfem  # only when a solver is built: the package imports without it
 
         if not isinstance(finger, FEFingerParams):
             raise TypeError(f"finger must be an FEFingerParams, got {type(finger).__name__}")
