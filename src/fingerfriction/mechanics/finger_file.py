@@ -50,6 +50,20 @@ FINGER_FORMAT = "fingerfriction-finger"
 _VERSION = 1
 
 
+def _unwrap(d: dict, where: str, fields: str) -> dict:
+    """The finger's fields of a bare or wrapped mapping (format and version checked)."""
+    if "format" not in d:
+        return d
+    if d["format"] != FINGER_FORMAT:
+        raise ValueError(f"{where}: format is {d['format']!r}, expected {FINGER_FORMAT!r}")
+    if d.get("version") != _VERSION:
+        raise ValueError(f"{where}: finger file version {d.get('version')!r} is not supported "
+                         f"(this version reads {_VERSION})")
+    if not isinstance(d.get("finger"), dict):
+        raise ValueError(f"{where}: the field 'finger' must be an object of {fields} fields")
+    return d["finger"]
+
+
 def finger_from_mapping(d, where: str = "finger") -> FingerParams:
     """A :class:`FingerParams` from a bare or wrapped finger mapping (see the module notes).
 
@@ -72,16 +86,7 @@ def finger_from_mapping(d, where: str = "finger") -> FingerParams:
     if finger_model(d) == "fe":
         raise ValueError(f"{where}: holds an FE finger (model 'fe'); this needs a half-space finger "
                          "(the finger files of calibrate-finger)")
-    if "format" in d:
-        if d["format"] != FINGER_FORMAT:
-            raise ValueError(f"{where}: format is {d['format']!r}, expected {FINGER_FORMAT!r}")
-        if d.get("version") != _VERSION:
-            raise ValueError(f"{where}: finger file version {d.get('version')!r} is not supported "
-                             f"(this version reads {_VERSION})")
-        if not isinstance(d.get("finger"), dict):
-            raise ValueError(f"{where}: the field 'finger' must be an object of FingerParams fields")
-        d = d["finger"]
-    d = dict(d)
+    d = dict(_unwrap(d, where, "FingerParams"))
     d.pop("model", None)  # truth/study.json's finger entries carry the provider's name ...
     for k in ("n", "clearance_mm", "side_radius_mm"):  # ... and its grid settings
         d.pop(k, None)
@@ -111,16 +116,7 @@ def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
     if d.get("model") != "fe":
         raise ValueError(f"{where}: not an FE finger (expected \"model\": \"fe\", got "
                          f"{d.get('model', 'none')!r}); the FE finger model needs FE finger files")
-    if "format" in d:
-        if d["format"] != FINGER_FORMAT:
-            raise ValueError(f"{where}: format is {d['format']!r}, expected {FINGER_FORMAT!r}")
-        if d.get("version") != _VERSION:
-            raise ValueError(f"{where}: finger file version {d.get('version')!r} is not supported "
-                             f"(this version reads {_VERSION})")
-        if not isinstance(d.get("finger"), dict):
-            raise ValueError(f"{where}: the field 'finger' must be an object of FEFingerParams fields")
-        d = d["finger"]
-    d = {k: v for k, v in d.items() if k not in ("model", "mesh")}
+    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items() if k not in ("model", "mesh")}
     try:
         return FEFingerParams.from_dict(d)
     except (TypeError, ValueError) as exc:

@@ -25,16 +25,15 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
+from ..._check import positive
+
 __all__ = ["FEFingerParams", "FEMeshParams", "LITERATURE_FINGER", "HOMOGENEOUS_FINGER"]
 
 
 def _pos(owner: str, name: str, value, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise TypeError(f"{owner}.{name} must be a number in {unit}, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{owner}.{name} must be a finite positive number in {unit}, got {value!r}")
-    return v
+    return positive(f"{owner}.{name}", value, unit)
 
 
 @dataclass(frozen=True)
