@@ -145,13 +145,6 @@ class FEFingerParams:
         u = np.asarray(u, float)
         return self.semi_height * (1.0 - np.sqrt(np.clip(1.0 - (u / self.radius) ** 2, 0.0, None)))
 
-    def load_per_width(self, load: float) -> float:
-        """``F_N / D`` in N/mm."""
-        F = float(load)
-        if not math.isfinite(F) or F <= 0:
-            raise ValueError(f"load must be a finite positive normal force in N, got {load!r}")
-        return F / self.width
-
     def to_dict(self) -> dict:
         return asdict(self)
 
