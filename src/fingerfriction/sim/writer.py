@@ -33,13 +33,23 @@ from ..regions import regions_from_mask
 from ..study import ForceInfo, Study, TrialRecord, VideoInfo, write_manifest
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from ..video.writers import VideoWriter
+from ._geometry import geometric_distance, geometric_mask
 from ._io import write_npz
 from .camera import Camera, CameraParams
+from .chain import (
+    CHAIN_NAMES,
+    RealisticChain,
+    couple_normal_force,
+    draw_device,
+    draw_trial_chain,
+    speed_scaled_kinematics,
+)
 from .contact import ContactTable, MechanicsProvider, SimFinger, build_table, get_provider
 from .fingers import check_finger_options, study_fingers
 from .kinematics import Kinematics, KinematicsParams, simulate_kinematics
-from .physics import SUBJECT_FORCE_LAWS, ForceLaw, RealismParams, true_forces
+from .physics import SUBJECT_FORCE_LAWS, ForceLaw, RealismParams
 from .sensor import SensorParams, apply_sensor
+from .worlds import LoadSharing, TrialMotion, get_world
 
 __all__ = ["SimOptions", "TrialSpec", "simulate_study", "simulate_trial", "plan_trial", "StudyFolderError"]
 
@@ -91,6 +101,17 @@ class SimOptions:
     finger_seed : int, optional
         Draw every subject without an override around its calibrated finger (radius,
         modulus, flat length within +-25 %, :func:`~fingerfriction.sim.fingers.draw_finger`).
+    world : str or world object
+        The true physics (:mod:`fingerfriction.sim.worlds`): ``'load-sharing'`` (default),
+        ``'constant-pressure'``, ``'interlocking'``, or a world object with its own
+        parameters (e.g. ``ConstantPressure(p1=0.2)``). Held as the world object.
+    chain : {'ideal', 'realistic'} or RealisticChain
+        The measurement chain (:mod:`fingerfriction.sim.chain`): ``'ideal'`` (default; the
+        first-order high-pass the analysis inverts exactly) or ``'realistic'`` (a
+        participant whose normal force follows the relief, motor noise growing with speed,
+        a second-order high-pass of unknown cut-off, crosstalk, a curved drift), or a
+        :class:`~fingerfriction.sim.chain.RealisticChain` with its own parameters. Held as
+        ``'ideal'`` or the ``RealisticChain``.
     """
 
     reps: int = 5
@@ -109,8 +130,15 @@ class SimOptions:
     realism: RealismParams | None = None
     fingers: dict = field(default_factory=dict)
     finger_seed: int | None = None
+    world: object = "load-sharing"
+    chain: object = "ideal"
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "world", get_world(self.world))
+        if isinstance(self.chain, str) and self.chain in CHAIN_NAMES:
+            object.__setattr__(self, "chain", RealisticChain() if self.chain == "realistic" else "ideal")
+        elif not isinstance(self.chain, RealisticChain):
+            raise ValueError(f"unknown chain {self.chain!r}; chains: {', '.join(CHAIN_NAMES)}")
         if self.realism is not None:
             if not isinstance(self.realism, RealismParams):
                 raise TypeError(f"realism must be a RealismParams or None, got {type(self.realism).__name__}")
@@ -215,7 +243,20 @@ class SimOptions:
             # only when set, so a default study's description (and resume check) is unchanged
             **({"fingers": self.fingers} if self.fingers else {}),
             **({"finger_seed": self.finger_seed} if self.finger_seed is not None else {}),
+            "world": {"name": self.world.name, "params": self.world.to_dict()["params"]},
+            "chain": {"name": self.chain_name,
+                      **({"params": self.chain.to_dict()} if self.chain_name == "realistic" else {})},
         }
+
+    @property
+    def world_name(self) -> str:
+        """The world's name (one of :data:`~fingerfriction.sim.worlds.WORLD_NAMES`)."""
+        return self.world.name
+
+    @property
+    def chain_name(self) -> str:
+        """``'ideal'`` or ``'realistic'``."""
+        return "ideal" if isinstance(self.chain, str) else "realistic"
 
     @classmethod
     def from_dict(cls, d: dict) -> SimOptions:
@@ -243,6 +284,13 @@ class SimOptions:
                     d[key] = tuple(d[key])
             if d.get("realism") is not None:
                 d["realism"] = RealismParams(**dict(d["realism"]))
+            if isinstance(d.get("world"), dict):
+                w = dict(d["world"])
+                d["world"] = type(get_world(w.get("name")))(**dict(w.get("params") or {}))
+            if isinstance(d.get("chain"), dict):
+                c = dict(d["chain"])
+                d["chain"] = RealisticChain.from_dict(c["params"]) if c.get("name") == "realistic" and \
+                    c.get("params") is not None else c.get("name")
             return cls(**d)
         except TypeError as exc:  # unknown field names
             raise ValueError(f"simulation options: {exc}") from None
@@ -275,6 +323,18 @@ def _realism_rng(spec: TrialSpec, seed: int) -> np.random.Generator:
     return np.random.default_rng(spec.seed_sequence(seed).spawn(4)[3])
 
 
+#: The trial's further streams, by child index of its seed sequence (0-2: kinematics,
+#: sensor, camera; 3: realism): each a stream of its own, so that a world, the participant
+#: or the realistic chain never changes the draws of another.
+_STREAMS = {"world": 4, "participant": 5, "chain": 6}
+
+
+def _stream(spec: TrialSpec, seed: int, name: str) -> np.random.Generator:
+    """The trial's stream ``name`` (:data:`_STREAMS`)."""
+    k = _STREAMS[name]
+    return np.random.default_rng(spec.seed_sequence(seed).spawn(k + 1)[k])
+
+
 @dataclass(frozen=True)
 class TrialPlan:
     """Kinematics and the file layout of one trial (cheap, deterministic)."""
@@ -288,7 +348,10 @@ class TrialPlan:
 def plan_trial(spec: TrialSpec, opts: SimOptions) -> TrialPlan:
     """Draw the trial's kinematics and compute its manifest record (no files written)."""
     rk, _, _ = _rngs(spec, opts.seed)
-    kin = simulate_kinematics(spec.speed_mm_s, rk, opts.kinematics)
+    kparams = opts.kinematics
+    if opts.chain_name == "realistic":  # motor noise grows with speed
+        kparams = speed_scaled_kinematics(kparams, spec.speed_mm_s, opts.chain)
+    kin = simulate_kinematics(spec.speed_mm_s, rk, kparams)
     cam = opts.camera
     fs = opts.kinematics.fs_hz
     step = fs / cam.fps
@@ -319,64 +382,6 @@ def plan_trial(spec: TrialSpec, opts: SimOptions) -> TrialPlan:
 def _feature_height(surf: Surface) -> float:
     h = getattr(surf, "height", None)
     return float(h) if h is not None else float(surf.max_height)
-
-
-def geometric_mask(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, tol_mm: float) -> np.ndarray:
-    """Surface points within ``tol_mm`` of the finger outline (the paper's 3-px criterion).
-
-    Parameters
-    ----------
-    xi : (m,) ndarray
-        Uniform grid in mm (positions relative to the finger; the surface points are at
-        the same positions).
-    y_f, h : (m,) ndarray
-        Finger outline and surface heights in mm on that grid.
-    tol_mm : float
-
-    Returns
-    -------
-    (m,) bool ndarray
-        True where the Euclidean distance from the surface point ``(x_j, h_j)`` to the
-        finger outline (the polyline through ``(x_i, y_f_i)``) is at most ``tol_mm``
-        (:func:`geometric_distance`).
-    """
-    return geometric_distance(xi, y_f, h, tol_mm) <= tol_mm
-
-
-def geometric_distance(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, reach_mm: float) -> np.ndarray:
-    """Euclidean distance in mm from each surface point to the finger outline.
-
-    Parameters
-    ----------
-    xi : (m,) ndarray
-        Uniform grid in mm (as in :func:`geometric_mask`).
-    y_f, h : (m,) ndarray
-        Finger outline and surface heights in mm on that grid.
-    reach_mm : float
-        Distances up to this are exact; beyond it the result is an upper bound (the
-        search looks at outline segments within ``reach_mm`` sideways only).
-
-    Returns
-    -------
-    (m,) ndarray
-        Distance in mm from ``(x_j, h_j)`` to the polyline through ``(x_i, y_f_i)``.
-    """
-    dx = float(xi[1] - xi[0])
-    m = xi.size
-    best = np.abs(y_f - h)  # vertical distance to the vertex above: an upper bound
-    K = int(math.ceil(reach_mm / dx)) + 1
-    for k in range(-K, K):
-        # segment from vertex i = j + k to i + 1, for every surface point j
-        j = np.arange(max(0, -k), min(m, m - 1 - k))
-        i = j + k
-        ax, ay = xi[i], y_f[i]
-        bx, by = xi[i + 1], y_f[i + 1]
-        px, py = xi[j], h[j]
-        vx, vy = bx - ax, by - ay
-        tpar = np.clip(((px - ax) * vx + (py - ay) * vy) / (vx * vx + vy * vy), 0.0, 1.0)
-        d = np.hypot(ax + tpar * vx - px, ay + tpar * vy - py)
-        best[j] = np.minimum(best[j], d)
-    return best
 
 
 def frame_outline(kin: Kinematics, table: ContactTable, i: int) -> tuple[float, np.ndarray, np.ndarray]:
@@ -410,22 +415,47 @@ def frame_outline(kin: Kinematics, table: ContactTable, i: int) -> tuple[float, 
     return x_c, y_f, p
 
 
-def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw,
-                   root: Path) -> TrialRecord:
-    """Simulate one trial and write its video, force and truth files under ``root``."""
+def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw | None = None,
+                   root: Path | None = None) -> TrialRecord:
+    """Simulate one trial and write its video, force and truth files under ``root``.
+
+    ``law`` overrides the subject's :data:`~fingerfriction.sim.physics.SUBJECT_FORCE_LAWS`
+    in the ``load-sharing`` world (other worlds ignore it).
+    """
+    if root is None:
+        raise TypeError("simulate_trial needs root, the study folder")
     spec, kin, rec = plan.spec, plan.kin, plan.record
     _, rs, rc = _rngs(spec, opts.seed)
     surf = surface_from_spec(spec.surface_spec)
+    fs = opts.kinematics.fs_hz
+    truth_extra: dict = {}
+
+    # the participant: the normal force follows the relief (realistic chain)
+    if opts.chain_name == "realistic":
+        rp = _stream(spec, opts.seed, "participant")
+        f_n, participant = couple_normal_force(kin, table, opts.chain, rp)
+        kin = replace(kin, f_n=f_n)
+        truth_extra.update(participant)
 
     # forces
     mu_scale, load_exp, f_ref = 1.0, 0.0, 0.3
     if opts.realism is not None:
         mu_scale = opts.realism.trial_mu_scale(_realism_rng(spec, opts.seed))
         load_exp, f_ref = opts.realism.mu_load_exponent, opts.realism.f_ref_n
-    f_t, f_int, f_def = true_forces(table, law, kin.x, kin.f_n, kin.sliding_distance,
-                                    kin.mean_speed, kin.in_contact, mu_scale=mu_scale,
-                                    load_exponent=load_exp, f_ref_n=f_ref)
-    F1, F2 = apply_sensor(kin.f_n, f_t, rs, opts.sensor)
+    motion = TrialMotion(t=kin.t, x=kin.x, f_n=kin.f_n, sliding_distance=kin.sliding_distance,
+                         in_contact=kin.in_contact, mean_speed=kin.mean_speed, f_target=kin.f_target,
+                         t_slide_start=kin.t_slide_start)
+    world = opts.world
+    kw = {"law": law} if isinstance(world, LoadSharing) else {}
+    wf = world.trial_forces(table, motion, spec.subject, _stream(spec, opts.seed, "world"), mu_scale=mu_scale,
+                            load_exponent=load_exp, f_ref_n=f_ref, **kw)
+    f_t, f_int, f_def = wf.f_t, wf.f_int, wf.f_def
+    chain = None
+    if opts.chain_name == "realistic":
+        chain = draw_trial_chain(_stream(spec, opts.seed, "chain"), kin.t.size, fs, opts.chain,
+                                 _device(opts.seed, opts.chain))
+        truth_extra.update(chain.truth(fs))
+    F1, F2 = apply_sensor(kin.f_n, f_t, rs, opts.sensor, chain=chain)
 
     # video + per-frame truth
     cam = Camera(surf, opts.camera)
@@ -461,6 +491,10 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
     reg_mech = _stack_regions(grids, mech_masks)
     t_video = kin.t[plan.frame_idx]
     x_video = np.where(has_finger, kin.x[plan.frame_idx], np.nan)
+    field_mm = np.array([(-0.5 - cp.x0_px) * cp.mm_per_px, (cp.width - 0.5 - cp.x0_px) * cp.mm_per_px])
+    with np.errstate(invalid="ignore"):
+        clipped = (np.any(reg_geom[..., 0] < field_mm[0], axis=1)
+                   | np.any(reg_geom[..., 1] > field_mm[1], axis=1))
 
     write_npz(root / rec.force.path, {"F1": F1, "F2": F2})
     write_npz(root / rec.truth, {
@@ -470,9 +504,25 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
         "geom_tol_mm": np.float64(tol), "mm_per_px": np.float64(opts.camera.mm_per_px),
         "x0_px": np.float64(opts.camera.x0_px), "y0_row": np.float64(opts.camera.y0_row),
         "mean_speed_mm_s": np.float64(kin.mean_speed), "z_finger_force": kin.z,
-        "mu_trial": np.float64(law.mu * mu_scale), "mu_load_exponent": np.float64(load_exp),
+        "mu_load_exponent": np.float64(load_exp if world.name != "constant-pressure" else 0.0),
+        "world": np.array(world.name), "chain": np.array(opts.chain_name),
+        "F_N_target": np.float64(kin.f_target), "field_mm": field_mm, "regions_geom_clipped": clipped,
+        **{k: np.asarray(v, np.float64) if np.ndim(v) == 0 else np.asarray(v) for k, v in wf.truth.items()},
+        **{k: np.asarray(v) for k, v in truth_extra.items()},
     })
     return rec
+
+
+_DEVICES: dict = {}
+
+
+def _device(seed: int, chain: RealisticChain) -> dict:
+    """The study's sensor device (:func:`~fingerfriction.sim.chain.draw_device`), cached."""
+    key = (int(seed), chain)
+    if key not in _DEVICES:
+        _DEVICES.clear()
+        _DEVICES[key] = draw_device(seed, chain)
+    return _DEVICES[key]
 
 
 def _stack_regions(grids, masks) -> np.ndarray:
@@ -499,6 +549,9 @@ def _truth_header(opts: SimOptions) -> dict:
         s: {"finger": provider.finger_dict(s), "force_law": SUBJECT_FORCE_LAWS[s].to_dict()}
         for s in opts.subjects
     }
+    chain = {"name": opts.chain_name}
+    if opts.chain_name == "realistic":
+        chain.update(params=opts.chain.to_dict(), device=_device(opts.seed, opts.chain))
     return {
         "format": TRUTH_FORMAT,
         "schema_version": 1,
@@ -506,6 +559,8 @@ def _truth_header(opts: SimOptions) -> dict:
         "geom_tol_mm": 3.0 * opts.camera.mm_per_px,
         "options": opts.to_dict(),
         "subjects": subjects,
+        "world": opts.world.to_dict(),
+        "chain": chain,
     }
 
 
@@ -574,7 +629,7 @@ def _table_task(surface_spec: str, subject: str, load: float, opts: SimOptions, 
     if not os.path.exists(path):
         surf = surface_from_spec(surface_spec)
         table = build_table(surf, subject, loads=(load,), step=opts.table_step,
-                            provider=opts.provider())
+                            provider=opts.provider(), geom_tol_mm=3.0 * opts.camera.mm_per_px)
         table.save(path)
     return path
 
@@ -742,4 +797,4 @@ def default_options(**kw) -> SimOptions:
     return SimOptions(**kw)
 
 
-__all__ += ["default_options", "SimFinger"]
+__all__ += ["default_options", "SimFinger", "geometric_distance", "geometric_mask"]
