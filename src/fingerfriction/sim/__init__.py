@@ -12,6 +12,7 @@ Modules, in the order a simulated trial is produced:
   the participant's normal force, the sensor's unknown response);
 * :mod:`~fingerfriction.sim.sensor` -- the two-channel piezo force sensor;
 * :mod:`~fingerfriction.sim.camera` -- silhouette frames of the high-speed camera;
+* :mod:`~fingerfriction.sim.options` -- what to simulate (:class:`SimOptions`), the trials' streams;
 * :mod:`~fingerfriction.sim.writer` -- the study directory (``docs/study-format.md``).
 """
 

@@ -35,13 +35,14 @@ from __future__ import annotations
 
 import math
 import zlib
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
-from scipy.signal import butter, lfilter, sosfilt
+from scipy.signal import butter, lfilter
 
 from .contact import ContactTable
 from .kinematics import Kinematics, KinematicsParams, smooth_noise
+from .sensor import highpass2
 
 __all__ = [
     "CHAIN_NAMES",
@@ -180,14 +181,6 @@ def cutoff_of_poles(poles) -> float:
     return 0.5 * (lo + hi)
 
 
-def highpass2(x: np.ndarray, poles, fs: float) -> np.ndarray:
-    """Cascaded first-order high-passes (bilinear transform, from rest) at ``poles`` Hz."""
-    secs = [butter(1, float(f), btype="highpass", fs=fs, output="sos") for f in poles if f > 0]
-    if not secs:
-        return np.asarray(x, float)
-    return sosfilt(np.concatenate(secs), np.asarray(x, float))
-
-
 def draw_device(seed: int, chain: RealisticChain) -> dict:
     """The study's sensor device: cut-off, poles and crosstalk, from the study seed alone.
 
@@ -251,8 +244,6 @@ def speed_scaled_kinematics(params: KinematicsParams, speed_mm_s: float,
                             chain: RealisticChain) -> KinematicsParams:
     """The kinematics with motor noise grown with speed: the normal-force wander (within
     and between trials) and the relative speed fluctuation times ``(v / 80)^exponent``."""
-    from dataclasses import replace
-
     k = (float(speed_mm_s) / 80.0) ** chain.motor_noise_exponent
     return replace(params, force_sd=params.force_sd * k, force_sd_trial=params.force_sd_trial * k,
                    speed_sd=params.speed_sd * k)

@@ -26,9 +26,9 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.signal import butter, lfilter
+from scipy.signal import butter, lfilter, sosfilt
 
-__all__ = ["SensorParams", "to_channels", "from_channels", "apply_sensor", "SQRT2"]
+__all__ = ["SensorParams", "to_channels", "from_channels", "apply_sensor", "highpass2", "SQRT2"]
 
 SQRT2 = math.sqrt(2.0)
 
@@ -111,6 +111,14 @@ def from_channels(f1, f2):
     return (f1 + f2) / SQRT2, (f1 - f2) / SQRT2
 
 
+def highpass2(x: np.ndarray, poles, fs: float) -> np.ndarray:
+    """Cascaded first-order high-passes (bilinear transform, from rest) at ``poles`` Hz."""
+    secs = [butter(1, float(f), btype="highpass", fs=fs, output="sos") for f in poles if f > 0]
+    if not secs:
+        return np.asarray(x, float)
+    return sosfilt(np.concatenate(secs), np.asarray(x, float))
+
+
 def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
                  params: SensorParams | None = None, *, chain=None) -> tuple[np.ndarray, np.ndarray]:
     """Recorded channels ``(F1, F2)`` in N for true forces sampled at ``params.fs_hz``.
@@ -137,8 +145,6 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
     n = f1.size
     t = np.arange(n) / P.fs_hz
     if chain is not None:
-        from .chain import highpass2
-
         M = chain.crosstalk
         f1, f2 = M[0, 0] * f1 + M[0, 1] * f2, M[1, 0] * f1 + M[1, 1] * f2
         f1 = highpass2(f1, chain.poles_hz[0], P.fs_hz)
