@@ -98,8 +98,9 @@ def test_device_and_trial_draws():
         assert draws.poles_hz.shape == (2, 2) and not np.array_equal(draws.poles_hz[0], draws.poles_hz[1])
         for c in range(2):
             resid = draws.drift[c] - np.polyval(np.polyfit(t, draws.drift[c], 1), t)
-            curved += np.sqrt(np.mean(resid**2)) > 2e-5  # 0.02 mN off the best straight line
-    assert curved >= 30  # of 40 channels: the drift is not a straight line
+            curved += np.sqrt(np.mean(resid**2)) > 5e-6  # 5 uN RMS off the best straight line
+    assert curved >= 36  # of 40 channels: the drift is not a straight line (but nearly: below
+    # 0.1 mN RMS over 1 s, "the drift could be approximated by a linear trend", Methods)
 
 
 def test_chain_options_are_validated():

@@ -98,14 +98,19 @@ class RealisticChain:
     crosstalk : (float, float)
         Range of the magnitude of each channel's pickup of the other (default 0.02-0.05;
         signs random).
-    drift_settle_n : float
-        SD in N of the amplitude of the thermal settling per channel (default 0.001).
+    drift_settle_n_per_s : float
+        SD in N/s of the initial rate ``A / tau`` of the thermal settling ``A (1 -
+        exp(-t / tau))`` per channel (default 0.002, half the ideal chain's linear drift
+        rate SD).
     drift_settle_s : (float, float)
-        Range of its time constant in s (default 0.2-1).
+        Range of its time constant in s (default 2-20: the electronics' thermal time
+        constants; within a 1 s record the settling bends the drift line by up to about
+        0.5 mN).
     drift_wander_n : float
-        SD in N of the smooth random drift per channel (default 0.0003).
+        SD in N of the low-frequency (1/f-like) wander per channel (default 3e-5: the
+        white noise's density, 7 uN/sqrt(Hz), with a 10 Hz flicker corner).
     drift_wander_hz : float
-        Its bandwidth in Hz (default 0.5).
+        Its bandwidth in Hz (default 1).
     """
 
     coupling_n_per_mm: float = 0.05
@@ -116,14 +121,14 @@ class RealisticChain:
     pole_ratio: tuple = (0.1, 0.5)
     cutoff_jitter: float = 0.03
     crosstalk: tuple = (0.02, 0.05)
-    drift_settle_n: float = 0.001
-    drift_settle_s: tuple = (0.2, 1.0)
-    drift_wander_n: float = 0.0003
-    drift_wander_hz: float = 0.5
+    drift_settle_n_per_s: float = 0.002
+    drift_settle_s: tuple = (2.0, 20.0)
+    drift_wander_n: float = 3e-5
+    drift_wander_hz: float = 1.0
 
     def __post_init__(self) -> None:
         for k in ("coupling_n_per_mm", "coupling_sd", "control_hz", "motor_noise_exponent", "cutoff_jitter",
-                  "drift_settle_n", "drift_wander_n", "drift_wander_hz"):
+                  "drift_settle_n_per_s", "drift_wander_n", "drift_wander_hz"):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 raise ValueError(f"RealisticChain.{k} must be a finite number >= 0, got {v!r}")
@@ -233,8 +238,8 @@ def draw_trial_chain(rng: np.random.Generator, n: int, fs: float, chain: Realist
     t = np.arange(n) / fs
     drift = np.empty((2, n))
     for c in range(2):
-        a = chain.drift_settle_n * rng.standard_normal()
         tau = rng.uniform(*chain.drift_settle_s)
+        a = chain.drift_settle_n_per_s * tau * rng.standard_normal()
         w = smooth_noise(rng, n, fs, chain.drift_wander_hz) if n > 1 else np.zeros(n)
         drift[c] = a * (1.0 - np.exp(-t / tau)) + chain.drift_wander_n * w
     return ChainDraws(poles, np.asarray(device["crosstalk"], float), drift)
