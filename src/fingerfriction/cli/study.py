@@ -110,6 +110,8 @@ def init_cmd(
             console.print(f"  {escape(u.path)}: {escape(u.reason)}", highlight=False)
         if len(res.unmatched) > 40:
             console.print(f"  ... and {len(res.unmatched) - 40} more", highlight=False)
+    for note in res.notes:
+        console.print(f"[bold yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
     print_problems(res.problems)
     try:
         path = write_init(res, study, dry_run=dry_run, overwrite=overwrite, skip_bad=skip_bad)
