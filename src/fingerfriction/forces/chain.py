@@ -37,7 +37,7 @@ from .readers import ForceRecord
 from .sensor import detect_baseline, detect_post_baseline
 from .signals import ForceSignals
 
-__all__ = ["ForceProfile", "process_forces"]
+__all__ = ["ForceProfile", "process_forces", "sensor_signals"]
 
 logger = logging.getLogger(__name__)
 
@@ -204,6 +204,37 @@ def process_forces(record: ForceRecord, t_frames, x_frames, *,
                         x_at_samples=x_at, flat_segment_mm=flat_mm, window_mm=window, flags=tuple(flags),
                         flat_mask=mask, success=True, message="ok", params=params, f_t_abs=f_t_abs,
                         f_n_abs=f_n_abs, absolute=absolute, absolute_message=absolute_message)
+
+
+def sensor_signals(record: ForceRecord,
+                   params: ForceProcessingParams | None = None) -> tuple[ForceSignals, tuple]:
+    """The sensor's steps of :func:`process_forces` alone: the forces in time, before anything
+    that needs the video (the clock offsets, positions, the flat segment).
+
+    Decomposition, then the rest before the touch (drift line and mains), notch, low-pass,
+    inversion of the sensor's high-pass and the rests' residual drift, as
+    :func:`process_forces` does them; short NaN runs are filled as there (a clipped or
+    NaN-ridden channel is flagged, not refused).
+
+    Parameters
+    ----------
+    record : ForceRecord
+    params : ForceProcessingParams, optional
+
+    Returns
+    -------
+    signals : ForceSignals
+        ``F_N``, ``F_T`` in N on the force clock, with their history.
+    flags : tuple of Flag
+        What the steps noticed (a missing rest...).
+    """
+    params = ForceProcessingParams() if params is None else params
+    flags: list[Flag] = []
+    f1, f2 = check_channels(record, params, flags)
+    f1 = np.where(np.isfinite(f1), f1, 0.0)
+    f2 = np.where(np.isfinite(f2), f2, 0.0)
+    sig, _, _ = _sensor_chain(ForceSignals.from_record(replace(record, f1=f1, f2=f2)), params, flags)
+    return sig, tuple(flags)
 
 
 def _failed(on_error: str, params: ForceProcessingParams, window, flat_mm, flags: list) -> ForceProfile:
