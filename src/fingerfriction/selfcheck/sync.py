@@ -648,8 +648,8 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
             "joint",
             len(usable),
             f"the manifest's clocks disagree among themselves: {len(usable)} trials of finger {o.group!r} "
-            f"aligned on each other from their half rise at {mid:.2g} mm of pre-sliding (range {PRIOR_D_MM[0]:g}-"
-            f"{PRIOR_D_MM[1]:g} mm)",
+            f"aligned on each other from their half rise at {mid:.2g} mm of pre-sliding "
+            f"(range {PRIOR_D_MM[0]:g}-{PRIOR_D_MM[1]:g} mm)",
         )
     return out
 
