@@ -37,6 +37,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 __all__ = ["OnsetData", "OffsetEstimate", "onset_data", "estimate_offsets", "MOTION_MM", "PRIOR_D_MM"]
 
@@ -426,33 +427,58 @@ def _prior_estimate(o: OnsetData) -> OffsetEstimate:
     )
 
 
+#: Fastest over slowest trial of a finger needed to measure the offset its trials share:
+#: trials at one speed accelerate alike, and a shift common to all of them then looks like
+#: another pre-sliding law.
+MIN_SPEED_SPREAD = 1.3
+
+
+def _total_misfit(data: list[OnsetData], rel: np.ndarray, c: float) -> float:
+    taus = rel + c
+    g = _fit_g(data, taus)
+    if g is None:
+        return math.inf
+    return float(sum(_rss(o, g, t) for o, t in zip(data, taus, strict=True)))
+
+
+def _min_common(data: list[OnsetData], rel: np.ndarray, lo: float, hi: float, step: float) -> float:
+    """The common shift in [lo, hi] minimising the total misfit: a grid, then a bounded
+    search around its best point."""
+    grid = np.arange(lo, hi + 1e-12, step)
+    v = np.array([_total_misfit(data, rel, c) for c in grid])
+    if not np.isfinite(v).any():
+        return math.nan
+    k = int(np.nanargmin(v))
+    if k in (0, grid.size - 1):
+        return math.nan  # no minimum inside the range
+    res = minimize_scalar(lambda c: _total_misfit(data, rel, c), bounds=(grid[k - 1], grid[k + 1]),
+                          method="bounded", options={"xatol": 2e-5})
+    return float(res.x)
+
+
 def _common_offset(data: list[OnsetData], rel: np.ndarray) -> tuple[float, float]:
-    """The offset shared by a finger's trials (added to their relative offsets): the
-    minimum of the total misfit over a common shift, and its standard error from the
-    curvature (NaN, NaN when flat)."""
-
-    def total(c: float) -> float:
-        taus = rel + c
-        g = _fit_g(data, taus)
-        if g is None:
-            return math.inf
-        return float(sum(_rss(o, g, t) for o, t in zip(data, taus, strict=True)))
-
-    grid = np.arange(-0.01, 0.01 + 1e-9, 5e-4)
-    v = np.array([total(c) for c in grid])
-    k = int(np.argmin(v))
-    if k in (0, grid.size - 1) or not np.isfinite(v[k - 1 : k + 2]).all():
+    """The offset shared by a finger's trials (added to their relative offsets ``rel``) and
+    its standard error, by the jackknife over trials; (NaN, NaN) when it cannot be seen: the
+    trials' speeds are too alike (:data:`MIN_SPEED_SPREAD`), or the misfit has no minimum
+    within +-10 ms."""
+    speeds = np.array([_speed(o) for o in data])
+    speeds = speeds[np.isfinite(speeds) & (speeds > 0)]
+    if speeds.size < MIN_TRIALS or speeds.max() / speeds.min() < MIN_SPEED_SPREAD:
         return math.nan, math.nan
-    y0, y1, y2 = v[k - 1 : k + 2]
-    h = grid[1] - grid[0]
-    den = y0 - 2 * y1 + y2
-    if not den > 0:
+    c = _min_common(data, rel, -0.01, 0.01, 1e-3)
+    if not math.isfinite(c):
         return math.nan, math.nan
-    c = float(grid[k] + 0.5 * (y0 - y2) / den * h)
-    curv = den / h**2  # second derivative of the total mean-square misfit
-    # the misfit is a sum over trials of mean squares; treat its minimum as n_trials x the
-    # residual variance: var(c) ~ 2 * min / (n * curvature) (Gauss-Newton, one parameter)
-    se = math.sqrt(max(2.0 * y1 / (len(data) * curv), 0.0))
+    n = len(data)
+    jack = []
+    for k in range(n):
+        others = [o for j, o in enumerate(data) if j != k]
+        ck = _min_common(others, np.delete(rel, k), c - 0.004, c + 0.004, 1e-3)
+        if math.isfinite(ck):
+            jack.append(ck)
+    if len(jack) < n - 1:
+        return c, math.inf
+    jack = np.array(jack)
+    se = math.sqrt((len(jack) - 1) / len(jack) * float(np.sum((jack - jack.mean()) ** 2)))
     return c, se
 
 
