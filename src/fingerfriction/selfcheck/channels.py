@@ -115,8 +115,8 @@ def force_figures(f_n, f_t, fs_hz: float, direction: int) -> ForceFigures:
     percentile; the loading angle is the mean direction over the first samples of the
     press, from 20 % to 50 % of its median magnitude (the finger presses before it slides:
     in the simulated trials F_T starts some 30 ms after F_N); the sliding ratio is the
-    median of F_T / F_N over the press from 100 ms after it starts, where the F_N
-    magnitude is at least half its median.
+    median of F_T / F_N over the press from 100 ms after it starts, where F_N is at least
+    half its median over the press.
     """
     n = np.asarray(f_n, dtype=np.float64)
     t = np.asarray(f_t, dtype=np.float64)
@@ -143,7 +143,9 @@ def force_figures(f_n, f_t, fs_hz: float, direction: int) -> ForceFigures:
     f_n_level = float(np.median(sm[0][pressed]))
     ratio = math.nan
     if direction:
-        later = pressed & (np.arange(n.size) >= first + int(0.1 * fs_hz)) & (np.abs(sm[0]) > 0.5 * level)
+        later = (
+            pressed & (np.arange(n.size) >= first + int(0.1 * fs_hz)) & (np.abs(sm[0]) > 0.5 * abs(f_n_level))
+        )
         if later.sum() >= max(int(0.02 * fs_hz), 5):
             ratio = float(direction * np.median(sm[1][later] / sm[0][later]))
     return ForceFigures(level_n=level, f_n_level_n=f_n_level, loading_angle_deg=angle, sliding_ratio=ratio)
@@ -220,6 +222,7 @@ def check_channels(
                 f"expected within +-{lim:g}): F1 looks negated"
             )
         out.append(Check("channel-polarity", "error", a, "deg", msg, "force.channels"))
+        return out  # one cause, one line: nothing else is read in a wrongly wired record
     else:
         out.append(Check("channel-polarity", "ok", a, "deg", f"the press is along +F_N ({a:+.1f} deg)"))
     if polarity_ok and abs(a) > lim:
