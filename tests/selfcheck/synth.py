@@ -88,5 +88,6 @@ def mains(
     rng = rng or np.random.default_rng(1)
     t = np.arange(n) / fs_hz
     return sum(
-        a * np.sin(2 * np.pi * k * f0 * t + rng.uniform(0, 2 * np.pi)) for a, k in zip(amps, harmonics, strict=True)
+        a * np.sin(2 * np.pi * k * f0 * t + rng.uniform(0, 2 * np.pi))
+        for a, k in zip(amps, harmonics, strict=True)
     )
