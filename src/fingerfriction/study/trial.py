@@ -16,8 +16,9 @@ manifest's record of the trial with its surface and study folder), typed out
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -348,11 +349,15 @@ def check_trial_inputs(trial: TrialInput, video: VideoOutput, record: ForceRecor
     """
     params = params or AnalysisParams()
     sc: SelfCheckParams = params.selfcheck_params()
+    t_start = time.perf_counter()
     signals, _ = sensor_signals(record, force_params(params.forces))
+    t_signals = time.perf_counter() - t_start
     rec = trial.record
-    return check_trial(trial_id=trial.id, group=str(rec.subject), record=record, signals=signals,
-                       t_frames=video.t_s, x_frames=video.x_mm, surface_rows=video.surface_rows,
-                       surface=trial.surface, height_mm=trial.height_mm, speed_mm_s=rec.speed_mm_s, params=sc)
+    checks = check_trial(trial_id=trial.id, group=str(rec.subject), record=record, signals=signals,
+                         t_frames=video.t_s, x_frames=video.x_mm, surface_rows=video.surface_rows,
+                         surface=trial.surface, height_mm=trial.height_mm, speed_mm_s=rec.speed_mm_s,
+                         params=sc)
+    return replace(checks, elapsed_s=checks.elapsed_s + t_signals)  # the stage's cost includes its signals
 
 
 def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> TrialResult:
