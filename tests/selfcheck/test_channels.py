@@ -100,3 +100,18 @@ def test_no_press_is_said_not_measured():
     fig = force_figures(np.zeros(2000), np.zeros(2000), 10_000.0, 1)
     c = check_channels(fig)
     assert len(c) == 1 and c[0].level == "info" and "not measured" in c[0].message
+
+
+def test_a_record_that_starts_pressed_is_read_from_its_end():
+    """No rest before the touch: the press is not seen (info), the level and the sliding
+    sign still are, from the rest after the lift-off."""
+    tr = press_and_slide(duration_s=1.2)
+    t = tr.t
+    lift = 1.0 - np.clip((t - 0.9) / 0.05, 0, 1)  # the finger lifts off at 0.9 s
+    keep = t >= 0.3  # the record starts mid-slide
+    f1, f2 = (tr.f1 * lift)[keep], (tr.f2 * lift)[keep]
+    fig, c = _checks(f1, f2, tr.fs_hz, 1)
+    assert c["channel-polarity"].level == "info" and "already pressing" in c["channel-polarity"].message
+    assert c["force-level"].level == "ok" and c["channel-swap"].level == "ok"
+    _, c = _checks(f2, f1, tr.fs_hz, 1)
+    assert c["channel-swap"].level == "error"

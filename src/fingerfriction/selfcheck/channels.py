@@ -127,7 +127,12 @@ def force_figures(f_n, f_t, fs_hz: float, direction: int) -> ForceFigures:
     t = np.where(ok, t, 0.0)
     k0 = max(int(0.02 * fs_hz), 5)
     sm = _smooth(np.vstack([n, t]), fs_hz)
-    sm = sm - np.median(sm[:, :k0], axis=1, keepdims=True)  # the record starts before the touch
+    head = np.median(sm[:, :k0], axis=1, keepdims=True)
+    tail = np.median(sm[:, -k0:], axis=1, keepdims=True)
+    # the rest is the quieter end: a record that starts before the touch, or one that starts
+    # already pressed and ends after the lift-off
+    starts_at_rest = float(np.hypot(*head[:, 0])) <= float(np.hypot(*tail[:, 0]))
+    sm = sm - (head if starts_at_rest else tail)
     mag = np.hypot(sm[0], sm[1])
     top = float(np.percentile(mag, 95))
     if not top > 0:
@@ -138,8 +143,13 @@ def force_figures(f_n, f_t, fs_hz: float, direction: int) -> ForceFigures:
     reach = np.flatnonzero(mag[first:] > 0.5 * level)
     last = first + (int(reach[0]) if reach.size else 1)
     last = max(last, first + 1)
-    vec = sm[:, first:last].mean(axis=1)
-    angle = math.degrees(math.atan2(vec[1], vec[0]))
+    angle = math.nan
+    message = ""
+    if first >= k0:
+        vec = sm[:, first:last].mean(axis=1)
+        angle = math.degrees(math.atan2(vec[1], vec[0]))
+    else:
+        message = "the record starts with the finger already pressing: the press is not seen"
     f_n_level = float(np.median(sm[0][pressed]))
     ratio = math.nan
     if direction:
@@ -148,7 +158,9 @@ def force_figures(f_n, f_t, fs_hz: float, direction: int) -> ForceFigures:
         )
         if later.sum() >= max(int(0.02 * fs_hz), 5):
             ratio = float(direction * np.median(sm[1][later] / sm[0][later]))
-    return ForceFigures(level_n=level, f_n_level_n=f_n_level, loading_angle_deg=angle, sliding_ratio=ratio)
+    return ForceFigures(
+        level_n=level, f_n_level_n=f_n_level, loading_angle_deg=angle, sliding_ratio=ratio, message=message
+    )
 
 
 def _power_of_ten(level: float) -> int:
@@ -170,6 +182,64 @@ def _unit_cause(level: float, units: str, too: str) -> tuple[str, str]:
     return f"forces look {factor} too small: volts labelled N, or a scale left out?", "force.units"
 
 
+def _polarity(a: float, lim: float) -> Check | None:
+    """``channel-polarity`` from the loading angle (None: the press is along +F_N)."""
+    if abs(a) <= 65.0:
+        return None
+    if abs(a) > 115.0:
+        msg = (
+            f"F_N is negative while the finger presses (force direction {a:+.0f} deg from +F_N): "
+            "F1 and F2 both look negated"
+        )
+    elif a > 0:
+        msg = (
+            f"the finger's press reads as +F_T, not +F_N (force direction {a:+.0f} deg from +F_N, "
+            f"expected within +-{lim:g}): F2 looks negated"
+        )
+    else:
+        msg = (
+            f"the finger's press reads as -F_T, not +F_N (force direction {a:+.0f} deg from +F_N, "
+            f"expected within +-{lim:g}): F1 looks negated"
+        )
+    return Check("channel-polarity", "error", a, "deg", msg, "force.channels")
+
+
+def _gain(a: float, lim: float) -> Check:
+    """``channel-gain`` from the loading angle: F1 / F2 = tan(45 deg + angle) while pressing."""
+    if abs(a) <= lim:
+        return Check("channel-gain", "ok", a, "deg", "F1 and F2 agree while the finger presses")
+    ratio = math.tan(math.radians(45.0 + a))
+    big, small, k = ("F1", "F2", ratio) if ratio > 1 else ("F2", "F1", 1.0 / ratio)
+    return Check(
+        "channel-gain",
+        "error",
+        a,
+        "deg",
+        f"{big} reads {k:.3g}x {small} while the finger presses without sliding (force direction "
+        f"{a:+.0f} deg from +F_N, expected within +-{lim:g}): one channel's scale looks off (its "
+        "sensitivity or gain)",
+        "force.sensitivity_n_per_v",
+    )
+
+
+def _level(level: float, units: str, lo: float, hi: float) -> Check:
+    """``force-level``: F_N while the finger presses against a finger's range."""
+    text = f"F_N is {level:.4g} N while the finger presses (a finger: {lo:g}-{hi:g} N)"
+    if level < 0:
+        return Check(
+            "force-level",
+            "error",
+            level,
+            "N",
+            f"{text}: F_N is negative, F1 and F2 both look negated",
+            "force.channels",
+        )
+    if level > hi or level < lo:
+        cause, fld = _unit_cause(level, units, "large" if level > hi else "small")
+        return Check("force-level", "error", level, "N", f"{text}: {cause}", fld)
+    return Check("force-level", "ok", level, "N", f"F_N {level:.3g} N while the finger presses")
+
+
 def check_channels(
     fig: ForceFigures, *, units: str = "N", params: SelfCheckParams | None = None
 ) -> list[Check]:
@@ -186,15 +256,15 @@ def check_channels(
     -------
     list of Check
         ``channel-polarity``, ``channel-gain``, ``force-level``, ``channel-swap`` and
-        ``flat-friction``, each ``'ok'`` or a finding; a check that could not be made is
-        ``info`` with the reason.
+        ``flat-friction``, each ``'ok'`` or a finding, in that order; a wiring error stops
+        the list (one cause, one line); a check that could not be made is ``info`` with
+        the reason.
     """
     P = params or SelfCheckParams()
-    out: list[Check] = []
-    a = fig.loading_angle_deg
     lim = P.loading_angle_deg
-    if not math.isfinite(a):
-        out.append(
+    a = fig.loading_angle_deg
+    if not math.isfinite(fig.level_n):
+        return [
             Check(
                 "channel-polarity",
                 "info",
@@ -202,75 +272,22 @@ def check_channels(
                 "deg",
                 f"not measured: {fig.message or 'no press found in the forces'}",
             )
-        )
-        return out
-    polarity_ok = abs(a) <= 65.0
-    if not polarity_ok:
-        if abs(a) > 115.0:
-            msg = (
-                f"F_N is negative while the finger presses (force direction {a:+.0f} deg from +F_N): "
-                "F1 and F2 both look negated"
-            )
-        elif a > 0:
-            msg = (
-                f"the finger's press reads as +F_T, not +F_N (force direction {a:+.0f} deg from +F_N, "
-                f"expected within +-{lim:g}): F2 looks negated"
-            )
-        else:
-            msg = (
-                f"the finger's press reads as -F_T, not +F_N (force direction {a:+.0f} deg from +F_N, "
-                f"expected within +-{lim:g}): F1 looks negated"
-            )
-        out.append(Check("channel-polarity", "error", a, "deg", msg, "force.channels"))
-        return out  # one cause, one line: nothing else is read in a wrongly wired record
-    else:
+        ]
+    out: list[Check] = []
+    if math.isfinite(a):
+        bad = _polarity(a, lim)
+        if bad is not None:
+            return [bad]  # nothing else is read in a wrongly wired record
         out.append(Check("channel-polarity", "ok", a, "deg", f"the press is along +F_N ({a:+.1f} deg)"))
-    if polarity_ok and abs(a) > lim:
-        ratio = math.tan(math.radians(45.0 + a))
-        big, small, k = ("F1", "F2", ratio) if ratio > 1 else ("F2", "F1", 1.0 / ratio)
-        out.append(
-            Check(
-                "channel-gain",
-                "error",
-                a,
-                "deg",
-                f"{big} reads {k:.3g}x {small} while the finger presses without sliding (force "
-                f"direction {a:+.0f} deg from +F_N, expected within +-{lim:g}): one channel's scale "
-                "looks off (its sensitivity or gain)",
-                "force.sensitivity_n_per_v",
-            )
-        )
-    elif polarity_ok:
-        out.append(Check("channel-gain", "ok", a, "deg", "F1 and F2 agree while the finger presses"))
+        out.append(_gain(a, lim))
+        if out[-1].level == "error":
+            return out
+    else:
+        out.append(Check("channel-polarity", "info", math.nan, "deg", f"not measured: {fig.message}"))
     lo, hi = P.f_n_range_n
-    level = fig.f_n_level_n if polarity_ok else fig.level_n
-    if math.isfinite(level) and polarity_ok:
-        if level > hi:
-            cause, fld = _unit_cause(level, units, "large")
-            out.append(
-                Check(
-                    "force-level",
-                    "error",
-                    level,
-                    "N",
-                    f"F_N is {level:.4g} N while the finger presses (a finger: {lo:g}-{hi:g} N): {cause}",
-                    fld,
-                )
-            )
-        elif 0 < level < lo:
-            cause, fld = _unit_cause(level, units, "small")
-            out.append(
-                Check(
-                    "force-level",
-                    "error",
-                    level,
-                    "N",
-                    f"F_N is {level:.4g} N while the finger presses (a finger: {lo:g}-{hi:g} N): {cause}",
-                    fld,
-                )
-            )
-        else:
-            out.append(Check("force-level", "ok", level, "N", f"F_N {level:.3g} N while the finger presses"))
+    out.append(_level(fig.f_n_level_n, units, lo, hi))
+    if out[-1].level == "error":
+        return out
     r = fig.sliding_ratio
     if not math.isfinite(r):
         out.append(
@@ -282,8 +299,6 @@ def check_channels(
                 "not measured: no sliding direction from x(t), or no sliding part of the press",
             )
         )
-        return out
-    if not polarity_ok or abs(a) > lim:
         return out
     rlo, rhi = P.flat_ratio_range
     if r < -rlo:
