@@ -86,12 +86,12 @@ def _fit_shape(rows: np.ndarray, shape: str) -> tuple[float, np.ndarray]:
         coef, *_ = np.linalg.lstsq(X, rows, rcond=None)
         return coef, rows - X @ coef
 
-    ws = np.geomspace(8.0, 0.9 * n, 20)
-    c0s = np.linspace(0.1 * n, 0.9 * n, 41)
+    ws = np.geomspace(8.0, 0.9 * n, 16)
+    c0s = np.linspace(0.1 * n, 0.9 * n, 25)
     C0, W = np.meshgrid(c0s, ws, indexing="ij")
-    sub = cols[::2]
-    r = rows[::2]
-    G = g((sub[None, None, :] - C0[..., None]) / W[..., None])  # (41, 20, n/2)
+    sub = cols[::4]
+    r = rows[::4]
+    G = g((sub[None, None, :] - C0[..., None]) / W[..., None])  # (25, 16, n/4)
     m = sub.size
     sg, sgg = G.sum(-1), (G * G).sum(-1)
     sr, srg = r.sum(), (G * r).sum(-1)

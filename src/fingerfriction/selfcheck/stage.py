@@ -63,6 +63,9 @@ class TrialChecks:
         The measured figures (JSON-serialisable).
     elapsed_s : float
         Time the checks took, s.
+    sensor : object or None
+        The force signals the checks used, for the force stage to reuse
+        (:class:`fingerfriction.forces.SensorSignals`; None when the record changed).
     """
 
     checks: tuple
@@ -71,6 +74,7 @@ class TrialChecks:
     record: ForceRecord
     figures: dict = field(default_factory=dict)
     elapsed_s: float = 0.0
+    sensor: object | None = field(default=None, repr=False, compare=False)
 
     @property
     def error(self) -> Check | None:

@@ -16,7 +16,6 @@ manifest's record of the trial with its surface and study folder), typed out
 from __future__ import annotations
 
 import os
-import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -289,7 +288,7 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRec
 
 def process_trial_forces(trial: TrialInput, x_frames, *, params: ForceProcessingParams | None = None,
                          regions=None, on_error: str = "raise",
-                         record: ForceRecord | None = None) -> ForceProfile:
+                         record: ForceRecord | None = None, sensor=None) -> ForceProfile:
     """Read and process the forces of one trial: :func:`~fingerfriction.forces.process_forces`
     on its force file, at its frame times, with the window centred on its surface's feature.
 
@@ -303,6 +302,8 @@ def process_trial_forces(trial: TrialInput, x_frames, *, params: ForceProcessing
     record : ForceRecord, optional
         The trial's force record already read (and, after the consistency stage, its
         clock corrected); default: read from its file.
+    sensor : SensorSignals, optional
+        Its sensor steps already run (:func:`fingerfriction.forces.sensor_signals`).
 
     Returns
     -------
@@ -314,7 +315,7 @@ def process_trial_forces(trial: TrialInput, x_frames, *, params: ForceProcessing
     if xf.shape != tf.shape:
         raise ValueError(f"x_frames has shape {xf.shape} but trial {trial.id!r} has {tf.size} frames")
     return process_forces(record, tf, xf, feature_extent_mm=tuple(trial.surface.feature_extent),
-                          params=params, regions=regions, on_error=on_error)
+                          params=params, regions=regions, on_error=on_error, sensor=sensor)
 
 
 def force_info(prof: ForceProfile) -> dict:
@@ -345,19 +346,18 @@ def check_trial_inputs(trial: TrialInput, video: VideoOutput, record: ForceRecor
     -------
     TrialChecks
         Its ``record`` is the one to process (the sampling rate corrected by the mains
-        with ``sync='auto'``).
+        with ``sync='auto'``), its ``sensor`` the force stage's sensor steps already run
+        on it (:func:`fingerfriction.forces.sensor_signals`).
     """
     params = params or AnalysisParams()
     sc: SelfCheckParams = params.selfcheck_params()
-    t_start = time.perf_counter()
-    signals, _ = sensor_signals(record, force_params(params.forces))
-    t_signals = time.perf_counter() - t_start
+    sensor = sensor_signals(record, force_params(params.forces))  # the force stage's own steps, reused
     rec = trial.record
-    checks = check_trial(trial_id=trial.id, group=str(rec.subject), record=record, signals=signals,
+    checks = check_trial(trial_id=trial.id, group=str(rec.subject), record=record, signals=sensor.signals,
                          t_frames=video.t_s, x_frames=video.x_mm, surface_rows=video.surface_rows,
                          surface=trial.surface, height_mm=trial.height_mm, speed_mm_s=rec.speed_mm_s,
                          params=sc)
-    return replace(checks, elapsed_s=checks.elapsed_s + t_signals)  # the stage's cost includes its signals
+    return replace(checks, sensor=sensor if checks.record.fs_hz == record.fs_hz else None)
 
 
 def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> TrialResult:
@@ -389,7 +389,7 @@ def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> Tr
     if checks.error is not None:
         raise SelfCheckError(checks.reason())
     prof = process_trial_forces(trial, v.x_mm, params=force_params(params.forces), regions=v.regions,
-                                on_error="raise", record=checks.record)
+                                on_error="raise", record=checks.record, sensor=checks.sensor)
     if not prof.success:  # on_error='raise' should have raised; never keep unusable values
         raise ValueError(f"force processing failed: {prof.message}")
     forces_df = prof.to_frame()
