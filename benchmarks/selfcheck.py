@@ -177,6 +177,9 @@ _STUDY = {}
 
 def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
     """Every copy of one original trial through the pipeline's functions (worker process)."""
+    import logging
+    import warnings
+
     from fingerfriction.study.check import check_files
     from fingerfriction.study.manifest import load_manifest
     from fingerfriction.study.params import AnalysisParams, force_params, video_options
@@ -188,9 +191,6 @@ def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
         read_trial_forces,
         run_video,
     )
-
-    import logging
-    import warnings
 
     warnings.simplefilter("ignore")  # the video stage's warnings about the mistaken scales: expected
     logging.getLogger("fingerfriction").setLevel(logging.ERROR)
