@@ -13,6 +13,8 @@ import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
+from fingerfriction.report.data import load_report_data
+from fingerfriction.report.flags import collect_flags
 from fingerfriction.sim import KinematicsParams, SimOptions, simulate_study
 from fingerfriction.study.analyze import analyze
 from fingerfriction.study.params import AnalysisParams
@@ -130,6 +132,10 @@ def test_sync_auto_moves_the_wrong_clock(study, tmp_path):
         f.startswith("sync-offset: ") and "moved the force clock" in f for f in st["info"]["forces"]["flags"]
     )
     assert res.sync["trials"]["bad-t0"]["check"]["level"] == "warning"
+    # the report's warnings block takes it from the force stage's flags (its existing path)
+    flags = collect_flags(load_report_data(res.results))
+    mine = [f for f in flags if f["trial"] == "bad-t0" and f["code"] == "sync-offset"]
+    assert mine and mine[0]["level"] == "warning" and "moved the force clock" in mine[0]["message"]
 
 
 def test_check_deep_lists_the_mistakes(study):

@@ -19,7 +19,7 @@ from fingerfriction.video.cine import read_cine_header, write_cine
 from fingerfriction.video.readers import frame_rate, open_video, probe_video
 
 DATA = Path(__file__).resolve().parents[1] / "data"
-CINE_781 = DATA / "cine_781.cine"
+CINE_781 = DATA / "cine" / "cine_781.cine"
 runner = CliRunner()
 
 
