@@ -348,6 +348,19 @@ def clean_run(study: Path, results: Path, sync: str = "check") -> dict:
     }
 
 
+def print_false_flags(res: dict) -> None:
+    """The flags of a clean study (every one is a false flag), from :func:`clean_run`."""
+    n_flag = len({t for t, *_ in res["flags"]} | {t for t, _ in res["failed"]})
+    print(
+        f"trials {res['n']}; failed {len(res['failed'])}; flagged {n_flag} "
+        f"({100 * n_flag / res['n']:.1f} % false flags)"
+    )
+    for t, code, msg in res["flags"][:10]:
+        print(f"  {t}: {code}: {msg[:140]}")
+    for t, reason in res["failed"][:10]:
+        print(f"  {t} FAILED: {reason[:160]}")
+
+
 def shifted_study(study: Path, out: Path, seed: int = 21) -> tuple[Path, dict]:
     """The study with every trial's force clock moved by a random offset in +-50 ms (the
     manifest's ``force.t0_s`` says the old value: the true offset is the applied one)."""
@@ -389,15 +402,7 @@ def main(argv=None) -> int:
 
     print("\n== 1. the unmodified study through analyze --sync check (false flags, cost)", flush=True)
     clean = clean_run(study, WORK / "realism-check")
-    n_flag = len({t for t, *_ in clean["flags"]} | {t for t, _ in clean["failed"]})
-    print(
-        f"trials {clean['n']}; failed {len(clean['failed'])}; flagged {n_flag} "
-        f"({100 * n_flag / clean['n']:.1f} % false flags)"
-    )
-    for t, code, msg in clean["flags"][:10]:
-        print(f"  {t}: {code}: {msg[:140]}")
-    for t, reason in clean["failed"][:10]:
-        print(f"  {t} FAILED: {reason[:160]}")
+    print_false_flags(clean)
     share = clean["stage_s"] / clean["total_s"] if clean["total_s"] else math.nan
     print(
         f"stage cost: {clean['stage_s']:.1f} s of {clean['total_s']:.1f} s of analysis "
@@ -457,16 +462,7 @@ def main(argv=None) -> int:
             flush=True,
         )
         other = simulated_study(name, *opts)
-        conf = clean_run(other, WORK / f"{name}-check")
-        n_flag = len({t for t, *_ in conf["flags"]} | {t for t, _ in conf["failed"]})
-        print(
-            f"trials {conf['n']}; failed {len(conf['failed'])}; flagged {n_flag} "
-            f"({100 * n_flag / conf['n']:.1f} % false flags)"
-        )
-        for t, code, msg in conf["flags"][:10]:
-            print(f"  {t}: {code}: {msg[:140]}")
-        for t, reason in conf["failed"][:10]:
-            print(f"  {t} FAILED: {reason[:160]}")
+        print_false_flags(clean_run(other, WORK / f"{name}-check"))
     return 0
 
 

@@ -22,7 +22,7 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from ..selfcheck import Check, OffsetEstimate, OnsetData, estimate_offsets
+from ..selfcheck import ORDER, Check, OffsetEstimate, OnsetData, estimate_offsets
 from .check import check_study
 from .manifest import Study
 from .params import AnalysisParams, force_params, video_options
@@ -319,19 +319,8 @@ def _reprocess(
     return prof.to_frame(), finfo
 
 
-_SELFCHECK_CODES = (
-    "channel-polarity",
-    "channel-gain",
-    "force-level",
-    "channel-swap",
-    "flat-friction",
-    "rate-mismatch",
-    "surface-type",
-    "surface-geometry",
-    "speed",
-    "sync-offset",
-    "sync-common",
-)
+#: The consistency stage's flag codes (its flags among the force stage's, kept on re-processing).
+_SELFCHECK_CODES = (*ORDER, "sync-offset", "sync-common")
 
 
 def deep_check(
