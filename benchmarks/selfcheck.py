@@ -103,9 +103,8 @@ def make_mistakes(study: Path, out: Path) -> tuple[Path, dict]:
     """A study folder with every trial's copies, one per mistake; returns it and
     ``{copy id: (mistake, original id)}``."""
     manifest = json.loads((study / "manifest.json").read_text())
-    if (out / "manifest.json").is_file():
-        m = json.loads((out / "manifest.json").read_text())
-        return out, {t["id"]: tuple(t["_copy"]) for t in m["trials"]}
+    if (out / "manifest.json").is_file() and (out / "copies.json").is_file():
+        return out, {k: tuple(v) for k, v in json.loads((out / "copies.json").read_text()).items()}
     surfaces = dict(manifest.get("surfaces", {}))
     trials, index = [], {}
     for t in manifest["trials"]:
