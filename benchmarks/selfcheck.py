@@ -7,7 +7,7 @@ Runs on a fresh clone with no arguments (everything generated goes to the gitign
 
     python benchmarks/selfcheck.py                # the realism study, then the confirmation study
     python benchmarks/selfcheck.py --no-confirm   # the realism study only
-    python benchmarks/selfcheck.py --confirm-options="--world interlocking --chain realistic --seed 5 --reps 1"
+    python benchmarks/selfcheck.py --confirm-options="--world interlocking --chain realistic --seed 5"
 
 1. **Clean trials and cost.** The virtual study (2 subjects x 6 surfaces x 3 speeds,
    ``simulate --realism``, 1 repetition) through ``fingerfriction analyze`` (``--sync
