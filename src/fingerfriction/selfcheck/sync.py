@@ -223,7 +223,7 @@ def onset_data(
     level = float(np.nanpercentile(fn_b, 95))
     if not level > 0:
         return "the finger never presses (F_N never positive)"
-    pressing = fn_b > 0.1 * level
+    pressing = _longest_run(fn_b > 0.1 * level)  # the press, not a drift that crosses the level
     ratio = np.where(pressing, direction * ft_b / np.where(pressing, fn_b, 1.0), np.nan)
     sel = (s >= lo) & (s <= hi)
     if sel.sum() < 20:
@@ -233,6 +233,17 @@ def onset_data(
     return OnsetData(
         trial_id, str(group), tv[keep], d[keep], t_motion, float(s[i0]), ds, ratio[sel].astype(float), period
     )
+
+
+def _longest_run(mask: np.ndarray) -> np.ndarray:
+    """``mask`` with only its longest run of True kept."""
+    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    out = np.zeros(mask.shape, bool)
+    if starts.size:
+        k = int(np.argmax(ends - starts))
+        out[starts[k] : ends[k]] = True
+    return out
 
 
 @dataclass(frozen=True)
@@ -451,8 +462,12 @@ def _min_common(data: list[OnsetData], rel: np.ndarray, lo: float, hi: float, st
     k = int(np.nanargmin(v))
     if k in (0, grid.size - 1):
         return math.nan  # no minimum inside the range
-    res = minimize_scalar(lambda c: _total_misfit(data, rel, c), bounds=(grid[k - 1], grid[k + 1]),
-                          method="bounded", options={"xatol": 2e-5})
+    res = minimize_scalar(
+        lambda c: _total_misfit(data, rel, c),
+        bounds=(grid[k - 1], grid[k + 1]),
+        method="bounded",
+        options={"xatol": 2e-5},
+    )
     return float(res.x)
 
 
