@@ -204,6 +204,27 @@ def test_provider_flat_positions_are_translated_solutions(tmp_path):
     assert np.allclose(y[2], y[0] + surf.height, atol=1e-9)
 
 
+@pytest.mark.slow  # six coarse solves, ~4 s: the traction the FE studies carry
+def test_friction_shifts_the_patch_against_the_motion_on_any_path():
+    s = FEContactSolver(LITERATURE_FINGER, COARSE)
+    free, _ = s.solve(_flat, 0.0, load=0.3)
+    fr, _ = s.solve(_flat, 0.0, load=0.3, friction=0.55)
+    c0, c1 = (float(np.trapezoid(o.outline_pressure * o.outline_x, o.outline_x)
+                    / np.trapezoid(o.outline_pressure, o.outline_x)) for o in (free, fr))
+    assert abs(c0) < 0.01 and c1 < -0.1  # the finger moves to +x: the patch trails
+    assert free.success and fr.success
+    # a warm-started sliding sweep reaches the cold solve's state (one fixed point)
+    surf = RaisedCosine("bump", 4.0, height=0.2)
+    st = None
+    for xc in (-3.6, -3.3, -3.0):
+        warm, st = s.solve(surf, xc, load=0.3, warm=st, friction=0.55)
+    cold, _ = s.solve(surf, -3.0, load=0.3, friction=0.55)
+    assert warm.success and cold.success
+    assert np.allclose(warm.outline_y, cold.outline_y, atol=1e-5) and abs(warm.z - cold.z) < 1e-5
+    with pytest.raises(ValueError, match="friction must be a coefficient >= 0, got -0.1"):
+        s.solve(surf, 0.0, friction=-0.1)
+
+
 @pytest.mark.parametrize(("kw", "match"), [
     ({"radius": -1.0}, r"FEFingerParams.radius must be a finite positive number in mm, got -1.0"),
     ({"tissue_modulus": float("nan")}, r"tissue_modulus must be a finite positive number in MPa"),

@@ -116,7 +116,8 @@ def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
     if d.get("model") != "fe":
         raise ValueError(f"{where}: not an FE finger (expected \"model\": \"fe\", got "
                          f"{d.get('model', 'none')!r}); the FE finger model needs FE finger files")
-    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items() if k not in ("model", "mesh")}
+    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items()
+         if k not in ("model", "mesh", "friction")}  # a study truth's provider entries
     try:
         return FEFingerParams.from_dict(d)
     except (TypeError, ValueError) as exc:
