@@ -18,7 +18,8 @@ Sections (each prints measured figures; nothing is asserted):
 
 Run: ``PYTHONPATH=src python benchmarks/fe_finger.py`` (about half an hour on 2 cores;
 ``--only SECTION`` runs one section, ``--workers 1`` the tables in this process;
-``--quick`` runs coarser meshes). Outputs (the cache) go to ``benchmarks/out/fe``.
+``--quick`` runs coarser meshes; ``$FINGERFRICTION_FE_MESH`` sets the mesh of sections 3-4).
+Outputs (the cache) go to ``benchmarks/out/fe``.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from fingerfriction.mechanics.fe import (
     FEMeshParams,
     FEProvider,
 )
+from fingerfriction.mechanics.fe.provider import default_mesh
 from fingerfriction.mechanics.hertz import hertz_half_width, hertz_peak_pressure
 from fingerfriction.regions import regions_from_mask
 from fingerfriction.sim.contact import build_table
@@ -181,6 +183,8 @@ def _one_table(args):
     prov = FEProvider(mesh=mesh, cache_dir=cache)
     t = time.process_time()
     tab = build_table(get_surface(name), "1", loads=(load,), step=0.1, provider=prov)
+    print(f"   table {name} {load} N: {time.process_time() - t:.1f} s CPU, {tab.positions.size} positions, "
+          f"{prov.failures} not converged", flush=True)
     return name, load, tab, time.process_time() - t, prov.failures
 
 
@@ -191,11 +195,12 @@ def _map(jobs, workers):
         return list(ex.map(_one_table, jobs))
 
 
-def blind_spots_and_cost(quick: bool, workers: int = 2, loads=LOADS) -> None:
-    mesh = FEMeshParams(surface_cell=0.2) if quick else FEMeshParams()
+def blind_spots_and_cost(quick: bool, workers: int = 2, loads=LOADS, surfaces=SURFACE_NAMES) -> None:
+    mesh = FEMeshParams(surface_cell=0.2) if quick else default_mesh()
+    print(f"   mesh: {mesh}")
     cache = OUT / "cache"
     shutil.rmtree(cache, ignore_errors=True)
-    jobs = [(n, f, mesh, cache) for n in SURFACE_NAMES for f in loads]
+    jobs = [(n, f, mesh, cache) for n in surfaces for f in loads]
     t = time.perf_counter()
     out = _map(jobs, workers)
     wall = time.perf_counter() - t
@@ -210,8 +215,8 @@ def blind_spots_and_cost(quick: bool, workers: int = 2, loads=LOADS) -> None:
         surf = get_surface(name)
         mech, geo = _table_regions(tab, surf)
         print(f"   {name:14s} {_bs(geo):>22s} {_bs(mech):>22s} {PAPER.get(name, '-'):>13s}")
-    print(f"4. Cost of the contact tables of one finger (6 surfaces x {len(loads)} loads, 0.1 mm steps, "
-          f"{workers} worker(s))")
+    print(f"4. Cost of the contact tables of one finger ({len(surfaces)} surfaces x {len(loads)} loads, "
+          f"0.1 mm steps, {workers} worker(s))")
     for name, load, _, cpu_one, bad in out:
         print(f"   {name:14s} {load:.2f} N: {cpu_one:6.1f} s CPU" + (f", {bad} not converged" if bad else ""))
     print(f"   from an empty cache: {wall / 60:.1f} min wall, {cpu / 60:.1f} min CPU in the workers "
@@ -230,8 +235,14 @@ def main() -> None:
                     "(1: in this process; the CPU figure does not depend on it)")
     ap.add_argument("--loads", default=",".join(map(str, LOADS)),
                     help="normal loads in N of the tables of sections 3-4 (comma list; 0.3: the blind spots)")
+    ap.add_argument("--surfaces", default=",".join(SURFACE_NAMES),
+                    help="surfaces of sections 3-4 (comma list)")
     args = ap.parse_args()
     loads = tuple(float(v) for v in args.loads.split(","))
+    surfaces = tuple(args.surfaces.split(","))
+    for n in surfaces:
+        if n not in SURFACE_NAMES:
+            ap.error(f"--surfaces: unknown surface {n!r}; known: {', '.join(SURFACE_NAMES)}")
     if args.workers < 1:
         ap.error(f"--workers must be >= 1, got {args.workers}")
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -241,7 +252,7 @@ def main() -> None:
     if args.only in (None, "friction"):
         friction(args.quick)
     if args.only in (None, "blindspots"):
-        blind_spots_and_cost(args.quick, args.workers, loads)
+        blind_spots_and_cost(args.quick, args.workers, loads, surfaces)
     print(f"   (peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB)")
 
 
