@@ -73,10 +73,14 @@ kept; NaN when the trial has no absolute level, see ``status.json`` ``info.force
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import json
 import logging
 import os
+import shutil
+from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -89,6 +93,7 @@ from .._outputs import write_table
 from ..fit import FitOptions, Trial, flat_segment_mask, mu_grid
 from ..regions import as_regions, regions_on_grid
 from ..surfaces import Surface, surface_from_spec
+from ..video.readers import tiff_frame_files
 from .manifest import validate_id
 
 __all__ = [
@@ -100,7 +105,9 @@ __all__ = [
     "atomic_write_json",
     "atomic_write_parquet",
     "sha256_file",
+    "sha256_input",
     "params_digest",
+    "ResultsInUseError",
     "now",
     "frames_table",
     "regions_from_table",
@@ -139,6 +146,26 @@ def sha256_file(path: str | os.PathLike, *, chunk: int = 1 << 20) -> str:
     with open(path, "rb") as fh:
         while block := fh.read(chunk):
             h.update(block)
+    return h.hexdigest()
+
+
+def sha256_input(path: str | os.PathLike) -> str:
+    """SHA-256 hex digest of a trial's input: a file's bytes, or for a folder of TIFF frames
+    (:func:`~fingerfriction.video.readers.tiff_frame_files`) the digest of its frames' names
+    and digests, in frame order (a renamed, added, removed or edited frame changes it).
+
+    Raises
+    ------
+    OSError
+        A missing or unreadable file or folder.
+    ValueError
+        A folder without TIFF frames, or whose frames link out of it.
+    """
+    if not os.path.isdir(path):
+        return sha256_file(path)
+    h = hashlib.sha256(b"fingerfriction tiff folder v1\n")
+    for f in tiff_frame_files(path):
+        h.update(f"{os.path.basename(f)}\0{sha256_file(f)}\n".encode())
     return h.hexdigest()
 
 
@@ -248,6 +275,10 @@ def regions_from_table(df: pd.DataFrame) -> np.ndarray:
 # --------------------------------------------------------------------------------------
 
 
+class ResultsInUseError(ValueError):
+    """Another command holds the results folder (:meth:`ResultsStore.lock`)."""
+
+
 class ResultsStore:
     """A results folder (layout in the module docstring).
 
@@ -331,10 +362,16 @@ class ResultsStore:
         # Remove the old status first, so a crash between the writes below leaves the
         # trial unfinished rather than pointing at a mix of old and new tables.
         (d / "status.json").unlink(missing_ok=True)
-        atomic_write_parquet(d / "frames.parquet", frames)
-        atomic_write_parquet(d / "forces.parquet", forces)
-        atomic_write_json(d / "status.json",
-                          {"trial": trial_id, "status": "ok", "trial_format": TRIAL_FORMAT, **status})
+        tables = {}
+        for name, df in (("frames.parquet", frames), ("forces.parquet", forces)):
+            buf = io.BytesIO()
+            df.to_parquet(buf, engine="pyarrow", index=False)
+            data = buf.getvalue()
+            atomic_write(d / name, lambda tmp, data=data: tmp.write_bytes(data))
+            # what resume checks before it trusts the table again (verify_tables)
+            tables[name] = {"rows": len(df), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+        atomic_write_json(d / "status.json", {"trial": trial_id, "status": "ok", "trial_format": TRIAL_FORMAT,
+                                              **status, "tables": tables})
 
     def write_failure(self, trial_id: str, reason: str, status: dict) -> None:
         """Record a failed trial with its one-line reason; remove stale tables."""
@@ -346,6 +383,103 @@ class ResultsStore:
         atomic_write_json(
             d / "status.json", {"trial": trial_id, "status": "failed", "reason": one_line, **status}
         )
+
+    def verify_tables(self, trial_id: str, status: dict | None = None) -> str | None:
+        """Why a finished trial's stored tables cannot be trusted, or None when they are
+        intact: each must exist with the size and SHA-256 recorded when it was written
+        (``status.json`` ``tables``); for results written before those were recorded, it
+        must be a readable Parquet file (its footer) with the recorded row count where
+        there is one."""
+        import pyarrow.parquet as pq  # pyarrow is pandas' Parquet engine here
+
+        status = self.status(trial_id) if status is None else status
+        d = self.trial_dir(trial_id)
+        recorded = (status or {}).get("tables") or {}
+        for name in ("frames.parquet", "forces.parquet"):
+            p = d / name
+            rec = recorded.get(name) or {}
+            try:
+                size = p.stat().st_size
+                if rec.get("sha256"):
+                    if size != rec.get("bytes"):
+                        return f"{name} has {size} bytes, {rec.get('bytes')} were written"
+                    if sha256_file(p) != rec["sha256"]:
+                        return f"{name} changed since it was written (SHA-256)"
+                    continue
+                rows = pq.read_metadata(p).num_rows
+            except FileNotFoundError:
+                return f"{name} is missing"
+            except Exception as exc:  # noqa: BLE001 - a damaged Parquet file raises many types
+                return f"{name} cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())[:120]})"
+            if rec.get("rows") is not None and rows != rec["rows"]:
+                return f"{name} has {rows} rows, {rec['rows']} were written"
+        return None
+
+    def mark_input_missing(self, trial_id: str, reason: str | None) -> None:
+        """Mark a finished trial whose input files are missing or unreadable (``reason``),
+        keeping its tables: ``status.json`` gains ``input_missing`` (what and since when);
+        ``reason=None`` removes the mark (the inputs are back, unchanged)."""
+        st = self.status(trial_id)
+        if st is None or st.get("status") != "ok":
+            return
+        if reason is None:
+            if "input_missing" not in st:
+                return
+            st.pop("input_missing")
+        else:
+            since = (st.get("input_missing") or {}).get("since") or now()
+            st["input_missing"] = {"reason": " ".join(str(reason).split()), "since": since}
+        atomic_write_json(self.trial_dir(trial_id) / "status.json", st)
+
+    @contextlib.contextmanager
+    def lock(self, command: str) -> Iterator[None]:
+        """Hold the results folder for one command (``RESULTS/.lock``, an exclusive
+        ``flock`` the system releases when the process ends, however it ends).
+
+        Raises
+        ------
+        ResultsInUseError
+            Another command holds it (the message names it, with its process id).
+        ValueError
+            The folder cannot be written (read-only, no permission).
+        """
+        import fcntl  # POSIX; the package's commands run on Linux and macOS
+
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.root / ".lock", os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as exc:
+            raise ValueError(f"results folder {str(self.root)!r} cannot be written ({exc.strerror or exc}); "
+                             "give a folder you can write with --out") from None
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 200, 0).decode("utf-8", "replace").strip() or "another command"
+                raise ResultsInUseError(
+                    f"results folder {str(self.root)!r} is in use by {holder}; wait for it to finish "
+                    "(two commands writing one results folder would mix their results)") from None
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"`fingerfriction {command}` (process {os.getpid()}, since {now()})".encode(), 0)
+            yield
+        finally:
+            os.close(fd)  # releases the lock
+
+    def purge(self, keep: set) -> list[str]:
+        """Remove what the package wrote for trials not in ``keep`` (``trials/<id>/``), and
+        ``fit/`` and ``report/``; returns the trial ids removed. For a results folder taken
+        over by another study (``analyze --force``)."""
+        gone = []
+        tdir = self.root / "trials"
+        if tdir.is_dir():
+            for p in sorted(tdir.iterdir()):
+                if p.is_dir() and not p.is_symlink() and p.name not in keep:
+                    shutil.rmtree(p)
+                    gone.append(p.name)
+        for sub in (self.fit_dir, self.report_dir):
+            if sub.is_dir() and not sub.is_symlink():
+                shutil.rmtree(sub)
+        return gone
 
     def trial_ids(self) -> list[str]:
         """Ids of every trial with a status record, sorted."""
