@@ -84,7 +84,7 @@ def test_finger_file_round_trip_and_errors(tmp_path):
     (tmp_path / "bare.json").write_text(f.to_json())
     assert read_finger_file(tmp_path / "bare.json") == f
     (tmp_path / "bad.json").write_text("{radius: 3")
-    with pytest.raises(ValueError, match=r"finger file '.*bad.json' is not JSON"):
+    with pytest.raises(ValueError, match=r"finger file '.*bad.json': not valid JSON"):
         read_finger_file(tmp_path / "bad.json")
     (tmp_path / "neg.json").write_text(json.dumps({"radius": 20, "modulus": -1, "width": 10}))
     with pytest.raises(ValueError, match=r"neg.json'.*modulus must be a finite positive"):

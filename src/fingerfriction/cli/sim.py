@@ -11,7 +11,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from .._console import console_log, summary_line
 from ._common import (
     QUIET,
+    SEED,
     VERBOSE,
+    bounded,
     echo,
     err_console,
     fail,
@@ -53,8 +55,10 @@ def _design(surfaces, subjects, speeds) -> dict:
 
 def simulate_cmd(
     out: Annotated[str, typer.Option("--out", help="Output study folder (new, empty, or same study).")],
-    reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).")] = 5,
-    seed: Annotated[int, typer.Option("--seed", help="Study seed: same seed, byte-identical study.")] = 0,
+    reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).",
+                                      callback=bounded(1, 100))] = 5,
+    seed: Annotated[int, typer.Option("--seed", help="Study seed: same seed, byte-identical study.",
+                                      callback=SEED)] = 0,
     surfaces: Annotated[
         list[str] | None, typer.Option("--surfaces", help="Surfaces, e.g. bump-2mm,step-up-4mm (default: 6).")
     ] = None,
@@ -64,7 +68,8 @@ def simulate_cmd(
     speeds: Annotated[
         list[str] | None, typer.Option("--speeds", help="Nominal speeds in mm/s (default 40,80,120).")
     ] = None,
-    workers: Annotated[int, typer.Option("--workers", help="Worker processes (0: all cores).")] = 0,
+    workers: Annotated[int, typer.Option("--workers", help="Worker processes (0: all cores).",
+                                         callback=bounded(0, 256, "workers"))] = 0,
     video_format: Annotated[str, typer.Option("--video-format", help="ffv1-mkv or tiff.")] = "ffv1-mkv",
     contact_model: Annotated[
         str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
@@ -79,7 +84,7 @@ def simulate_cmd(
     finger_seed: Annotated[
         int | None,
         typer.Option("--finger-seed", help="Draw the other subjects' fingers around the calibrated ones "
-                     "(radius, modulus, flat length +-25 %) with this seed."),
+                     "(radius, modulus, flat length +-25 %) with this seed.", callback=SEED),
     ] = None,
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,

@@ -89,6 +89,7 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write, atomic_write_bytes, atomic_write_json, atomic_write_text, jsonable
+from .._check import parse_json
 from .._outputs import write_table
 from ..fit import FitOptions, Trial, flat_segment_mask, mu_grid
 from ..regions import as_regions, regions_on_grid
@@ -106,6 +107,7 @@ __all__ = [
     "atomic_write_parquet",
     "sha256_file",
     "sha256_input",
+    "input_fingerprint",
     "params_digest",
     "ResultsInUseError",
     "now",
@@ -159,14 +161,36 @@ def sha256_input(path: str | os.PathLike) -> str:
     OSError
         A missing or unreadable file or folder.
     ValueError
-        A folder without TIFF frames, or whose frames link out of it.
+        A folder without TIFF frames, or whose frames link out of it; something that is
+        neither a regular file nor a folder.
     """
     if not os.path.isdir(path):
+        if os.path.exists(path) and not os.path.isfile(path):  # a FIFO or a device would block or never end
+            raise ValueError(f"{os.fspath(path)}: not a regular file")
         return sha256_file(path)
     h = hashlib.sha256(b"fingerfriction tiff folder v1\n")
     for f in tiff_frame_files(path):
         h.update(f"{os.path.basename(f)}\0{sha256_file(f)}\n".encode())
     return h.hexdigest()
+
+
+def input_fingerprint(path: str | os.PathLike) -> str:
+    """What the file system says of a trial's input, without reading it: size, modification
+    and status-change times (ns) and inode, of the file or of every frame of a TIFF folder.
+    Any write changes the status-change time (``ctime``), which no user call can set back;
+    ``analyze --quick-resume`` trusts an unchanged fingerprint instead of hashing.
+
+    Raises
+    ------
+    OSError, ValueError
+        As :func:`sha256_input`.
+    """
+    files = tiff_frame_files(path) if os.path.isdir(path) else [path]
+    parts = []
+    for f in files:
+        st = os.stat(f)
+        parts.append(f"{os.path.basename(f)}:{st.st_size}:{st.st_mtime_ns}:{st.st_ctime_ns}:{st.st_ino}")
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
 def params_digest(params: dict) -> str:
@@ -577,6 +601,54 @@ class ResultsStore:
                               "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute)
         return trial, moved[good]
 
+    # the analysis a fit used ----------------------------------------------------------
+    def analysis_digests(self) -> dict[str, str]:
+        """``{trial_id: SHA-256}`` of every trial analysed OK (in the run record), over its
+        stored tables' digests (``status.json`` ``tables``; the files themselves for results
+        written before those were recorded): what a fit records, and what tells that a
+        trial was analysed again since (:meth:`fit_staleness`)."""
+        out = {}
+        for m in self.read_run().get("trials", []):
+            tid = m.get("id") if isinstance(m, dict) else None
+            if not isinstance(tid, str):
+                continue
+            st = self.status(tid) or {}
+            if st.get("status") != "ok":
+                continue
+            tables = st.get("tables") or {}
+            parts = []
+            for name in ("frames.parquet", "forces.parquet"):
+                digest = (tables.get(name) or {}).get("sha256")
+                if digest is None:
+                    try:
+                        digest = sha256_file(self.trial_dir(tid) / name)
+                    except OSError:
+                        digest = "missing"
+                parts.append(f"{name}={digest}")
+            out[tid] = hashlib.sha256(";".join(parts).encode()).hexdigest()
+        return out
+
+    def fit_staleness(self, record: dict | None = None) -> str | None:
+        """Why the fit (``fit/fit.json``) no longer describes the analysed trials, or None:
+        trials analysed again, newly analysed or gone since the fit (the digests the fit
+        recorded, :meth:`analysis_digests`). None also for a fit that recorded none (made by
+        an older version: nothing to compare)."""
+        record = self.read_fit_record() if record is None else record
+        fitted = (record or {}).get("analysis")
+        if not isinstance(fitted, dict) or not isinstance(fitted.get("trials"), dict):
+            return None
+        before, now_ = fitted["trials"], self.analysis_digests()
+        again = sorted(t for t in set(before) & set(now_) if before[t] != now_[t])
+        new = sorted(set(now_) - set(before))
+        gone = sorted(set(before) - set(now_))
+        if not (again or new or gone):
+            return None
+        parts = [f"{len(v)} {what} (e.g. {v[0]})" for v, what in ((again, "analysed again"),
+                                                                   (new, "newly analysed"),
+                                                                   (gone, "no longer analysed OK")) if v]
+        return (f"the fit is older than the analysis: since it was made, trials were {'; '.join(parts)}; "
+                f"run `fingerfriction fit {self.root}` again")
+
     # fit/ ------------------------------------------------------------------------------
     def write_model(self, trial_id: str, df: pd.DataFrame) -> None:
         """``fit/model/<trial-id>.parquet``: the fitted model forces of one trial."""
@@ -668,10 +740,10 @@ def read_fit_table(fit_dir: str | os.PathLike) -> pd.DataFrame:
 
 def _read_json(path: Path) -> dict:
     try:
-        with open(path, encoding="utf-8") as fh:
-            obj = json.load(fh)
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"cannot read {path}: {exc}") from None
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"cannot read {path}: {exc.strerror or exc}") from None
+    obj = parse_json(data, f"cannot read {path}")
     if not isinstance(obj, dict):
         raise ValueError(f"{path}: expected a JSON object, got {type(obj).__name__}")
     return obj

@@ -496,6 +496,8 @@ def open_video(path: str | os.PathLike, **kwargs) -> VideoReader:
         return TiffStackReader(p)
     if not os.path.exists(p):
         raise ValueError(f"{p}: no such video file or folder")
+    if not os.path.isfile(p):  # a FIFO or a device: reading it would block, or never end
+        raise ValueError(f"{p}: not a regular file or a folder of TIFF frames")
     ext = os.path.splitext(p)[1].lower()
     if ext in (".tif", ".tiff"):
         return MultiPageTiffReader(p)
