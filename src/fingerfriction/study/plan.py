@@ -148,6 +148,8 @@ def _hash_or_why(path: Path) -> tuple[str | None, str | None]:
     """``(sha256, None)`` of an input, or ``(None, why it cannot be read)``."""
     if not path.exists():
         return None, "no such file or folder"
+    if not (path.is_file() or path.is_dir()):
+        return None, "not a regular file"
     try:
         return sha256_input(path), None
     except OSError as exc:
@@ -310,9 +312,10 @@ def _check_out_apart(study_dir: Path, out: Path) -> None:
 
 
 def _check_same_study(store: ResultsStore, st: Study, force: bool) -> None:
-    """A results folder belongs to one study: the one its run record names (its folder),
-    or one with the same manifest (the study moved). Another study's folder is refused, or
-    with ``force`` its trials, fit and report are removed first."""
+    """A results folder belongs to one study: the one its run record names (its folder), or
+    one with the same manifest (moved), or one holding a trial's very recordings (moved and
+    edited: a trial of the same id whose force file has the SHA-256 recorded). Another
+    study's folder is refused, or with ``force`` its trials, fit and report are removed."""
     if not store.run_path.is_file():
         return
     try:
@@ -325,7 +328,8 @@ def _check_same_study(store: ResultsStore, st: Study, force: bool) -> None:
     here = str(Path(st.root).resolve())
     manifest = Path(st.root) / "manifest.json"
     digest = sha256_file(manifest) if manifest.is_file() else None
-    if not rec or rec.get("study") == here or (digest and rec.get("manifest_sha256") == digest):
+    if not rec or rec.get("study") == here or (digest and rec.get("manifest_sha256") == digest) \
+            or _shares_a_recording(store, st):
         return
     if not force:
         raise ValueError(
@@ -335,6 +339,24 @@ def _check_same_study(store: ResultsStore, st: Study, force: bool) -> None:
     gone = store.purge({t.id for t in st.trials})
     logger.warning("results folder %s held another study's results (%s): %d trial(s), fit and report "
                    "removed (--force)", store.root, rec.get("study"), len(gone))
+
+
+def _shares_a_recording(store: ResultsStore, st: Study, tries: int = 3) -> bool:
+    """Whether a trial of the study has a result here computed from its very force file
+    (same id, same SHA-256): the study moved and was edited, it is not another one."""
+    for t in st.trials:
+        recorded = ((store.status(t.id) or {}).get("inputs") or {}).get("force") or {}
+        if not recorded.get("sha256"):
+            continue
+        try:
+            if sha256_input(st.path(t.force.path)) == recorded["sha256"]:
+                return True
+        except (OSError, ValueError):
+            pass
+        tries -= 1
+        if tries == 0:
+            return False
+    return False
 
 
 def _select(study: Study, selected: Sequence[str] | str | None, invalid: tuple = ()) -> list[TrialRecord]:
