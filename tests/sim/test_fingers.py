@@ -117,7 +117,7 @@ def test_cli_finger_options(tmp_path):
         (["--finger", "1"], "expected SUBJECT=FILE"),
         (["--finger", f"1={tmp_path / 'nope.json'}"], "cannot read finger file"),
         (["--finger", f"5={tmp_path / 'f1.json'}"], "subject '5' is not simulated"),
-        (["--finger-seed", "-2"], "finger_seed must be"),
+        (["--finger-seed", "-2"], "--finger-seed must be in [0, "),
     ]:
         r = CliRunner().invoke(app, ["simulate", "--out", str(out), *args])
         assert r.exit_code == 2, (args, r.output)

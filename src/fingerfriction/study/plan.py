@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .._outputs import check_output_dir
-from ..video.readers import tiff_frame_files
 from .check import check_study
 from .manifest import Study, TrialRecord
 from .params import AnalysisParams
@@ -158,37 +157,16 @@ def _hash_or_why(path: Path) -> tuple[str | None, str | None]:
         return None, " ".join(str(exc).split())
 
 
-def _readable_or_why(path: Path) -> tuple[str | None, str | None]:
-    """``('', None)`` for an input that exists and opens (not hashed: it is computed
-    anyway, and hashed then), or ``(None, why not)``."""
-    if not path.exists():
-        return None, "no such file or folder"
-    if not (path.is_file() or path.is_dir()):
-        return None, "not a regular file"
-    try:
-        first = tiff_frame_files(path)[0] if path.is_dir() else path
-        with open(first, "rb") as fh:
-            fh.read(1)
-    except OSError as exc:
-        return None, f"cannot be read ({exc.strerror or type(exc).__name__})"
-    except ValueError as exc:
-        return None, " ".join(str(exc).split())
-    return "", None
-
-
-def _hash_inputs(paths: list[Path], opened: set, known: dict | None = None, n_threads: int | None = None
-                 ) -> dict:
-    """``{path: (sha256 or '' or None, why)}``: the inputs hashed on a few threads (hashlib
-    releases the GIL: two threads halve the wall time on two cores); those in ``opened``
-    only opened. ``known`` (``--quick-resume``): ``{path: (fingerprint, sha256)}`` recorded
-    when analysed; an input whose fingerprint is unchanged is given that digest, unread."""
+def _hash_inputs(paths: list[Path], known: dict | None = None, n_threads: int | None = None) -> dict:
+    """``{path: (sha256 or None, why not)}``: the inputs hashed on a few threads (hashlib
+    releases the GIL: two threads halve the wall time on two cores). ``known``
+    (``--quick-resume``): ``{path: (fingerprint, sha256)}`` recorded when analysed; an input
+    whose fingerprint is unchanged is given that digest, unread."""
     if not paths:
         return {}
     known = known or {}
 
     def one(p: Path):
-        if p in opened:
-            return _readable_or_why(p)
         if p in known:
             try:
                 if input_fingerprint(p) == known[p][0]:
@@ -212,7 +190,7 @@ def _input_changes(status: dict, paths: dict, hashes: dict, study: Study, t: Tri
         digest, why = hashes[p]
         if digest is None:
             missing.append(f"{key} ({getattr(t, key).path}: {why})")
-        elif digest and (rec.get(key) or {}).get("sha256") != digest or (rec.get(key) or {}).get("path") != \
+        elif (rec.get(key) or {}).get("sha256") != digest or (rec.get(key) or {}).get("path") != \
                 getattr(t, key).path:
             logger.info("trial %s: %s changed since it was analysed", t.id, getattr(t, key).path)
             changed.append(key)
@@ -268,11 +246,9 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
     for t in selected:
         store.trial_dir(t.id)  # validates the id before anything runs
         first[t.id] = _first_reasons(store, st, t, pdict, pdigest, force)
-    # the inputs of finished trials are hashed (in parallel) only where nothing else
-    # already says they must be computed, and where they must be kept if missing
+    # the inputs of every trial finished OK are hashed (in parallel): to skip it, to say that
+    # they changed, or to keep its results when they are missing
     paths = {t.id: _input_paths(st, t) for t in selected if first[t.id][1] is not None}
-    hashed = {p for tid, ps in paths.items() if not first[tid][0] for p in ps.values()}
-    opened = {p for ps in paths.values() for p in ps.values()} - hashed
     known = {}
     if quick_resume:  # trust an unchanged fingerprint (size, times, inode) instead of hashing
         for tid, ps in paths.items():
@@ -282,7 +258,7 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
                 same_path = r.get("path") == getattr(st.trial(tid), key).path
                 if r.get("fingerprint") and r.get("sha256") and same_path:
                     known[p] = (r["fingerprint"], r["sha256"])
-    hashes = _hash_inputs(sorted(hashed | opened), opened, known)
+    hashes = _hash_inputs(sorted({p for ps in paths.values() for p in ps.values()}), known)
     plans = []
     for t in selected:
         why, status = first[t.id]
