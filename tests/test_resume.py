@@ -9,6 +9,8 @@ import json
 import os
 import re
 import shutil
+import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -23,23 +25,14 @@ from fingerfriction.study.store import (
     input_fingerprint,
     sha256_input,
 )
-from fingerfriction.video.writers import write_video
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_check import _small_study  # noqa: E402
 
 
 def _study(root, n=2):
-    """n trials of tiny recordings (a 6-frame cine at 250 fps, 500 samples of F1/F2)."""
-    raw = root / "raw"
-    raw.mkdir(parents=True)
-    trials = []
-    for i in range(n):
-        write_video(raw / f"t{i}.cine", np.full((6, 24, 40), 200, np.uint8), fps=250.0)
-        np.savez(raw / f"t{i}.npz", F1=np.arange(500.0), F2=np.ones(500))
-        trials.append({"id": f"t{i}", "subject": "1", "surface": "bump-2mm", "speed_mm_s": 80,
-                       "video": {"path": f"raw/t{i}.cine", "fps": 250.0, "n_frames": 6, "width": 40,
-                                 "height": 24},
-                       "force": {"path": f"raw/t{i}.npz", "fs_hz": 10000.0, "n_samples": 500}})
-    (root / "manifest.json").write_text(json.dumps({"format": "fingerfriction-study", "schema_version": 1,
-                                                    "trials": trials}, indent=1))
+    """n trials of tiny recordings (tests/test_check.py's)."""
+    _small_study(root, n=n)
     return root
 
 

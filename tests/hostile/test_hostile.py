@@ -364,35 +364,29 @@ def test_mat73_empty_variable(w):
     _expect(w, "mat73-empty", "error", code, out, r"is an empty MATLAB double array")
 
 
-def test_mat73_sparse_variable(w):
+def _sparse_column(f, name: str, values: np.ndarray) -> None:
+    """A MATLAB v7.3 sparse column: a group of data, ir, jc with MATLAB_sparse = its rows."""
+    g = f.create_group(name)
+    g.attrs["MATLAB_class"] = np.bytes_("double")
+    g.attrs["MATLAB_sparse"] = np.uint64(values.size)
+    g["data"], g["ir"] = values, np.arange(values.size, dtype=np.uint64)
+    g["jc"] = np.array([0, values.size], np.uint64)
+
+
+@pytest.mark.parametrize("case,sparse,channels,pattern", [
+    ("mat73-sparse", "F1", None, r"'F1' \(channel F1\) .* is a MATLAB sparse matrix"),
+    ("mat73-sparse-internals", "S", {"F1": "S.data", "F2": "F2"}, r"'S.data' .* is part of the variable 'S'"),
+])
+def test_mat73_sparse(w, case, sparse, channels, pattern):
     f1, f2 = _load_forces(w, 0)
 
     def build(f):
         f["F2"] = f2[None, :]
-        g = f.create_group("F1")
-        g.attrs["MATLAB_class"] = np.bytes_("double")
-        g.attrs["MATLAB_sparse"] = np.uint64(f1.size)
-        g["data"], g["ir"], g["jc"] = f1[:3], np.arange(3, dtype=np.uint64), np.array([0, 3], np.uint64)
+        _sparse_column(f, sparse, f1)
 
-    _mat73(_use_force_file(w, 0, "forces.mat"), build)
+    _mat73(_use_force_file(w, 0, "forces.mat", **({"channels": channels} if channels else {})), build)
     code, out = w.check()
-    _expect(w, "mat73-sparse", "error", code, out, r"'F1' \(channel F1\) .* is a MATLAB sparse matrix")
-
-
-def test_mat73_sparse_internals_are_not_channels(w):
-    f1, f2 = _load_forces(w, 0)
-
-    def build(f):
-        f["F2"] = f2[None, :]
-        g = f.create_group("S")
-        g.attrs["MATLAB_class"] = np.bytes_("double")
-        g.attrs["MATLAB_sparse"] = np.uint64(f1.size)
-        g["data"], g["ir"] = f1, np.arange(f1.size, dtype=np.uint64)
-        g["jc"] = np.array([0, f1.size], np.uint64)
-
-    _mat73(_use_force_file(w, 0, "forces.mat", channels={"F1": "S.data", "F2": "F2"}), build)
-    code, out = w.check()
-    _expect(w, "mat73-sparse-internals", "error", code, out, r"'S.data' .* is part of the variable 'S'")
+    _expect(w, case, "error", code, out, pattern)
 
 
 def test_mat_v5_sparse_variable(w):
@@ -406,21 +400,23 @@ def test_mat_v5_sparse_variable(w):
     _expect(w, "mat5-sparse", "error", code, out, r"'F1' \(channel F1\) .* is a MATLAB sparse matrix")
 
 
-def test_hdf5_external_link_outside(w):
+def _external_links(w: Work) -> None:
+    """Trial 1's forces: an HDF5 file whose F1, F2 are links to a file outside the study."""
     p = _use_force_file(w, 0, "forces.h5", fs_hz=10_000.0)
     with h5py.File(p, "w") as f:
         f["F1"] = h5py.ExternalLink(str(w.s.outside / "forces.h5"), "/F1")
         f["F2"] = h5py.ExternalLink(str(w.s.outside / "forces.h5"), "/F2")
+
+
+def test_hdf5_external_link_outside(w):
+    _external_links(w)
     code, out = w.check()
     _expect(w, "hdf5-external-link", "error", code, out,
             r"takes data from another file \('F1' is an external link")
 
 
 def test_hdf5_external_link_is_a_failed_trial_in_analyze(w):
-    p = _use_force_file(w, 0, "forces.h5", fs_hz=10_000.0)
-    with h5py.File(p, "w") as f:
-        f["F1"] = h5py.ExternalLink(str(w.s.outside / "forces.h5"), "/F1")
-        f["F2"] = h5py.ExternalLink(str(w.s.outside / "forces.h5"), "/F2")
+    _external_links(w)
     code, out = w.analyze()
     _expect(w, "hdf5-external-link-analyze", "flagged", code, out,
             r"1 analysis failure .* takes data fr.*0 computed, 1 already done, 1 failed of 2 trials")
@@ -489,12 +485,15 @@ def test_npz_with_a_pickled_object(w):
     _expect(w, "npz-pickle", "error", code, out, r"cannot be read without unpickling")
 
 
-def test_force_file_is_a_fifo(w):
-    p = w.file(0, "force")
+@pytest.mark.parametrize("key,pattern", [("force", r"force.path: .* is not a file"),
+                                         ("video", r"video.path: .* not a regular file")])
+def test_input_is_a_fifo(w, key, pattern):
+    """A named pipe where a recording should be: opening it would wait for ever."""
+    p = w.file(0, key)
     p.unlink()
     os.mkfifo(p)
     code, out = w.check()
-    _expect(w, "force-fifo", "error", code, out, r"is not a file")
+    _expect(w, f"{key}-fifo", "error", code, out, pattern)
 
 
 # --------------------------------------------------------------------------------------
@@ -555,14 +554,6 @@ def test_packed_10_bit_cine(w):
     w.entry(0, video__path=str(p.relative_to(w.study)), video__format="cine")
     code, out = w.check()
     _expect(w, "cine-packed-10", "error", code, out, r"packed 10/12-bit pixels")
-
-
-def test_video_is_a_fifo(w):
-    p = w.file(0, "video")
-    p.unlink()
-    os.mkfifo(p)
-    code, out = w.check()
-    _expect(w, "video-fifo", "error", code, out, r"not a regular file")
 
 
 # --------------------------------------------------------------------------------------
