@@ -45,6 +45,7 @@ from scipy.ndimage import gaussian_filter1d
 
 from .. import mechanics
 from ..mechanics import ContactSolver, sweep
+from ..mechanics.fe import FEProvider
 from ..surfaces import Surface
 from ._io import write_npz
 
@@ -326,14 +327,23 @@ def default_provider():
     return MechanicsProvider()
 
 
-def get_provider(name: str):
-    """A contact provider by name: ``'mechanics-bem'`` or ``'bridged-foundation'``."""
+def get_provider(name: str, *, fingers: dict | None = None):
+    """A contact provider by name: ``'mechanics-bem'``, ``'bridged-foundation'`` or ``'fe'``
+    (the layered finite-element finger, :class:`fingerfriction.mechanics.fe.FEProvider`).
+
+    ``fingers`` (subject label -> the model's finger parameters) overrides the provider's
+    default fingers (``mechanics-bem``: ``FingerParams``; ``fe``: ``FEFingerParams``).
+    """
     if name == MechanicsProvider.name:
-        return MechanicsProvider()
+        return MechanicsProvider(fingers=fingers)
     if name == BridgedFoundation.name:
+        if fingers:
+            raise ValueError("the bridged-foundation contact model takes no finger files")
         return BridgedFoundation()
+    if name == FEProvider.name:
+        return FEProvider(fingers=fingers)
     raise ValueError(
-        f"unknown contact model {name!r}; known: {MechanicsProvider.name}, {BridgedFoundation.name}"
+        f"unknown contact model {name!r}; known: {MechanicsProvider.name}, {BridgedFoundation.name}, fe"
     )
 
 
