@@ -35,6 +35,7 @@ _VERSION = 1
 FINGER_MODELS: dict[str, str] = {
     "mechanics-bem": "the plane-strain boundary-element finger (fingerfriction.mechanics)",
     "bridged-foundation": "the simulator's fast simplified stand-in (fingerfriction.sim.contact)",
+    "fe": "the layered plane-strain finite-element finger (fingerfriction.mechanics.fe)",
 }
 
 #: Physical ranges of a finger file's fields, (low, high, unit): a human fingertip pad is
