@@ -564,6 +564,10 @@ def test_packed_10_bit_cine(w):
 @pytest.mark.parametrize("case,edit,pattern", [
     ("n-frames-10e400", lambda w: w.write_manifest((w.study / "manifest.json").read_text().replace(
         '"n_frames": 98', '"n_frames": 1' + "0" * 400, 1)), r"n_frames: must be at most 1e\+07 frames"),
+    ("sensitivity-400-digits", lambda w: (w.entry(0, force__units="V", force__sensitivity_n_per_v="S"),
+                                          w.write_manifest((w.study / "manifest.json").read_text().replace(
+                                              '"S"', "1" + "0" * 400)))[1],
+     r"sensitivity_n_per_v for F1 must be within 1e-9 and 1e9 in magnitude"),
     ("manifest-deeply-nested",
      lambda w: w.write_manifest('{"trials": ' + "[" * 100_000 + "]" * 100_000 + "}"),
      r"nested too deeply"),
@@ -632,6 +636,8 @@ def test_a_300_character_id_is_that_trials_error(w):
                           "--rate", "1e12"], r"--rate must be in"),
     ("simulate-reps-1e6", ["simulate", "--out", "{tmp}/sim", "--reps", "1000000"], r"--reps must be in"),
     ("fit-seed-negative", ["fit", "{results}", "--seed", "-5"], r"--seed must be in"),
+    ("simulate-speed-0.0001", ["simulate", "--out", "{tmp}/sim", "--speeds", "0.0001"],
+     r"--speeds must be in \[1, 1000\] mm/s"),
     ("window-nan", ["analyze", "{study}", "--out", "{results}", "--window-mm", "nan"],
      r"--window-mm must be in"),
     ("predict-surface-1e9", ["predict", "--surface", "bump:W=1e9,H=1e9", "--subject", "1", "--out",

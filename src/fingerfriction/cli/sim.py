@@ -49,6 +49,8 @@ def _design(surfaces, subjects, speeds) -> dict:
                 sp.append(float(v))
             except ValueError:
                 fail(f"--speeds: {v!r} is not a number (mm/s)")
+            if not 1.0 <= sp[-1] <= 1000.0:  # a slower slide lasts minutes of 1 kHz video
+                fail(f"--speeds must be in [1, 1000] mm/s, got {v}")
         kw["speeds"] = tuple(sp)
     return kw
 

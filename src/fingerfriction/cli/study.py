@@ -446,6 +446,8 @@ def demo(
             except ValueError:
                 raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
                     from None
+            if not all(1.0 <= v <= 1000.0 for v in design["speeds"]):
+                raise ValueError(f"--speeds must be in [1, 1000] mm/s, got {speeds}")
         output_dir(out, owns={"study", "results"}, what="demo folder (study/, results/)")
         with console_log(verbosity, echo) as log:
             res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers,
