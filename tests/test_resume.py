@@ -159,13 +159,17 @@ def test_a_results_folder_belongs_to_one_study(finished, tmp_path):
         plan_analysis(other, results)
     (store.fit_dir / "fit.json").parent.mkdir(parents=True)
     (store.fit_dir / "fit.json").write_text("{}")
-    plan_analysis(other, results, force=True)  # with --force: its trials, fit and report removed
-    assert sorted(p.name for p in (results / "trials").iterdir()) == [] and not store.fit_dir.exists()
+    plan = plan_analysis(other, results, force=True)  # a plan (the dry run) removes nothing
+    assert plan.other_study == str(study.resolve()) and store.fit_dir.exists()
+    (other / "raw" / "t0.cine").unlink()  # (the trial fails its check: no cluster started)
+    res = analyze(other, results, force=True, progress=False)  # --force: that study's trials, fit... gone
+    assert res.n_failed == 1 and sorted(p.name for p in (results / "trials").iterdir()) == ["x0"]
+    assert not store.fit_dir.exists()
     # the same study moved elsewhere (the same manifest) is the same study
     moved = tmp_path / "moved"
     shutil.copytree(study, moved)
-    _finish(study, results)
-    assert set(_decisions(moved, results).values()) == {("skip", "unchanged")}
+    _finish(study, tmp_path / "results2")
+    assert set(_decisions(moved, tmp_path / "results2").values()) == {("skip", "unchanged")}
 
 
 def test_results_inside_the_study_are_refused(tmp_path):

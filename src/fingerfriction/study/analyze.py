@@ -255,6 +255,10 @@ def _analyze_locked(study_dir: Path, store: ResultsStore, *, scheduler, n_worker
     """:func:`analyze` once it holds the results folder."""
     plan = plan_analysis(study_dir, store.root, params=params, force=force, trials=trials,
                          quick_resume=quick_resume)
+    if plan.other_study is not None:  # --force on another study's results folder
+        gone = store.purge({t.id for t in plan.study.trials})
+        logger.warning("results folder %s held another study's results (%s): %d trial(s), fit and report "
+                       "removed (--force)", store.root, plan.other_study, len(gone))
     st, pdict, pdigest = plan.study, plan.params, plan.params_sha256
     todo_trials = [st.trial(p.trial_id) for p in plan.trials]
     raw = {"video": dict(params.video), "forces": dict(params.forces)}

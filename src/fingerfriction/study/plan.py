@@ -65,6 +65,7 @@ class AnalysisPlan:
     params_sha256: str
     index: dict
     invalid: tuple = ()
+    other_study: str | None = None  # the study whose results the folder holds (with --force: removed)
 
     @property
     def todo(self) -> list[str]:
@@ -241,7 +242,7 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
     # a results folder of its own, or a new or empty one: never mixed with other files
     check_output_dir(out, marker="run.json", what="results folder")
     store = ResultsStore(out)
-    _check_same_study(store, st, force)
+    other = _check_same_study(store, st, force)
     first = {}
     for t in selected:
         store.trial_dir(t.id)  # validates the id before anything runs
@@ -272,7 +273,7 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
                 why = [*why, f"input changed: {', '.join(changed)}"]
         plans.append(TrialPlan(t.id, "compute" if why else "skip", "; ".join(why) or "unchanged"))
     return AnalysisPlan(study=st, trials=tuple(plans), params=pdict, params_sha256=pdigest,
-                        index=res.index or {}, invalid=invalid)
+                        index=res.index or {}, invalid=invalid, other_study=other)
 
 
 def _check_out_apart(study_dir: Path, out: Path) -> None:
@@ -287,13 +288,14 @@ def _check_out_apart(study_dir: Path, out: Path) -> None:
                          "folder apart from the study")
 
 
-def _check_same_study(store: ResultsStore, st: Study, force: bool) -> None:
+def _check_same_study(store: ResultsStore, st: Study, force: bool) -> str | None:
     """A results folder belongs to one study: the one its run record names (its folder), or
     one with the same manifest (moved), or one holding a trial's very recordings (moved and
     edited: a trial of the same id whose force file has the SHA-256 recorded). Another
-    study's folder is refused, or with ``force`` its trials, fit and report are removed."""
+    study's folder is refused, or with ``force`` that study is returned (``analyze`` then
+    removes its trials, fit and report; nothing is removed here)."""
     if not store.run_path.is_file():
-        return
+        return None
     try:
         rec = store.read_run()
     except ValueError as exc:
@@ -306,15 +308,13 @@ def _check_same_study(store: ResultsStore, st: Study, force: bool) -> None:
     digest = sha256_file(manifest) if manifest.is_file() else None
     if not rec or rec.get("study") == here or (digest and rec.get("manifest_sha256") == digest) \
             or _shares_a_recording(store, st):
-        return
+        return None
     if not force:
         raise ValueError(
             f"results folder {str(store.root)!r} holds the results of another study ({rec.get('study')!r}, "
             f"its run.json), not of {here!r}; give another --out, or --force to remove that study's "
             "trials, fit and report and analyse this one there")
-    gone = store.purge({t.id for t in st.trials})
-    logger.warning("results folder %s held another study's results (%s): %d trial(s), fit and report "
-                   "removed (--force)", store.root, rec.get("study"), len(gone))
+    return str(rec.get("study"))
 
 
 def _shares_a_recording(store: ResultsStore, st: Study, tries: int = 3) -> bool:
