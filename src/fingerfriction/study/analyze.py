@@ -277,7 +277,7 @@ def _analyze_locked(study_dir: Path, store: ResultsStore, *, scheduler, n_worker
     bar = ProgressBar(progress, n_all, "analyze")
     try:
         run.invalid(plan.invalid, bar)
-        run.keep(plan.kept, skipped, bar)
+        run.keep(plan.kept, plan.marked, bar)
         run.run_all(st, skipped, bad, todo, raw, scheduler, n_workers, bar)
     finally:
         bar.close()
@@ -348,7 +348,7 @@ class _Run:
             if self.callback is not None:
                 self.callback(TrialOutcome(tid, "failed", reason))
 
-    def keep(self, kept: list, skipped: list[str], bar: ProgressBar) -> None:
+    def keep(self, kept: list, marked: list[str], bar: ProgressBar) -> None:
         """Trials whose inputs are missing: their results kept, marked; the skipped ones
         unmarked (their inputs are back, unchanged)."""
         for tid, reason in kept:
@@ -358,7 +358,7 @@ class _Run:
             bar.advance(f"{tid} (input missing)")
             if self.callback is not None:
                 self.callback(TrialOutcome(tid, "input missing", reason))
-        for tid in skipped:
+        for tid in marked:  # skipped: their inputs are back, unchanged
             self.store.mark_input_missing(tid, None)
 
     def run_all(self, st: Study, skipped: list[str], bad: dict[str, list[str]], todo: list[TrialRecord],

@@ -53,6 +53,7 @@ class TrialPlan:
     trial_id: str
     action: str
     reason: str
+    marked: bool = False  # its results carry an input-missing mark
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,11 @@ class AnalysisPlan:
     @property
     def skipped(self) -> list[str]:
         return [p.trial_id for p in self.trials if p.action == "skip"]
+
+    @property
+    def marked(self) -> list[str]:
+        """Skipped trials whose results are marked ``input_missing`` (their inputs are back)."""
+        return [p.trial_id for p in self.trials if p.action == "skip" and p.marked]
 
     @property
     def kept(self) -> list[tuple[str, str]]:
@@ -271,7 +277,8 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
                 continue
             if changed:
                 why = [*why, f"input changed: {', '.join(changed)}"]
-        plans.append(TrialPlan(t.id, "compute" if why else "skip", "; ".join(why) or "unchanged"))
+        marked = bool(status and status.get("input_missing"))
+        plans.append(TrialPlan(t.id, "compute" if why else "skip", "; ".join(why) or "unchanged", marked))
     return AnalysisPlan(study=st, trials=tuple(plans), params=pdict, params_sha256=pdigest,
                         index=res.index or {}, invalid=invalid, other_study=other)
 

@@ -80,6 +80,7 @@ import json
 import logging
 import os
 import shutil
+import stat
 from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
@@ -299,6 +300,11 @@ def regions_from_table(df: pd.DataFrame) -> np.ndarray:
 # --------------------------------------------------------------------------------------
 
 
+#: The text of status records by (path, inode, size, modification time), each checked once
+#: (:meth:`ResultsStore.status`).
+_STATUS_CACHE: dict = {}
+
+
 class ResultsInUseError(ValueError):
     """Another command holds the results folder (:meth:`ResultsStore.lock`)."""
 
@@ -358,15 +364,34 @@ class ResultsStore:
 
     # per trial ------------------------------------------------------------------------
     def status(self, trial_id: str) -> dict | None:
-        """The trial's status record, or None if it has none (never run, or interrupted)."""
+        """The trial's status record, or None if it has none (never run, or interrupted).
+
+        A status read again while its file is the same (inode, size, modification time: it
+        is only ever replaced whole) is not read and checked again (``analyze`` reads each
+        several times): its text, checked once, is parsed again into a new dict."""
         p = self.trial_dir(trial_id) / "status.json"
-        if not p.is_file():
-            return None
         try:
-            return _read_json(p)
-        except ValueError as exc:
+            st = p.stat()
+        except OSError:
+            return None
+        if not stat.S_ISREG(st.st_mode):
+            return None
+        key = (str(p), st.st_ino, st.st_size, st.st_mtime_ns)
+        text = _STATUS_CACHE.get(key)
+        if text is not None:
+            return json.loads(text)
+        try:
+            text = p.read_text(encoding="utf-8")
+            obj = parse_json(text, f"cannot read {p}")
+            if not isinstance(obj, dict):
+                raise ValueError(f"{p}: expected a JSON object, got {type(obj).__name__}")
+        except (OSError, ValueError) as exc:  # (UnicodeDecodeError is a ValueError)
             logger.warning("ignoring unreadable status of trial %s: %s", trial_id, exc)
             return None
+        if len(_STATUS_CACHE) > 20_000:
+            _STATUS_CACHE.clear()
+        _STATUS_CACHE[key] = text
+        return obj
 
     def is_finished(self, trial_id: str, params_sha256: str) -> bool:
         """True if the trial finished OK with these analysis parameters."""
