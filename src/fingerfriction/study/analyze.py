@@ -19,7 +19,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
@@ -33,6 +33,7 @@ from .check import check_files
 from .manifest import Study, TrialRecord
 from .params import AnalysisParams
 from .plan import AnalysisPlan, StudyCheckError, TrialPlan, _check_out_apart, plan_analysis, trial_entry
+from .selfcheck import synchronise_study
 from .store import ResultsStore, input_fingerprint, now, sha256_file, sha256_input
 from .trial import TrialInput, one_line, process_trial
 
@@ -96,6 +97,10 @@ class AnalyzeResult:
     input_missing : tuple of (str, str)
         ``(trial_id, reason)`` of the trials whose input files are missing or unreadable:
         their last good results are kept, marked ``input_missing`` in ``status.json``.
+    sync : dict
+        The synchronisation of this run's trials (:meth:`.selfcheck.SyncOutcome.record`):
+        the mode and each trial's measured video-force offset; empty with
+        ``sync='manifest'``.
     """
 
     results: Path
@@ -110,6 +115,7 @@ class AnalyzeResult:
     compute_s: float = 0.0
     plan: tuple = ()
     input_missing: tuple = ()
+    sync: dict = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -261,7 +267,7 @@ def _analyze_locked(study_dir: Path, store: ResultsStore, *, scheduler, n_worker
                        "removed (--force)", store.root, plan.other_study, len(gone))
     st, pdict, pdigest = plan.study, plan.params, plan.params_sha256
     todo_trials = [st.trial(p.trial_id) for p in plan.trials]
-    raw = {"video": dict(params.video), "forces": dict(params.forces)}
+    raw = {"video": dict(params.video), "forces": dict(params.forces), "selfcheck": dict(params.selfcheck)}
     t_start = time.perf_counter()
     started = now()
     skipped = plan.skipped
@@ -279,6 +285,7 @@ def _analyze_locked(study_dir: Path, store: ResultsStore, *, scheduler, n_worker
         run.invalid(plan.invalid, bar)
         run.keep(plan.kept, plan.marked, bar)
         run.run_all(st, skipped, bad, todo, raw, scheduler, n_workers, bar)
+        run.synchronise(st, params)
     finally:
         bar.close()
         elapsed = time.perf_counter() - t_start
@@ -288,7 +295,8 @@ def _analyze_locked(study_dir: Path, store: ResultsStore, *, scheduler, n_worker
     return AnalyzeResult(results=store.root, n_trials=n_all, n_computed=run.n_ok,
                          n_skipped=len(skipped), n_failed=run.n_fail, failures=tuple(run.failures),
                          elapsed_s=elapsed, scheduler=run.scheduler, n_workers=run.n_workers,
-                         compute_s=run.compute_s, plan=plan.trials, input_missing=tuple(plan.kept))
+                         compute_s=run.compute_s, plan=plan.trials, input_missing=tuple(plan.kept),
+                         sync=run.sync)
 
 
 def _checked_todo(st: Study, plan: AnalysisPlan) -> tuple[list[TrialRecord], dict[str, list[str]]]:
@@ -335,6 +343,8 @@ class _Run:
         self.params, self.entries = params, entries
         self.n_ok = self.n_fail = self.n_kept = 0
         self.failures: list[tuple[str, str]] = []
+        self.ok_ids: list[str] = []
+        self.sync: dict = {}
         self.scheduler, self.n_workers = "none", 0
         self.t_submit = self.t_done = None
 
@@ -416,6 +426,24 @@ class _Run:
             if cluster is not None:
                 cluster.close()
 
+    def synchronise(self, st: Study, params: AnalysisParams) -> None:
+        """The study-level part of the consistency stage (:func:`~.selfcheck.synchronise_study`)
+        on the trials computed in this run: failed or moved trials are counted and logged."""
+        if not self.ok_ids:
+            return
+        out = synchronise_study(self.store, st, params, self.ok_ids)
+        self.sync = out.record()
+        for tid, reason in out.failed:
+            self.n_ok -= 1
+            self.n_fail += 1
+            self.failures.append((tid, reason))
+            logger.warning("trial %s failed: %s", tid, reason)
+        for tid, line in out.warnings:
+            code, _, message = line.partition(": ")
+            logger.warning(f"{code} in trial %s: %s", tid, message)
+        if self.t_done is not None:
+            self.t_done = time.perf_counter()
+
     @property
     def compute_s(self) -> float:
         """Seconds from the first submission to the last result (0 when nothing ran)."""
@@ -429,7 +457,8 @@ class _Run:
                 "scheduler": self.scheduler, "n_workers": self.n_workers, "force": bool(force),
                 "computed": self.n_ok, "skipped": n_skipped, "failed": self.n_fail,
                 "input_missing": self.n_kept,
-                "interrupted": self.n_ok + self.n_fail + n_skipped + self.n_kept < n_trials}
+                "interrupted": self.n_ok + self.n_fail + n_skipped + self.n_kept < n_trials,
+                **({"sync": self.sync} if self.sync else {})}
 
     def record(self, t: TrialRecord, res: dict, bar: ProgressBar) -> None:
         """Write one trial's result (or failure) into the store; count it; report it."""
@@ -449,6 +478,10 @@ class _Run:
             logger.warning("trial %s: %s", t.id, res["reason"])
         if res["ok"]:
             self.n_ok += 1
+            self.ok_ids.append(t.id)
+            for c in (res["info"].get("selfcheck") or {}).get("checks", []):
+                if c.get("level") == "warning":  # the console summary groups them by kind (code)
+                    logger.warning(f"{c.get('code')} in trial %s: %s", t.id, c.get("message"))
             outcome = TrialOutcome(t.id, "ok", "", status["elapsed_s"])
         else:
             self.n_fail += 1
