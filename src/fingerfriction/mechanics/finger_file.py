@@ -22,16 +22,17 @@ for (``model="halfspace"`` by default) and says so in one line when the file hol
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 from .._atomic import atomic_write_json
+from .._check import parse_json
 from .fe.params import FEFingerParams
 from .finger import FingerParams
 
-__all__ = ["FINGER_FORMAT", "read_finger_file", "write_finger_file", "finger_from_mapping",
-           "read_subject_fingers", "fe_finger_from_mapping", "finger_model"]
+__all__ = ["FINGER_FORMAT", "FINGER_MODELS", "FINGER_RANGES", "register_finger_model", "read_finger_file",
+           "write_finger_file", "finger_from_mapping", "read_subject_fingers", "fe_finger_from_mapping",
+           "finger_model"]
 
 #: The finger models a file can hold: the half-space finger (``model`` absent or
 #: ``'mechanics-bem'``, truth files' provider name) and the FE finger (``'fe'``).
@@ -48,6 +49,50 @@ def finger_model(d) -> str:
 
 FINGER_FORMAT = "fingerfriction-finger"
 _VERSION = 1
+
+#: The finger models a finger file may name in its ``model`` field (the contact model whose
+#: finger it is; ground-truth files of the simulator carry it), name -> what it is. Other
+#: models add theirs with :func:`register_finger_model`; an unknown name is refused.
+FINGER_MODELS: dict[str, str] = {
+    "mechanics-bem": "the plane-strain boundary-element finger (fingerfriction.mechanics)",
+    "bridged-foundation": "the simulator's fast simplified stand-in (fingerfriction.sim.contact)",
+    "fe": "the layered plane-strain finite-element finger (fingerfriction.mechanics.fe)",
+}
+
+#: Physical ranges of a finger file's fields, (low, high, unit): a human fingertip pad is
+#: about 8 mm in radius and 0.07-0.2 MPa soft (Pawluk & Howe 1999), its skin up to a few
+#: hundred MPa; the ranges are wide around those, and refuse what no finger is (a radius
+#: of a metre, a modulus of steel) before a contact model runs on it.
+FINGER_RANGES: dict[str, tuple[float, float, str]] = {
+    "radius": (0.5, 50.0, "mm"),
+    "modulus": (1e-3, 1e3, "MPa"),
+    "width": (0.5, 50.0, "mm"),
+    "semi_height": (0.5, 50.0, "mm"),
+    "flat_length": (0.0, 50.0, "mm"),
+    "layer_thickness": (0.01, 50.0, "mm"),
+    "skin_modulus": (1e-3, 1e4, "MPa"),
+    "skin_thickness": (1e-3, 5.0, "mm"),
+}
+
+
+def register_finger_model(name: str, description: str) -> None:
+    """Make ``name`` a known value of a finger file's ``model`` field (:data:`FINGER_MODELS`)."""
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"a finger model needs a non-empty name, got {name!r}")
+    FINGER_MODELS[name] = str(description)
+
+
+def _check_ranges(finger: FingerParams, where: str) -> None:
+    for key, (lo, hi, unit) in FINGER_RANGES.items():
+        v = getattr(finger, key, None)
+        if v is not None and not lo <= v <= hi:
+            raise ValueError(f"{where}: {key} = {v:g} {unit} is outside the physical range [{lo:g}, {hi:g}] "
+                             f"{unit} of a fingertip (FINGER_RANGES)")
+    if finger.profile is not None:
+        u, s = finger.profile
+        if u[-1] - u[0] > 2 * FINGER_RANGES["radius"][1] or max(s) > 2 * FINGER_RANGES["radius"][1]:
+            raise ValueError(f"{where}: profile spans {u[-1] - u[0]:g} mm across and {max(s):g} mm high, "
+                             f"more than a fingertip ({2 * FINGER_RANGES['radius'][1]:g} mm)")
 
 
 def _unwrap(d: dict, where: str, fields: str) -> dict:
@@ -87,11 +132,14 @@ def finger_from_mapping(d, where: str = "finger") -> FingerParams:
         raise ValueError(f"{where}: holds an FE finger (model 'fe'); this needs a half-space finger "
                          "(the finger files of calibrate-finger)")
     d = dict(_unwrap(d, where, "FingerParams"))
-    d.pop("model", None)  # truth/study.json's finger entries carry the provider's name ...
+    model = d.pop("model", None)  # truth/study.json's finger entries carry the provider's name ...
+    if model is not None and model not in FINGER_MODELS:
+        raise ValueError(f"{where}: model {str(model)[:60]!r} is not a known finger model; known: "
+                         f"{', '.join(sorted(FINGER_MODELS))}")
     for k in ("n", "clearance_mm", "side_radius_mm"):  # ... and its grid settings
         d.pop(k, None)
     try:
-        return FingerParams.from_dict(d)
+        finger = FingerParams.from_dict(d)
     except TypeError as exc:
         if "missing" in str(exc):
             raise ValueError(f"{where}: {exc}; a finger needs at least radius (mm), modulus (MPa) "
@@ -99,6 +147,8 @@ def finger_from_mapping(d, where: str = "finger") -> FingerParams:
         raise ValueError(f"{where}: {exc}") from None
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
+    _check_ranges(finger, where)
+    return finger
 
 
 def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
@@ -139,11 +189,8 @@ def read_finger_file(path: str | os.PathLike, model: str = "halfspace"):
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise ValueError(f"cannot read finger file {str(p)!r}: {exc.strerror or exc}") from None
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"finger file {str(p)!r} is not JSON: {exc.msg} at line {exc.lineno}") from None
     where = f"finger file {str(p)!r}"
+    d = parse_json(text, where)
     return fe_finger_from_mapping(d, where) if model == "fe" else finger_from_mapping(d, where)
 
 

@@ -179,6 +179,7 @@ def fit(
     options = fitmod.FitOptions(median_kernel=int(median_kernel))
     load_options = fitmod.LoadFitOptions(median_kernel=int(median_kernel), seed=int(seed))
     surfaces = store.surfaces()
+    analysis = store.analysis_digests()  # what is fitted, so that the report can tell it changed since
     meta = {t["id"]: t for t in store.analysed_trials()}
     if not meta:
         raise ValueError(f"{str(store.root)!r} has no successfully analysed trial to fit")
@@ -200,6 +201,7 @@ def fit(
     store.write_fit_csv("table1", table1)
     record = _fit_record(model, fits, cpu, (start, stop, step, int(grid.size)), method, options, load_options,
                          flags, len(trials), failures)
+    record["analysis"] = {"trials": analysis}  # per trial: the digest of its stored tables
     store.write_fit_record(record)  # validate_results reads the grid and options from it
     loso, loso_message = _validate_after_fit(store, trials, validate)
     record["loso"] = {"computed": loso is not None, "message": loso_message,
