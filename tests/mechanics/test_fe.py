@@ -6,6 +6,7 @@ Coarse meshes throughout; the converged figures are printed by benchmarks/fe_fin
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -274,3 +275,28 @@ def test_fe_finger_files_round_trip_and_one_line_errors(tmp_path):
     # an FE file where a half-space finger is needed
     with pytest.raises(ValueError, match="holds an FE finger"):
         read_finger_file(p)
+
+
+@pytest.mark.slow  # a coarse FE sweep of 11 positions, ~6 s
+def test_the_fe_finger_as_the_forward_model(tmp_path, monkeypatch):
+    from fingerfriction.mechanics.finger_file import read_finger_file, write_finger_file
+    from fingerfriction.predict.forward import FE_FORWARD_STEP, _finger_for_label, forward_regions
+
+    monkeypatch.setenv("FINGERFRICTION_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("FINGERFRICTION_FE_MESH", json.dumps(COARSE.to_dict()))
+    surf = get_surface("bump-4mm")
+    x = np.arange(-6.0, -4.99, 0.05)  # finer than the FE step: nearest solved position
+    geo = forward_regions(surf, LITERATURE_FINGER, x, load=0.3)
+    mech = forward_regions(surf, LITERATURE_FINGER, x, load=0.3, contact="mechanical")
+    assert geo.shape[0] == x.size and FE_FORWARD_STEP == 0.1
+    assert np.array_equal(geo[0], geo[1], equal_nan=True)  # -6.0 and -5.95 share the -6.0 solve
+    w_geo = np.nansum(geo[..., 1] - geo[..., 0], axis=1)
+    w_mech = np.nansum(mech[..., 1] - mech[..., 0], axis=1)
+    assert np.all(w_geo > 6.0) and np.all(w_mech > 4.0) and np.all(w_geo > w_mech)  # 70 um is wider
+    assert len(list((tmp_path / "cache" / "fe").glob("*.npz"))) == 1  # one cached sweep, reused
+    forward_regions(surf, LITERATURE_FINGER, x, load=0.3)
+    assert len(list((tmp_path / "cache" / "fe").glob("*.npz"))) == 1
+    # an FE finger file is a subject's forward-model finger (validate --finger 1=fe.json)
+    path = write_finger_file(tmp_path / "fe.json", LITERATURE_FINGER)
+    f = read_finger_file(path, model="any")
+    assert f == LITERATURE_FINGER and _finger_for_label("1", {"1": f}) == f

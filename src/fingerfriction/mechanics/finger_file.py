@@ -176,7 +176,8 @@ def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
 
 def read_finger_file(path: str | os.PathLike, model: str = "halfspace"):
     """Read a finger JSON file (either form of the module notes) of the given ``model``
-    (``'halfspace'``: a :class:`FingerParams`; ``'fe'``: an :class:`FEFingerParams`).
+    (``'halfspace'``: a :class:`FingerParams`; ``'fe'``: an :class:`FEFingerParams`;
+    ``'any'``: the file's own model).
 
     Raises
     ------
@@ -191,6 +192,8 @@ def read_finger_file(path: str | os.PathLike, model: str = "halfspace"):
         raise ValueError(f"cannot read finger file {str(p)!r}: {exc.strerror or exc}") from None
     where = f"finger file {str(p)!r}"
     d = parse_json(text, where)
+    if model == "any":
+        model = finger_model(d)
     return fe_finger_from_mapping(d, where) if model == "fe" else finger_from_mapping(d, where)
 
 
