@@ -539,16 +539,28 @@ class FEContactSolver:
                 # the previous position's traction: the move starts sheared, as the finger is
                 f_ext = self._friction_force(warm.u, warm.z, warm.x_c, hf, float(friction))
             u, z, total_it, res, ok, msg = self._warm(warm, x_c, P, hf, tol, max_iter, depth=0, f_ext=f_ext)
+            if not ok and f_ext is not None:  # the move without traction, then the fixed point
+                u, z, it, res, ok, msg = self._warm(warm, x_c, P, hf, tol, max_iter, depth=0)
+                total_it += it
         # a cold start ramps the traction too (a full one at once can stall Newton on a slope)
         levels = friction * np.arange(1, ramp + 1) / ramp if warm is None else (friction,)
+        # each step is in equilibrium with the traction of the previous one; when a step's
+        # Newton fails (the active set cycles under the dead traction), the last converged
+        # state is kept: in equilibrium with a traction one fixed-point step old
         for mu in levels if friction else ():
             for _ in range(30):
                 if not ok:
                     break
                 f_ext = self._friction_force(u, z, x_c, hf, float(mu))
-                u0 = u
-                u, z, it, res, ok, msg = self._newton(u, z, x_c, P, hf, tol, max_iter, f_ext=f_ext)
+                u0, z0, res0 = u, z, res
+                u, z, it, res, ok1, msg1 = self._newton(u, z, x_c, P, hf, tol, max_iter, f_ext=f_ext)
                 total_it += it
+                if not ok1:
+                    log.debug("friction fixed point at x = %.4g mm: %s; keeping the last state", x_c, msg1)
+                    u, z, res = u0, z0, res0
+                    msg += "; friction fixed point stopped early (a traction step did not converge)"
+                    break
+                msg = msg1
                 change = np.max(np.abs(self._friction_force(u, z, x_c, hf, float(mu)) - f_ext))
                 if change < 1e-6 * P and np.max(np.abs(u - u0)) < 1e-6:
                     break
