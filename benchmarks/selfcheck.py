@@ -546,10 +546,11 @@ def power_onset(t, y, lo: float, hi: float, side: int) -> float:
     return -t0 if side < 0 else t0
 
 
-def _events_one(root: str, trial_id: str, frames_path: str) -> dict:
+def _events_one(root: str, trial_id: str, frames_path: str, truth_path: str | None = None) -> dict:
     """The touch-down, the press and the lift-off of one trial as both recordings show them
     (worker process): the finger's gap above the surface and the contact's right end per
-    video frame (the video stage's own outlines), the force's press."""
+    video frame (the video stage's own outlines), the force's press; from the simulator's
+    truth (``truth_path``), when the finger touches and leaves the surface."""
     import logging
     import warnings
 
@@ -592,15 +593,15 @@ def _events_one(root: str, trial_id: str, frames_path: str) -> dict:
     fn = np.asarray(sig.f_n, float)
     s = sig.t0_s + np.arange(fn.size) / sig.fs_hz
     level = float(np.nanpercentile(fn, 95))
-    on = np.flatnonzero(fn > 0.1 * level)
-    s_on, s_off = float(s[on[0]]), float(s[on[-1]])
+    s_on = float(s[np.flatnonzero(fn > 0.1 * level)[0]])
     base = float(np.median(fn[s < s_on - 0.02])) if np.any(s < s_on - 0.02) else 0.0
-    out = {
-        "id": trial_id,
-        "subject": str(rec.subject),
-        "press_after_first_frame_ms": 1e3 * (s_on - t_all[0]),
-        "lift_after_last_frame_ms": 1e3 * (s_off - t_all[-1]),
-    }
+    out = {"id": trial_id, "subject": str(rec.subject), "touch_ms": math.nan, "lift_ms": math.nan}
+    if truth_path:  # the true clock: the truth's force time base and the manifest's video clock
+        with np.load(truth_path, allow_pickle=False) as z:
+            t_true, contact = np.asarray(z["t_force"], float), np.asarray(z["F_N"], float) > 0
+        if contact.any():
+            out["touch_ms"] = 1e3 * (t_true[np.flatnonzero(contact)[0]] - t_all[0])
+            out["lift_ms"] = 1e3 * (t_true[np.flatnonzero(contact)[-1]] - t_all[-1])
     ok = np.isfinite(gap_mm)
     out["t_touch_video"] = {w: power_onset(tv[ok], gap_mm[ok], 0.02, w, -1) for w in GAP_WINDOWS_MM}
     out["t_touch_force"] = {
@@ -644,14 +645,20 @@ def _events_one(root: str, trial_id: str, frames_path: str) -> dict:
     return out
 
 
-def _events(study: Path, check_results: Path, workers: int) -> list[dict]:
+def _events(study: Path, check_results: Path, workers: int, truth_study: Path | None = None) -> list[dict]:
+    """:func:`_events_one` of every trial of ``study``; the truth files from ``truth_study``
+    (default ``study``; the shifted study has none of its own)."""
     from fingerfriction.study.manifest import load_manifest
 
     st = load_manifest(study)
+    tst = load_manifest(truth_study or study)
     ids = [t.id for t in st.trials]
     frames = [str(check_results / "trials" / i / "frames.parquet") for i in ids]
+    truth = [
+        str(tst.root / tst.trial(i).truth) if getattr(tst.trial(i), "truth", None) else None for i in ids
+    ]
     with ProcessPoolExecutor(max_workers=workers) as ex:
-        return list(ex.map(_events_one, [str(study)] * len(ids), ids, frames))
+        return list(ex.map(_events_one, [str(study)] * len(ids), ids, frames, truth))
 
 
 def _rms(v) -> float:
@@ -663,17 +670,16 @@ def _rms(v) -> float:
 def print_events(rows: list[dict], shifts: dict | None = None) -> dict:
     """Print what the press, the touch-down and the lift-off tell; return the touch-down
     offsets ``{(gap window, force window): {trial: offset_s}}``."""
-    # on the true clock: the applied shift moved the force record's times by +shift
-    back = np.array([1e3 * (shifts or {}).get(r["id"], 0.0) for r in rows])
-    press_at = np.array([r["press_after_first_frame_ms"] for r in rows]) - back
-    lift_at = np.array([r["lift_after_last_frame_ms"] for r in rows]) - back
-    n = len(rows)
-    print(
-        f"coverage: the press (F_N above a tenth of its level) starts "
-        f"{press_at.min():.0f}-{press_at.max():.0f} ms after the video's first frame in "
-        f"{np.sum(press_at > 0)} of {n} trials; it ends {lift_at.min():.0f}-{lift_at.max():.0f} ms "
-        f"after the video's last frame in {np.sum(lift_at > 0)} of {n}"
-    )
+    touch = np.array([r["touch_ms"] for r in rows])
+    lift = np.array([r["lift_ms"] for r in rows])
+    if np.isfinite(touch).any():
+        print(
+            f"coverage (the simulator's truth, F_N > 0): the finger touches down "
+            f"{np.nanmin(touch):.0f}-{np.nanmax(touch):.0f} ms after the video's first frame "
+            f"(in the video in {np.sum(touch > 0)} of {len(rows)} trials); it lifts off "
+            f"{np.nanmin(lift):.0f}-{np.nanmax(lift):.0f} ms after the video's last frame "
+            f"(after the video in {np.sum(lift > 0)} of {len(rows)})"
+        )
     last = [r["gap_before_closing_px"] for r in rows if len(r["gap_before_closing_px"]) == 6]
     if last:
         print(
@@ -732,7 +738,7 @@ def step_events(study: Path, workers: int) -> None:
     auto = WORK / "shifted-auto"
     if not (auto / "run.json").is_file():
         clean_run(shifted, auto, sync="auto")
-    rows = _events(shifted, check, workers)
+    rows = _events(shifted, check, workers, truth_study=study)
     td = print_events(rows, shifts)
     # what the touch-down adds to the start of the slide (--sync auto of part 3): the part
     # of a finger's offsets the starts cannot tell apart, c + k v^-1/4, taken from the
