@@ -12,8 +12,8 @@ import math
 import numpy as np
 
 from ..mechanics import GEOMETRIC_TOL, SUBJECTS, FingerParams, sweep
-from ..mechanics.fe.params import FEFingerParams
-from ..regions import as_regions, region_lengths
+from ..mechanics.fe import FEFingerParams, FEProvider  # scikit-fem only when an FE solver is built
+from ..regions import as_regions, region_lengths, regions_from_mask
 from ..surfaces import SampledProfile, Surface
 
 __all__ = [
@@ -196,9 +196,6 @@ def _fe_regions(surface: Surface, finger, x: np.ndarray, load: float, contact: s
     frictionless, its tables cached on disk) at positions ``x``: solved every
     :data:`FE_FORWARD_STEP` mm over the span of ``x`` (an FE sweep is warm-started), each
     position taking the nearest solved one's regions."""
-    from ..mechanics.fe import FEProvider  # scikit-fem: only when an FE finger is asked for
-    from ..regions import regions_from_mask
-
     if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)):
         raise ValueError("positions must be a non-empty 1-D array of finite finger positions in mm")
     lo, hi = float(x.min()), float(x.max())
