@@ -46,10 +46,14 @@ from fingerfriction.mechanics import SUBJECTS
 from fingerfriction.mechanics._calibration_problem import _Problem
 from fingerfriction.mechanics.calibrate import CalibrationOptions
 from fingerfriction.mechanics.finger_file import finger_from_mapping
-from fingerfriction.predict import validate_results
+from fingerfriction.model.stats import BOTH
+from fingerfriction.pipeline.finger_calibration import (
+    calibrate_held_out,
+    calibrate_results,
+    trials_from_results,
+)
+from fingerfriction.pipeline.validation import validate_results
 from fingerfriction.sim.fingers import DRAWN_FIELDS, relative_difference
-from fingerfriction.stats import BOTH
-from fingerfriction.study.finger_calibration import calibrate_held_out, calibrate_results, trials_from_results
 
 TARGET_PARAM = 0.05
 TARGET_BS_MM = 0.05

@@ -185,10 +185,8 @@ def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
     import logging
     import warnings
 
-    from fingerfriction.study.check import check_files
-    from fingerfriction.study.manifest import load_manifest
-    from fingerfriction.study.params import AnalysisParams, force_params, video_options
-    from fingerfriction.study.trial import (
+    from fingerfriction.pipeline.params import AnalysisParams, force_params, video_options
+    from fingerfriction.pipeline.trial import (
         TrialInput,
         check_trial_inputs,
         one_line,
@@ -196,6 +194,8 @@ def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
         read_trial_forces,
         run_video,
     )
+    from fingerfriction.study.check import check_files
+    from fingerfriction.study.manifest import load_manifest
 
     warnings.simplefilter("ignore")  # the video stage's warnings about the mistaken scales: expected
     logging.getLogger("fingerfriction").setLevel(logging.ERROR)
@@ -269,9 +269,9 @@ def run_mistakes(root: Path, index: dict, workers: int) -> dict:
 
 def synchronise_copies(root: Path, rows: dict, index: dict) -> None:
     """The study-level synchronisation: each copy against the unmodified trials' starts."""
+    from fingerfriction.pipeline.selfcheck import sync_checks
     from fingerfriction.selfcheck import OnsetData, SelfCheckParams, estimate_offsets
     from fingerfriction.study.manifest import load_manifest
-    from fingerfriction.study.selfcheck import sync_checks
 
     st = load_manifest(root)
     P = SelfCheckParams()
@@ -386,7 +386,7 @@ def shifted_study(study: Path, out: Path, seed: int = 21) -> tuple[Path, dict]:
 
 
 def _mu(results: Path) -> dict:
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     res = fit(results, progress=False, validate=False)
     return dict(res.mu)

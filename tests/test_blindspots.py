@@ -1,9 +1,9 @@
-"""Tests of fingerfriction.blindspots on hand-built region sequences (exact answers)."""
+"""Tests of fingerfriction.model.blindspots on hand-built region sequences (exact answers)."""
 
 import numpy as np
 import pytest
 
-from fingerfriction.blindspots import blind_spots, contact_union, occupancy
+from fingerfriction.model.blindspots import blind_spots, contact_union, occupancy
 
 
 def test_blind_spot_widths_exact():

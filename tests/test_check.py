@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
-from fingerfriction.study.analyze import StudyCheckError, analyze, plan_analysis
+from fingerfriction.pipeline.analyze import StudyCheckError, analyze, plan_analysis
 from fingerfriction.study.check import check_study
 from fingerfriction.study.manifest import load_manifest
 from fingerfriction.video.writers import write_video

@@ -1,4 +1,4 @@
-"""Calibrating a finger from a results folder (fingerfriction.study.finger_calibration, issue 15)."""
+"""Calibrating a finger from a results folder (fingerfriction.pipeline.finger_calibration, issue 15)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 
 from fingerfriction.mechanics import SUBJECTS, sweep
 from fingerfriction.mechanics.calibrate import CalibrationError, CalibrationOptions
+from fingerfriction.pipeline.finger_calibration import calibrate_results, trials_from_results
 from fingerfriction.study import ResultsStore, frames_table
-from fingerfriction.study.finger_calibration import calibrate_results, trials_from_results
 from fingerfriction.surfaces import get_surface
 
 TRUE = dataclasses.replace(SUBJECTS[2], radius=24.0, modulus=0.16, flat_length=6.5)
@@ -165,7 +165,7 @@ def test_finger_option_errors_are_one_line(tmp_path):
 
 
 def test_held_out_calibrations_record_what_failed(tmp_path):
-    from fingerfriction.study.finger_calibration import calibrate_held_out
+    from fingerfriction.pipeline.finger_calibration import calibrate_held_out
 
     _write(tmp_path / "r", DESIGN)  # 2 surfaces x 2 trials: 2 trials left without either
     seen = []
@@ -180,7 +180,7 @@ def test_held_out_calibrations_record_what_failed(tmp_path):
 
 @pytest.mark.slow
 def test_held_out_calibrations_use_the_other_surfaces_only(tmp_path):
-    from fingerfriction.study.finger_calibration import calibrate_held_out
+    from fingerfriction.pipeline.finger_calibration import calibrate_held_out
 
     _write(tmp_path / "r", DESIGN)
     opts = CalibrationOptions(dx=0.08, coarse_step=0.3, fine_step=0.1, n_loads=2, coarse_stride=2,

@@ -21,10 +21,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from fingerfriction.pipeline.analyze import analyze
+from fingerfriction.pipeline.fitting import fit
+from fingerfriction.pipeline.params import SIM_CF_CENTROID_PARAMS, AnalysisParams, sim_params
 from fingerfriction.regions import regions_on_grid
-from fingerfriction.study.analyze import analyze
-from fingerfriction.study.fitting import fit
-from fingerfriction.study.params import SIM_CF_CENTROID_PARAMS, AnalysisParams, sim_params
 from fingerfriction.study.store import (
     ResultsStore,
     atomic_write_parquet,

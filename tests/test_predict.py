@@ -10,9 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fingerfriction.blindspots import blind_spots
 from fingerfriction.mechanics import SUBJECTS, solve_contact, sweep
 from fingerfriction.model import FrictionParams, LoadParams
+from fingerfriction.model.blindspots import blind_spots
 from fingerfriction.predict import (
     MAX_SLOPE_ANGLE,
     PAPER_MU,
@@ -263,7 +263,7 @@ def _study_trials(forward_study, *, reps, noise, param_sd, seed=0, drift_correct
 
 def test_loso_exact_on_forward_generated_study(forward_study, tmp_path):
     from fingerfriction.fit import FitOptions
-    from fingerfriction.predict import leave_one_surface_out
+    from fingerfriction.pipeline.validation import leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=2, noise=0.0, param_sd=0.0)
     res = leave_one_surface_out(trials, model="paper", options=FitOptions(median_kernel=1),
@@ -289,7 +289,7 @@ def test_loso_exact_on_forward_generated_study(forward_study, tmp_path):
 def test_loso_absolute_forces(forward_study):
     """FitOptions(detrend=False): absolute forces, predicted with their flat level."""
     from fingerfriction.fit import FitOptions
-    from fingerfriction.predict import leave_one_surface_out
+    from fingerfriction.pipeline.validation import leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0, drift_correct=False)
     res = leave_one_surface_out(trials, model="paper", options=FitOptions(median_kernel=1, detrend=False),
@@ -307,7 +307,7 @@ def test_loso_noisy_study_and_wrong_finger(forward_study):
     model's here, so both columns agree); a forward model with the wrong finger (each
     subject's, 10x stiffer) loses much more: the validation measures the geometry."""
     from fingerfriction.fit import FitOptions
-    from fingerfriction.predict import leave_one_surface_out
+    from fingerfriction.pipeline.validation import leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=2, noise=0.1, param_sd=0.15, seed=3)
     opts = FitOptions(median_kernel=1)
@@ -346,7 +346,7 @@ def test_loso_load_model_exact_on_forward_generated_study(forward_study):
     (default-fitted) load-bearing contact come back, the prediction at the nominal load of
     a held-out surface matches up to the +-2 mN load wander."""
     from fingerfriction.fit import LoadFitOptions
-    from fingerfriction.predict import leave_one_surface_out
+    from fingerfriction.pipeline.validation import leave_one_surface_out
 
     trials = _load_study_trials(forward_study, reps=2, noise=0.0)
     opts = LoadFitOptions(median_kernel=1, inset=0.0, kappa=0.0)
@@ -365,7 +365,7 @@ def test_loso_load_model_exact_on_forward_generated_study(forward_study):
 
 
 def test_loso_bad_input(forward_study):
-    from fingerfriction.predict import leave_one_surface_out
+    from fingerfriction.pipeline.validation import leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0)
     one = [t for t in trials if t.surface.name == "bump-2mm"]
@@ -418,7 +418,7 @@ def _synthetic_results(tmp_path):
 
 @pytest.mark.slow
 def test_params_from_pipeline_fit_and_validate_results(tmp_path):
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     root = _synthetic_results(tmp_path)
     fit(root, progress=False, median_kernel=1)
@@ -451,8 +451,8 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     assert np.all(np.isfinite(df["rho_in_sample"])) and np.all(np.isfinite(df["rho_out_of_sample"]))
     # in-sample rho is the study's Table 1 (same grid and options as the recorded fit)
     from fingerfriction.fit import FitOptions, fit_trials, mu_grid
-    from fingerfriction.predict import trials_from_results
-    from fingerfriction.stats import correlation_table
+    from fingerfriction.model.stats import correlation_table
+    from fingerfriction.pipeline.validation import trials_from_results
 
     g = fj["mu_grid"]
     grid = mu_grid(g["start"], g["stop"], g["step"])
@@ -472,7 +472,8 @@ def test_loso_short_window_without_forward_flat_segment():
     from fingerfriction.fit import FitOptions, Trial, flat_detrend, flat_segment_mask
     from fingerfriction.mechanics import FingerParams
     from fingerfriction.model import FrictionModel
-    from fingerfriction.predict import forward_regions, leave_one_surface_out
+    from fingerfriction.pipeline.validation import leave_one_surface_out
+    from fingerfriction.predict import forward_regions
 
     x = np.round(-8.0 + 0.2 * np.arange(81), 9)
     rng = np.random.default_rng(1)
@@ -521,8 +522,7 @@ def test_loso_heldout_fingers_replace_the_finger_of_one_surface_only(forward_stu
     """heldout_fingers (issue 15: fingers calibrated on the other surfaces) change the
     forward finger of the held-out surface named, for the subject named, and nothing else."""
     from fingerfriction.fit import FitOptions
-    from fingerfriction.predict import leave_one_surface_out
-    from fingerfriction.predict.loso import _with_calibrated
+    from fingerfriction.pipeline.validation import _with_calibrated, leave_one_surface_out
 
     trials = _study_trials(forward_study, reps=1, noise=0.0, param_sd=0.0)
     stiff = dataclasses.replace(SUBJECTS[1], modulus=10 * SUBJECTS[1].modulus)

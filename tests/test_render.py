@@ -1,4 +1,4 @@
-"""Tests of fingerfriction.render: the haptic renderer, its exports and the replay check."""
+"""Tests of fingerfriction.predict.render: the haptic renderer, its exports and the replay check."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from scipy.io import wavfile
 from fingerfriction.mechanics import SUBJECTS, solve_contact
 from fingerfriction.model import FrictionModel, FrictionParams
 from fingerfriction.predict import flat_contact_length, predict
-from fingerfriction.render import DisplayModel, HapticRenderer, read_command
+from fingerfriction.predict.render import DisplayModel, HapticRenderer, read_command
 from fingerfriction.surfaces import SampledProfile
 
 SPEC = "bump:W=3,H=0.5"
@@ -118,7 +118,7 @@ def test_display_range_clipping_warns(caplog):
     pred = predict(SPEC, 1, FrictionParams(0.55, 0.0656, 0.1), step=0.1)
     L = flat_contact_length(1)
     disp = DisplayModel(normal_force=0.3, p0=0.0656, flat_length=L, mu_min=0.3, mu_max=0.6)
-    with caplog.at_level(logging.WARNING, logger="fingerfriction.render"):
+    with caplog.at_level(logging.WARNING, logger="fingerfriction.predict.render"):
         r = HapticRenderer(pred, disp)
     assert r.n_clipped > 0 and "clipped" in caplog.text
     assert r.mu_cmd.min() >= 0.3 and r.mu_cmd.max() <= 0.6

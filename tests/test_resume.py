@@ -16,8 +16,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fingerfriction.study import plan as plan_module
-from fingerfriction.study.analyze import analyze, plan_analysis, trial_entry
+from fingerfriction.pipeline import plan as plan_module
+from fingerfriction.pipeline.analyze import analyze, plan_analysis, trial_entry
 from fingerfriction.study.store import (
     ResultsInUseError,
     ResultsStore,

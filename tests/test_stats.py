@@ -1,4 +1,4 @@
-"""Tests of fingerfriction.stats: Table 1 against hand-computed rho, exports, blind-spot table."""
+"""Tests of fingerfriction.model.stats: Table 1 against hand-computed rho, exports, blind-spot table."""
 
 import math
 
@@ -9,7 +9,7 @@ from scipy import signal
 from scipy import stats as sps
 
 from fingerfriction.fit import FitOptions, TrialFit, fit_trials
-from fingerfriction.stats import (
+from fingerfriction.model.stats import (
     BOTH,
     blind_spot_table,
     bootstrap_correlation_ci,
@@ -151,9 +151,9 @@ def test_bootstrap_ci_matches_a_brute_force_resampling():
 
 def test_stats_write_table_is_a_deprecated_alias(tmp_path):
     """stats is pure: its write_table only forwards to study.store.write_table, warning."""
-    import fingerfriction.stats
+    import fingerfriction.model.stats
 
     t = pd.DataFrame({"surface": ["bump-2mm"], "rho": [0.9]})
     with pytest.warns(DeprecationWarning, match="use fingerfriction.study.store.write_table"):
-        fingerfriction.stats.write_table(t, tmp_path / "t.csv")
+        fingerfriction.model.stats.write_table(t, tmp_path / "t.csv")
     assert pd.read_csv(tmp_path / "t.csv").equals(t)

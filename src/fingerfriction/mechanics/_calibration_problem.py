@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from ..blindspots import blind_spots
+from ..model.blindspots import blind_spots
 from ..surfaces import Surface
 from .bem import ContactSolver, _geometric_regions
 from .finger import FingerParams

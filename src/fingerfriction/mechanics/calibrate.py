@@ -7,7 +7,7 @@ stadium pad's end radius ``R``, effective modulus ``E*`` and flat length ``L``) 
 the model's **geometric** contact (surface points within ``tol`` = 3 px, ~70 um, of the
 deformed finger: the paper's criterion, Methods "Image analysis") reproduces the contact
 regions measured in every frame, at the frame's finger position and measured normal force.
-It is a pure function of arrays (no file I/O); :mod:`fingerfriction.study.finger_calibration`
+It is a pure function of arrays (no file I/O); :mod:`fingerfriction.pipeline.finger_calibration`
 reads a results folder into :class:`CalibrationTrial` objects.
 
 What is identifiable
@@ -18,7 +18,7 @@ The contact of the plane-strain model depends on the load and the modulus only t
 is fitted: the fitted ``E*`` is an *effective* modulus for that ``D``, and the load per
 width the calibration implies is ``P' = F_N / D``. A study without absolute normal force
 can only give ``E*`` relative to an assumed load (``load=`` in
-:func:`fingerfriction.study.finger_calibration.trials_from_results`; the result is flagged).
+:func:`fingerfriction.pipeline.finger_calibration.trials_from_results`; the result is flagged).
 
 The mismatch (smooth by construction)
 -------------------------------------

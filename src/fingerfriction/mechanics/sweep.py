@@ -4,7 +4,7 @@ A sweep solves the contact at each finger position in turn, starting each solve 
 previous position's pressure (same finger-frame cells), which cuts the number of
 conjugate-gradient iterations several-fold compared with cold starts. Its contact regions
 are in the project's region format (:mod:`fingerfriction.regions`), ready for
-:func:`fingerfriction.blindspots.blind_spots` and :func:`~fingerfriction.blindspots.occupancy`.
+:func:`fingerfriction.model.blindspots.blind_spots` and :func:`~fingerfriction.model.blindspots.occupancy`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..blindspots import BlindSpots, Occupancy, blind_spots, occupancy
+from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..regions import n_regions
 from ..surfaces import Surface
 from .bem import GEOMETRIC_TOL, ContactSolver, _check_load
@@ -114,11 +114,11 @@ class SweepResult:
         raise ValueError(f"kind must be 'geometric' or 'mechanical', got {kind!r}")
 
     def blind_spots(self, kind: str = "geometric", **kwargs) -> BlindSpots:
-        """Tactile blind spots of the sweep (:func:`fingerfriction.blindspots.blind_spots`)."""
+        """Tactile blind spots of the sweep (:func:`fingerfriction.model.blindspots.blind_spots`)."""
         return blind_spots(self.regions(kind), **kwargs)
 
     def occupancy(self, kind: str = "geometric", **kwargs) -> Occupancy:
-        """Contact occupancy map (:func:`fingerfriction.blindspots.occupancy`)."""
+        """Contact occupancy map (:func:`fingerfriction.model.blindspots.occupancy`)."""
         return occupancy(self.regions(kind), **kwargs)
 
     def n_contacts(self, kind: str = "geometric") -> np.ndarray:

@@ -17,9 +17,9 @@ import pandas as pd
 
 from .._atomic import atomic_write
 from .._style import figure_style
-from ..blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
+from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..regions import as_regions, n_regions, region_lengths
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from .defaults import _resolve_params

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal, stats
 
-from ._outputs import write_table as _write_table
+from .._outputs import write_table as _write_table
 from .blindspots import blind_spots
 
 __all__ = [
@@ -265,6 +265,6 @@ def blind_spot_table(regions_by_surface: dict, *, min_width: float = 0.0) -> pd.
 def write_table(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.3g") -> None:
     """Deprecated alias of :func:`fingerfriction.study.store.write_table` (this module
     computes and writes nothing; the alias goes after one release)."""
-    warnings.warn("fingerfriction.stats.write_table is deprecated: use "
+    warnings.warn("fingerfriction.model.stats.write_table is deprecated: use "
                   "fingerfriction.study.store.write_table", DeprecationWarning, stacklevel=2)
     _write_table(df, path, float_format=float_format)

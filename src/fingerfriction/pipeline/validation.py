@@ -28,10 +28,16 @@ from ..fit import (
     median_filter,
 )
 from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, T_matrix, load_terms
-from ..stats import BOTH, correlation_table, ensemble_correlation
+from ..model.stats import BOTH, correlation_table, ensemble_correlation
+from ..predict.forward import (
+    DEFAULT_LOAD_N,
+    _finger_for_label,
+    _flat_length_kind,
+    check_profile,
+    forward_regions,
+)
 from ..study.store import ResultsStore
 from ..surfaces import Surface
-from .forward import DEFAULT_LOAD_N, _finger_for_label, _flat_length_kind, check_profile, forward_regions
 
 __all__ = [
     "OutOfSample", "leave_one_surface_out", "trials_from_results", "validate_results", "load_prediction",
@@ -204,7 +210,7 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     subject's parameters. A held-out trial cannot have its own per-trial parameter (that
     would need its contact, i.e. its video), so the subject's **median** over its training
     trials is used. Measured and predicted forces are correlated per condition as in
-    Table 1 (:func:`fingerfriction.stats.ensemble_correlation`, which detrends every trial).
+    Table 1 (:func:`fingerfriction.model.stats.ensemble_correlation`, which detrends every trial).
 
     ``model='load'`` (default): the load-consistent Eq. (4) (:mod:`fingerfriction.model`)
     with the subject's flat-ground ``mu``, load-bearing inset and pressure rise with height, and the
@@ -250,12 +256,12 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     forward_cache : dict, optional
         Forward sweeps already computed (shared between calls for the two variants).
     in_sample : pandas.DataFrame, optional
-        The Table 1 of the same model on all trials (:func:`fingerfriction.stats.correlation_table`)
+        The Table 1 of the same model on all trials (:func:`fingerfriction.model.stats.correlation_table`)
         when the caller has it; computed otherwise.
     heldout_fingers : dict, optional
         Held-out surface name -> {subject label: FingerParams}: the forward-model finger
         that predicts that surface (e.g. calibrated on the other five,
-        :func:`fingerfriction.study.finger_calibration.calibrate_held_out`); subjects not
+        :func:`fingerfriction.pipeline.finger_calibration.calibrate_held_out`); subjects not
         in it use ``fingers``.
 
     Returns

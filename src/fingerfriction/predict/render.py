@@ -53,8 +53,9 @@ import numpy as np
 import pandas as pd
 from scipy.io import wavfile
 
-from ._atomic import atomic_write
-from .predict import DEFAULT_LOAD_N, Prediction, flat_contact_length, predict
+from .._atomic import atomic_write
+from .forward import DEFAULT_LOAD_N, flat_contact_length
+from .prediction import Prediction, predict
 
 __all__ = ["DisplayModel", "HapticRenderer", "read_command"]
 

@@ -2,7 +2,7 @@
 2018 (:mod:`fingerfriction.fit`) fitted to the analysed trials of a results store, Table 1
 for each with bootstrap confidence intervals, the flags of everything unphysical or doubtful,
 then the out-of-sample validation (leave one surface out,
-:func:`fingerfriction.predict.validate_results`).
+:func:`fingerfriction.pipeline.validation.validate_results`).
 
 * ``'load'`` (the default model): the load-consistent Eq. (4), ``mu`` per subject from
   flat-ground Coulomb friction with a confidence interval, the load-bearing contact
@@ -33,10 +33,10 @@ import pandas as pd
 from .. import fit as fitmod
 from .._progress import ProgressBar
 from ..model import MODELS, FrictionModel
-from ..predict.loso import validate_results
-from ..stats import correlation_table
-from .store import ResultsStore, now
+from ..model.stats import correlation_table
+from ..study.store import ResultsStore, now
 from .trial import one_line
+from .validation import validate_results
 
 __all__ = ["FitSummary", "fit", "summary_lines"]
 
@@ -91,7 +91,7 @@ class FitSummary:
     cpu_s : dict of str to float
         CPU time in s of each model's fit (reading the trials not included).
     loso : pandas.DataFrame or None
-        The out-of-sample validation (:func:`fingerfriction.predict.validate_results`:
+        The out-of-sample validation (:func:`fingerfriction.pipeline.validation.validate_results`:
         leave one surface out, rho per held-out surface, both models), also in
         ``fit/loso.csv``; None when not computed (one surface only, ``validate=False``, or
         it failed: see ``loso_message``).
@@ -160,7 +160,7 @@ def fit(
         Show a progress bar.
     validate : bool
         Also run the leave-one-surface-out validation of both models
-        (:func:`fingerfriction.predict.validate_results`) on two surfaces or more.
+        (:func:`fingerfriction.pipeline.validation.validate_results`) on two surfaces or more.
     seed : int
         Seed of the bootstrap confidence intervals.
 
@@ -408,7 +408,7 @@ def _validate_after_fit(store: ResultsStore, trials: Sequence, validate: bool):
     try:
         res = validate_results(store.root, trials=list(trials))
     except (ValueError, KeyError, OSError, RuntimeError, np.linalg.LinAlgError) as exc:
-        # RuntimeError: no training fit succeeded for a held-out surface (predict.loso);
+        # RuntimeError: no training fit succeeded for a held-out surface (pipeline.validation);
         # the fit itself stands, the validation is recorded as failed
         logger.warning("out-of-sample validation failed: %s", one_line(exc))
         return None, f"failed: {one_line(exc)}"

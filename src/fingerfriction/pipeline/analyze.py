@@ -1,5 +1,5 @@
 """The study pipeline's orchestration: every trial of a study through
-:func:`~fingerfriction.study.trial.process_trial`, in parallel on Dask, into a resumable
+:func:`~fingerfriction.pipeline.trial.process_trial`, in parallel on Dask, into a resumable
 results store, with a run record.
 
 :func:`analyze` runs the trials on a ``dask.distributed`` cluster (a
@@ -29,12 +29,12 @@ from distributed import Client, LocalCluster, as_completed
 from .. import __version__
 from .._outputs import check_output_dir
 from .._progress import ProgressBar
-from .check import check_files
-from .manifest import Study, TrialRecord
+from ..study.check import check_files
+from ..study.manifest import Study, TrialRecord
+from ..study.store import ResultsStore, input_fingerprint, now, sha256_file, sha256_input
 from .params import AnalysisParams
 from .plan import AnalysisPlan, StudyCheckError, TrialPlan, _check_out_apart, plan_analysis, trial_entry
 from .selfcheck import synchronise_study
-from .store import ResultsStore, input_fingerprint, now, sha256_file, sha256_input
 from .trial import TrialInput, one_line, process_trial
 
 __all__ = ["TrialOutcome", "AnalyzeResult", "TrialPlan", "AnalysisPlan", "StudyCheckError", "plan_analysis",

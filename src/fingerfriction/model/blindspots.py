@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .regions import as_regions
+from ..regions import as_regions
 
 __all__ = ["Occupancy", "BlindSpots", "occupancy", "blind_spots", "contact_union"]
 

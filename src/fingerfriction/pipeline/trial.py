@@ -3,7 +3,7 @@ manifest's record of the trial with its surface and study folder), typed out
 (:class:`TrialResult`), the force processing's history kept.
 
 * :func:`run_video`: the video stage (:func:`fingerfriction.video.analyze_video`) with the
-  pipeline's video options (:func:`fingerfriction.study.params.video_options`);
+  pipeline's video options (:func:`fingerfriction.pipeline.params.video_options`);
 * :func:`read_trial_forces` and :func:`process_trial_forces`: the force stage
   (:func:`fingerfriction.forces.process_forces`) on the trial's force file and frame times;
 * :func:`check_trial_inputs`: the consistency stage between them
@@ -33,11 +33,11 @@ from ..forces import (
 )
 from ..forces.readers import channel_scale
 from ..selfcheck import SelfCheckError, SelfCheckParams, TrialChecks, check_trial
+from ..study.manifest import Study, TrialRecord, load_manifest, resolve_path
+from ..study.store import frames_table
 from ..surfaces import Surface, surface_from_spec
 from ..video import FLAG_REASONS, AnalysisOptions, FrameFlag, PositionSource, analyze_video
-from .manifest import Study, TrialRecord, load_manifest, resolve_path
 from .params import AnalysisParams, force_params, video_options
-from .store import frames_table
 
 __all__ = [
     "TrialInput",
@@ -205,7 +205,7 @@ def run_video(trial: TrialInput, options: AnalysisOptions | Mapping | None = Non
     trial : TrialInput
     options : AnalysisOptions or dict, optional
         The video options; a dict (or None) goes through
-        :func:`~fingerfriction.study.params.video_options` with the trial's calibration
+        :func:`~fingerfriction.pipeline.params.video_options` with the trial's calibration
         frame, as ``analyze`` does.
 
     Raises

@@ -34,8 +34,8 @@ from ..mechanics.calibrate import (
     FingerCalibration,
     calibrate_finger,
 )
+from ..study.store import ResultsStore, regions_from_table
 from ..surfaces import surface_from_spec
-from .store import ResultsStore, regions_from_table
 
 __all__ = ["trials_from_results", "calibrate_results", "HeldOutCalibration", "calibrate_held_out"]
 
@@ -246,7 +246,7 @@ class HeldOutCalibration:
 
     def fingers(self) -> dict[str, dict[str, FingerParams]]:
         """``{held-out surface: {subject: finger}}`` of the successful calibrations (the
-        ``calibrated_fingers`` of :func:`fingerfriction.predict.validate_results`)."""
+        ``calibrated_fingers`` of :func:`fingerfriction.pipeline.validation.validate_results`)."""
         out: dict[str, dict[str, FingerParams]] = {}
         for (surface, subject), res in self.calibrations.items():
             if res.success:

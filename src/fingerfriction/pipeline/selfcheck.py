@@ -1,9 +1,9 @@
 """The consistency stage over a study: the video-force synchronisation, which compares
-trials with each other, once :func:`~fingerfriction.study.analyze.analyze` has run them
+trials with each other, once :func:`~fingerfriction.pipeline.analyze.analyze` has run them
 (:func:`synchronise_study`), and ``check --deep`` (:func:`deep_check`), every check
 without writing anything.
 
-Per trial, :func:`~fingerfriction.study.trial.process_trial` runs the checks that need only
+Per trial, :func:`~fingerfriction.pipeline.trial.process_trial` runs the checks that need only
 the trial (:func:`fingerfriction.selfcheck.check_trial`) and stores the start of its slide
 in ``status.json`` (``info.selfcheck.onset``). Here the starts of a finger's trials are
 compared (:func:`fingerfriction.selfcheck.estimate_offsets`); with ``sync='check'`` a
@@ -23,11 +23,11 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..selfcheck import ORDER, Check, OffsetEstimate, OnsetData, estimate_offsets
-from .check import check_study
-from .manifest import Study
+from ..study.check import check_study
+from ..study.manifest import Study
+from ..study.records import Problem
+from ..study.store import ResultsStore, regions_from_table
 from .params import AnalysisParams, force_params, video_options
-from .records import Problem
-from .store import ResultsStore, regions_from_table
 from .trial import (
     TrialInput,
     check_trial_inputs,
@@ -186,7 +186,7 @@ def synchronise_study(
     Parameters
     ----------
     store : ResultsStore
-        The results folder :func:`~fingerfriction.study.analyze.analyze` wrote.
+        The results folder :func:`~fingerfriction.pipeline.analyze.analyze` wrote.
     study : Study
     params : AnalysisParams, optional
     trial_ids : iterable of str, optional

@@ -18,10 +18,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .._outputs import check_output_dir
-from .check import check_study
-from .manifest import Study, TrialRecord
+from ..study.check import check_study
+from ..study.manifest import Study, TrialRecord
+from ..study.store import (
+    TRIAL_FORMAT,
+    ResultsStore,
+    input_fingerprint,
+    params_digest,
+    sha256_file,
+    sha256_input,
+)
 from .params import AnalysisParams
-from .store import TRIAL_FORMAT, ResultsStore, input_fingerprint, params_digest, sha256_file, sha256_input
 
 __all__ = ["StudyCheckError", "TrialPlan", "AnalysisPlan", "plan_analysis", "trial_entry"]
 

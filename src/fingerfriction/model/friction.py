@@ -97,8 +97,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.integrate import cumulative_simpson
 
-from .regions import as_regions
-from .surfaces import Surface
+from ..regions import as_regions
+from ..surfaces import Surface
 
 __all__ = [
     "MODELS",
