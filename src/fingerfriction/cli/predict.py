@@ -196,9 +196,7 @@ def validate_cmd(
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from ..pipeline.finger_calibration import calibrate_held_out  # heavy (numba); likewise
-    from ..pipeline.validation import (
-        validate_results,  # heavy (the forward model); imported when the command runs
-    )
+    from ..pipeline.validation import validate_results  # heavy (the forward model); likewise
 
     fingers = read_fingers(items=finger)
     try:
