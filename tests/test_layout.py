@@ -27,7 +27,7 @@ LAYERS = [
                             "pipeline.validation", "pipeline.finger_calibration"]),
     ("report", ["report"]),
     ("demo", ["demo"]),
-    ("entry points and deprecated aliases", ["cli", "results", "synthetic"]),
+    ("entry points", ["cli"]),
 ]
 
 #: Functions longer than 80 lines of code (their docstrings not counted), each with why.

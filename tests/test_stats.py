@@ -147,13 +147,3 @@ def test_bootstrap_ci_matches_a_brute_force_resampling():
     assert math.isnan(bootstrap_correlation_ci(meas[:1], est[:1])[0])  # one trial: no interval
     with pytest.raises(ValueError, match="n_boot must be an integer >= 100, got 5"):
         bootstrap_correlation_ci(meas, est, n_boot=5)
-
-
-def test_stats_write_table_is_a_deprecated_alias(tmp_path):
-    """stats is pure: its write_table only forwards to study.store.write_table, warning."""
-    import fingerfriction.model.stats
-
-    t = pd.DataFrame({"surface": ["bump-2mm"], "rho": [0.9]})
-    with pytest.warns(DeprecationWarning, match="use fingerfriction.study.store.write_table"):
-        fingerfriction.model.stats.write_table(t, tmp_path / "t.csv")
-    assert pd.read_csv(tmp_path / "t.csv").equals(t)

@@ -217,9 +217,6 @@ def infer_force_format(path: str | os.PathLike) -> str:
     return fmt
 
 
-_infer_format = infer_force_format
-
-
 def _check_name(key: str, v) -> str | int:
     if isinstance(v, bool) or not isinstance(v, (str, int)) or v == "" or (isinstance(v, int) and v < 0):
         raise ValueError(f"channels[{key!r}] must be a non-empty name or a column index >= 0, got {v!r}")

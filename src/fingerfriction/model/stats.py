@@ -21,20 +21,17 @@ Conditions: subject x scale (2 mm, 4 mm) x shape (Bump, Step Up, Step Down), plu
 from __future__ import annotations
 
 import math
-import os
-import warnings
 from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
 from scipy import signal, stats
 
-from .._outputs import write_table as _write_table
 from .blindspots import blind_spots
 
 __all__ = [
     "ensemble_correlation", "bootstrap_correlation_ci", "correlation_table", "table1_wide",
-    "blind_spot_table", "write_table", "BOTH",
+    "blind_spot_table", "BOTH",
 ]
 
 BOTH = "Both subjects"
@@ -260,11 +257,3 @@ def blind_spot_table(regions_by_surface: dict, *, min_width: float = 0.0) -> pd.
         for r in bs.as_table():
             rows.append({"surface": name, **r})
     return pd.DataFrame(rows, columns=["surface", "start_mm", "end_mm", "width_mm"])
-
-
-def write_table(df: pd.DataFrame, path: str | os.PathLike, *, float_format: str = "%.3g") -> None:
-    """Deprecated alias of :func:`fingerfriction.study.store.write_table` (this module
-    computes and writes nothing; the alias goes after one release)."""
-    warnings.warn("fingerfriction.model.stats.write_table is deprecated: use "
-                  "fingerfriction.study.store.write_table", DeprecationWarning, stacklevel=2)
-    _write_table(df, path, float_format=float_format)

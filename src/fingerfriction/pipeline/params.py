@@ -17,7 +17,6 @@ from ..video import AnalysisOptions
 __all__ = [
     "AnalysisParams",
     "VIDEO_DEFAULTS",
-    "PIPELINE_VIDEO_DEFAULTS",
     "POSITIONS",
     "video_options",
     "force_params",
@@ -41,8 +40,6 @@ __all__ = [
 #:
 #: The measurements behind both are in ``docs/study.md``.
 VIDEO_DEFAULTS = {"position": "hybrid", "n_max_regions": 16}
-#: Former name of :data:`VIDEO_DEFAULTS`.
-PIPELINE_VIDEO_DEFAULTS = VIDEO_DEFAULTS
 
 #: The x(t) estimators the pipeline accepts (``AnalysisOptions.position``).
 POSITIONS = ("hybrid", "cf-centroid", "chord")

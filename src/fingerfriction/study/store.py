@@ -89,7 +89,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .._atomic import atomic_write, atomic_write_bytes, atomic_write_json, atomic_write_text, jsonable
+from .._atomic import atomic_write, atomic_write_json, atomic_write_text, jsonable
 from .._check import parse_json
 from .._outputs import write_table
 from ..fit import FitOptions, Trial, flat_segment_mask, mu_grid
@@ -102,9 +102,6 @@ __all__ = [
     "RESULTS_FORMAT",
     "RESULTS_SCHEMA_VERSION",
     "ResultsStore",
-    "atomic_write_bytes",
-    "atomic_write_text",
-    "atomic_write_json",
     "atomic_write_parquet",
     "sha256_file",
     "sha256_input",
