@@ -316,7 +316,7 @@ def _runs(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return starts, ends
 
 
-def _geometric_regions(x: np.ndarray, gap: np.ndarray, tol: float) -> np.ndarray:
+def regions_within_gap(x: np.ndarray, gap: np.ndarray, tol: float) -> np.ndarray:
     """Intervals where ``gap <= tol``, ends linearly interpolated at ``gap = tol``."""
     i0, i1 = _runs(gap <= tol)
     k = i0.size
@@ -350,7 +350,8 @@ def _mechanical_regions(x: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ solver
-def _check_load(load) -> float:
+def check_load(load) -> float:
+    """``load`` as a float: a finite positive normal force in N (TypeError, ValueError otherwise)."""
     if isinstance(load, bool) or not isinstance(load, (int, float, np.integer, np.floating)):
         raise TypeError(f"load must be a normal force in N, got {load!r}")
     F = float(load)
@@ -530,7 +531,7 @@ class ContactSolver:
         ContactSolution
             ``success=False`` with a message when the iteration did not converge.
         """
-        F = _check_load(load)
+        F = check_load(load)
         x_finger = float(x_finger)
         if not math.isfinite(x_finger):
             raise ValueError(f"x_finger must be a finite position in mm, got {x_finger!r}")
@@ -690,7 +691,7 @@ class ContactSolver:
         pen = float(max(0.0, -gap_c.min()))
         load_error = abs(p.sum() * self.dx - P) / P
         approach = float(np.max(h - self.outline)) - z
-        # Compiled equivalent of _mechanical_regions and _geometric_regions (tested equal).
+        # Compiled equivalent of _mechanical_regions and regions_within_gap (tested equal).
         rm, rg = self._rbuf
         km, kg = _cg.contact_regions(x, p, np.maximum(gap_c, 0.0), float(gap_tol), rm, rg)
         mech, geom = rm[:km].copy(), rg[:kg].copy()

@@ -73,12 +73,12 @@ from scipy.optimize import least_squares
 from ..regions import as_regions
 from ..surfaces import Surface
 from ._calibration_problem import (
-    _bootstrap,
-    _end_bias_sensitivity,
-    _make_fun_jac,
-    _model_regions,
-    _Problem,
-    _union_blind_spots,
+    CalibrationProblem,
+    bootstrap_spread,
+    end_bias_sensitivity,
+    make_fun_jac,
+    model_regions,
+    union_blind_spots,
 )
 from .bem import GEOMETRIC_TOL
 from .finger import FingerParams
@@ -478,7 +478,7 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     T0 = time.process_time()
     opts = options or CalibrationOptions()
     trials = _check_inputs(trials, initial, opts)
-    pb = _Problem(trials, initial, opts)
+    pb = CalibrationProblem(trials, initial, opts)
     if pb.n_trials < opts.min_trials:
         raise CalibrationError(
             f"only {pb.n_trials} trial(s) with usable contact regions (need at least {opts.min_trials}); "
@@ -499,8 +499,8 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     failures = pb.last_failures
     J = jac(z)
     t_b = time.process_time()
-    std, ci = _bootstrap(pb, z, r0, J, opts)
-    systematic = _end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
+    std, ci = bootstrap_spread(pb, z, r0, J, opts)
+    systematic = end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
     t_boot = time.process_time() - t_b
     t_p = time.process_time()
     surfaces = _surface_fits(pb, state["tabs"], r0)
@@ -544,14 +544,14 @@ def _check_inputs(trials, initial, opts: CalibrationOptions) -> list[Calibration
     return trials
 
 
-def _optimise(pb: _Problem, opts: CalibrationOptions):
+def _optimise(pb: CalibrationProblem, opts: CalibrationOptions):
     """The coarse then the fine least-squares pass, from the initial finger (z = 0)."""
     lb = np.full(len(opts.fit), -math.log(opts.bound))
     z = np.zeros(len(opts.fit))
     nfev, pass_cpu = {}, {}
     for level, step, soft in (("coarse", opts.coarse_step, opts.coarse_soft),
                               ("fine", opts.fine_step, opts.fine_soft)):
-        fun, jac, state = _make_fun_jac(pb, level, step)
+        fun, jac, state = make_fun_jac(pb, level, step)
         t_pass = time.process_time()
         r = least_squares(fun, z, jac=jac, bounds=(lb, -lb), loss="soft_l1", f_scale=soft,
                           x_scale=1.0, max_nfev=opts.max_nfev, xtol=1e-4, ftol=1e-6, gtol=1e-8)
@@ -590,7 +590,7 @@ def _assess(fine, z, failures: int, finger: FingerParams, std: dict, surfaces, o
     return success, message, flags
 
 
-def _surface_fits(pb: _Problem, tabs: dict, r0: np.ndarray) -> list[SurfaceFit]:
+def _surface_fits(pb: CalibrationProblem, tabs: dict, r0: np.ndarray) -> list[SurfaceFit]:
     out = []
     off = 0
     for sd in pb.surfaces:
@@ -601,14 +601,14 @@ def _surface_fits(pb: _Problem, tabs: dict, r0: np.ndarray) -> list[SurfaceFit]:
         off += ne + nh
         pos, Y = tabs[sd.name]
         d = pb.distances(sd, st.idx, pos, Y)
-        model = _model_regions(d, sd.X[st.idx], sd.tol[st.idx], sd.min_gap[st.idx], sd.min_region[st.idx])
+        model = model_regions(d, sd.X[st.idx], sd.tol[st.idx], sd.min_gap[st.idx], sd.min_region[st.idx])
         meas = [sd.regions[i] for i in st.idx]
         out.append(SurfaceFit(
             surface=sd.name, n_trials=int(np.unique(sd.trial).size), n_frames=int(st.idx.size),
             rms_end_mm=float(np.sqrt(np.mean(re**2))) if re.size else math.nan,
             median_end_mm=float(np.median(np.abs(re))) if re.size else math.nan,
             hinge_violations=float(np.mean(rh > 0.05)) if rh.size else 0.0,
-            measured_blind_spots=_union_blind_spots(meas),
-            predicted_blind_spots=_union_blind_spots(model),
+            measured_blind_spots=union_blind_spots(meas),
+            predicted_blind_spots=union_blind_spots(model),
         ))
     return out

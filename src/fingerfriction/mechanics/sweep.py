@@ -18,7 +18,7 @@ import numpy as np
 from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..regions import n_regions
 from ..surfaces import Surface
-from .bem import GEOMETRIC_TOL, ContactSolver, _check_load
+from .bem import GEOMETRIC_TOL, ContactSolver, check_load
 from .finger import FingerParams
 
 __all__ = ["SweepResult", "sweep", "default_positions", "OutlineTable", "outline_table"]
@@ -199,7 +199,7 @@ def sweep(
     """
     if not isinstance(finger, FingerParams):
         raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
-    F = _check_load(load)
+    F = check_load(load)
     if positions is None:
         positions = default_positions(surface if isinstance(surface, Surface) else None)
     pos = np.asarray(positions, dtype=float)

@@ -33,7 +33,7 @@ from ..study.check import check_files
 from ..study.manifest import Study, TrialRecord
 from ..study.store import ResultsStore, input_fingerprint, now, sha256_file, sha256_input
 from .params import AnalysisParams
-from .plan import AnalysisPlan, StudyCheckError, TrialPlan, _check_out_apart, plan_analysis, trial_entry
+from .plan import AnalysisPlan, StudyCheckError, TrialPlan, check_out_apart, plan_analysis, trial_entry
 from .selfcheck import synchronise_study
 from .trial import TrialInput, one_line, process_trial
 
@@ -233,7 +233,7 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
     study_dir, out = Path(study), Path(out)
     if not study_dir.is_dir():
         raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")
-    _check_out_apart(study_dir, out)
+    check_out_apart(study_dir, out)
     check_output_dir(out, marker="run.json", what="results folder")
     created = not out.exists()
     store = ResultsStore(out)

@@ -244,7 +244,7 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
     study_dir = Path(study)
     if not study_dir.is_dir():
         raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")
-    _check_out_apart(study_dir, Path(out))
+    check_out_apart(study_dir, Path(out))
     res = check_study(study_dir, files=False)
     fatal = [p for p in res.problems if p.kind != "trial"]
     if fatal:
@@ -290,7 +290,7 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
                         index=res.index or {}, invalid=invalid, other_study=other)
 
 
-def _check_out_apart(study_dir: Path, out: Path) -> None:
+def check_out_apart(study_dir: Path, out: Path) -> None:
     """The results folder may not lie inside the study folder (nor the study inside it):
     results would become the study's inputs, and a study's files would be results."""
     a, b = study_dir.resolve(), out.resolve()

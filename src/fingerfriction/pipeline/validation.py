@@ -31,9 +31,9 @@ from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, T_matrix,
 from ..model.stats import BOTH, correlation_table, ensemble_correlation
 from ..predict.forward import (
     DEFAULT_LOAD_N,
-    _finger_for_label,
-    _flat_length_kind,
     check_profile,
+    finger_for_label,
+    flat_length_of_kind,
     forward_regions,
 )
 from ..study.store import ResultsStore
@@ -321,7 +321,7 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
                                          step=forward_step)
             flat_level = 0.0
             if model == "paper":
-                flat_level = params.mu * params.p0 * _flat_length_kind(finger, float(load), contact)
+                flat_level = params.mu * params.p0 * flat_length_of_kind(finger, float(load), contact)
             per, got = [], {k: [] for k in pooled}
             for t in ttest:
                 idx = np.clip(np.rint((t.x - lo) / forward_step).astype(int), 0, xs.size - 1)
@@ -352,7 +352,7 @@ def _loso_inputs(trials, fingers) -> tuple[list[Trial], dict[str, Surface], list
         raise ValueError(f"leave-one-surface-out needs trials on at least 2 surfaces, got {sorted(surfaces)}")
     subjects = sorted({t.subject for t in trials})
     for s in subjects:
-        _finger_for_label(s, fingers)  # fail early on an unmappable subject
+        finger_for_label(s, fingers)  # fail early on an unmappable subject
     for surf in surfaces.values():
         check_profile(surf)
     return trials, surfaces, subjects
@@ -374,7 +374,7 @@ def _forward_sweep(cache: dict, surf: Surface, finger, trials, *, load: float, c
 def _heldout_finger(subject, surface: str, fingers, heldout_fingers):
     """``heldout_fingers[surface][subject]`` when given, else the subject's finger."""
     per = (heldout_fingers or {}).get(surface) or {}
-    return per[subject] if subject in per else _finger_for_label(subject, fingers)
+    return per[subject] if subject in per else finger_for_label(subject, fingers)
 
 
 def _in_table1_order(table: pd.DataFrame, subjects: list) -> pd.DataFrame:
@@ -519,7 +519,7 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
             raise ValueError(f"models must be among {MODELS}, got {m!r}")
     trials = trials_from_results(root) if trials is None else trials
     if fingers is not None:  # the other subjects keep their default finger
-        fingers = {**{t.subject: _finger_for_label(t.subject, None) for t in trials
+        fingers = {**{t.subject: finger_for_label(t.subject, None) for t in trials
                       if t.subject not in fingers}, **fingers}
     cache: dict = {}
     results_by_model = [leave_one_surface_out(trials, model=m, fingers=fingers, grid=grid, options=options,
