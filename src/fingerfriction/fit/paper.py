@@ -517,7 +517,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     rigid-pad trials of :mod:`fingerfriction.testing` at 10 % noise it varies by < 1 %
     over 0.30..0.90 and the selected ``mu`` can be off by 0.1 or more (0.40 for a true 0.60
     over 90 trials in ``benchmarks/fit.py``), while noise-free trials give the true value
-    exactly; with a contact length varying by ~2 mm (``tests/test_fit.py``) ``mu`` comes
+    exactly; with a contact length varying by ~2 mm (``tests/fit/test_fit.py``) ``mu`` comes
     out within 2 %. Inspect ``curve`` before trusting ``mu``.
     """
     options = options or FitOptions()

@@ -41,7 +41,7 @@ def test_recovers_mu_p0_p1_within_2_percent_at_10_percent_noise(seed):
     same constant pressure): the load-consistent model reduces to Eq. (4), so every
     parameter comes back: mu (with its CI) and every trial's p0 within 2 %, p1 within 2 %
     as the mean and median over the trials (single trials scatter up to ~5 % at this noise,
-    as the paper variant's do, see tests/test_fit.py)."""
+    as the paper variant's do, see tests/fit/test_fit.py)."""
     trials = _study(seed)
     fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
     # the fixture's rigid pad unloads to a few mN on a bump top, where 10 % noise makes F_N

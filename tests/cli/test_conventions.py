@@ -108,7 +108,7 @@ def test_every_output_follows_the_umask(tmp_path):
     script = textwrap.dedent(f"""
         import os, sys
         os.umask(0o027)
-        sys.path.insert(0, {str(Path(__file__).parent / "report")!r})
+        sys.path.insert(0, {str(Path(__file__).parents[1] / "report")!r})
         from report_synthetic import write_synthetic_results
         from typer.testing import CliRunner
         from fingerfriction.cli import app

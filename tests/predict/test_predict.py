@@ -407,7 +407,7 @@ def _synthetic_results(tmp_path):
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).parent / "report" / "report_synthetic.py"
+    path = Path(__file__).parents[1] / "report" / "report_synthetic.py"
     spec = importlib.util.spec_from_file_location("ff_report_synthetic", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

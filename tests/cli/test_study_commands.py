@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from fingerfriction.cli import app
 
-sys.path.insert(0, str(Path(__file__).parent / "report"))
+sys.path.insert(0, str(Path(__file__).parents[1] / "report"))
 from report_synthetic import write_synthetic_results  # noqa: E402
 
 runner = CliRunner()

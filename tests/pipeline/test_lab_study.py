@@ -1,7 +1,7 @@
 """Issue 13's acceptance on a lab-style folder: `init` -> `check` -> `analyze` -> `fit` with
 no hand-written JSON, and edits that recompute only what changed.
 
-The folder (tests/lab_folder.py) holds the virtual experiment's recordings rewritten as a
+The folder (tests/pipeline/lab_folder.py) holds the virtual experiment's recordings rewritten as a
 lab would have them: .cine and TIFF videos, TDMS and headerless ';' CSV forces in volts,
 lab file names, a stray note and a video without its force file.
 """

@@ -26,12 +26,12 @@ from fingerfriction.study.store import (
     sha256_input,
 )
 
-sys.path.insert(0, str(Path(__file__).parent))
+sys.path.insert(0, str(Path(__file__).parents[1] / "study"))
 from test_check import _small_study  # noqa: E402
 
 
 def _study(root, n=2):
-    """n trials of tiny recordings (tests/test_check.py's)."""
+    """n trials of tiny recordings (tests/study/test_check.py's)."""
     _small_study(root, n=n)
     return root
 

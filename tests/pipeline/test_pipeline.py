@@ -32,7 +32,7 @@ from fingerfriction.study.store import (
     regions_from_table,
 )
 
-SRC = Path(__file__).resolve().parents[1] / "src"
+SRC = Path(__file__).resolve().parents[2] / "src"
 # The options of simulated studies (see fingerfriction.pipeline.sim_params): the defaults.
 SIM = AnalysisParams(**sim_params())
 
