@@ -11,8 +11,9 @@ import numpy as np
 
 from ..model.blindspots import blind_spots
 from ..surfaces import Surface
-from .bem import ContactSolver, regions_within_gap
+from .bem import ContactSolver
 from .finger import FingerParams
+from .solution import regions_within_gap
 
 __all__: list[str] = []
 
