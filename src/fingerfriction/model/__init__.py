@@ -7,24 +7,5 @@
 * :mod:`.stats`: the detrended correlations of friction with the blind spots (Table 1).
 """
 
-from .friction import (
-    MODELS,
-    FrictionModel,
-    FrictionParams,
-    LoadParams,
-    ModelForces,
-    T_matrix,
-    friction_force,
-    load_terms,
-)
-
-__all__ = [
-    "MODELS",
-    "FrictionParams",
-    "LoadParams",
-    "ModelForces",
-    "FrictionModel",
-    "friction_force",
-    "load_terms",
-    "T_matrix",
-]
+from .friction import *  # noqa: F403 - the friction model's public names, listed once in its __all__
+from .friction import __all__  # noqa: F401
