@@ -557,9 +557,9 @@ def _events_one(root: str, trial_id: str, frames_path: str, truth_path: str | No
     import pandas as pd
 
     from fingerfriction.forces import sensor_signals
+    from fingerfriction.pipeline.params import video_options
+    from fingerfriction.pipeline.trial import read_trial_forces
     from fingerfriction.study.manifest import load_manifest
-    from fingerfriction.study.params import video_options
-    from fingerfriction.study.trial import read_trial_forces
     from fingerfriction.video import FrameAnalyzer, analyze_video, open_video
 
     warnings.simplefilter("ignore")
