@@ -280,7 +280,7 @@ def test_fe_finger_files_round_trip_and_one_line_errors(tmp_path):
 @pytest.mark.slow  # a coarse FE sweep of 11 positions, ~6 s
 def test_the_fe_finger_as_the_forward_model(tmp_path, monkeypatch):
     from fingerfriction.mechanics.finger_file import read_finger_file, write_finger_file
-    from fingerfriction.predict.forward import FE_FORWARD_STEP, _finger_for_label, forward_regions
+    from fingerfriction.predict.forward import FE_FORWARD_STEP, finger_for_label, forward_regions
 
     monkeypatch.setenv("FINGERFRICTION_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("FINGERFRICTION_FE_MESH", json.dumps(COARSE.to_dict()))
@@ -299,4 +299,4 @@ def test_the_fe_finger_as_the_forward_model(tmp_path, monkeypatch):
     # an FE finger file is a subject's forward-model finger (validate --finger 1=fe.json)
     path = write_finger_file(tmp_path / "fe.json", LITERATURE_FINGER)
     f = read_finger_file(path, model="any")
-    assert f == LITERATURE_FINGER and _finger_for_label("1", {"1": f}) == f
+    assert f == LITERATURE_FINGER and finger_for_label("1", {"1": f}) == f
