@@ -1,4 +1,4 @@
-"""The package's layout (issue 16): its import graph, built with ``ast`` from the sources,
+"""The package's layout: its import graph, built with ``ast`` from the sources,
 has no cycle and no module imports a higher layer; a function-level import says why on its
 line; modules and functions stay within the sizes the project agreed on."""
 
@@ -16,7 +16,7 @@ ROOT = "fingerfriction"
 #: A name is a module or a package (``study.store``; ``study`` is the package's
 #: ``__init__``); a module belongs to the longest name that matches it.
 LAYERS = [
-    ("base", ["_atomic", "_check", "_console", "_outputs", "_progress", "_style"]),
+    ("base", ["_atomic", "_check", "_console", "_mainguard", "_outputs", "_progress", "_style"]),
     ("geometry", ["surfaces", "regions"]),
     ("models", ["blindspots", "model", "mechanics", ""]),  # "": the package root's re-exports
     ("stages", ["fit", "stats", "video", "forces", "selfcheck"]),
