@@ -1,4 +1,4 @@
-"""The layered finite-element finger (issue 23): verification, friction coupling, blind
+"""The layered finite-element finger: verification, friction coupling, blind
 spots on the paper's surfaces, and the cost of its contact tables.
 
 Sections (each prints measured figures; nothing is asserted):

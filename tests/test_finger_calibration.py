@@ -1,4 +1,4 @@
-"""Calibrating a finger from a results folder (fingerfriction.study.finger_calibration, issue 15)."""
+"""Calibrating a finger from a results folder (fingerfriction.study.finger_calibration)."""
 
 from __future__ import annotations
 

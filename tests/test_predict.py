@@ -518,7 +518,7 @@ def test_predict_uses_the_load_consistent_model_by_default():
 
 
 def test_loso_heldout_fingers_replace_the_finger_of_one_surface_only(forward_study):
-    """heldout_fingers (issue 15: fingers calibrated on the other surfaces) change the
+    """heldout_fingers (fingers calibrated on the other surfaces) change the
     forward finger of the held-out surface named, for the subject named, and nothing else."""
     from fingerfriction.fit import FitOptions
     from fingerfriction.predict import leave_one_surface_out

@@ -1,4 +1,4 @@
-"""Finger calibration from contact regions (fingerfriction.mechanics.calibrate, issue 15)."""
+"""Finger calibration from contact regions (fingerfriction.mechanics.calibrate)."""
 
 from __future__ import annotations
 

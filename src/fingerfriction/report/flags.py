@@ -71,7 +71,7 @@ def _gap_reasons(t: TrialData, first_row: int, n: int) -> str:
 def _trial_flags(t: TrialData) -> list[dict]:
     out = []
     missing = t.status.get("input_missing") or {}
-    if missing:  # analyze kept the last results of a trial whose files are gone (issue 22)
+    if missing:  # analyze kept the last results of a trial whose files are gone: say so
         out.append(_flag("warning", "input-missing",
                          f"{missing.get('reason', 'input files missing')} (since "
                          f"{missing.get('since', '?')}): these are the trial's last results, kept",
@@ -114,7 +114,7 @@ def collect_flags(data: ReportData) -> list[dict]:
     fit = data.fit or {}
     by_id = {t.id: t for t in data.trials}
     recorded = fit.get("flags")
-    if isinstance(recorded, list):  # the fit's own flags (issue 12): taken as they are
+    if isinstance(recorded, list):  # the fit's own flags, already typed: taken as they are
         for f in recorded:
             if isinstance(f, dict) and f.get("message"):
                 flags.append(_flag(f.get("level", "warning") if f.get("level") in LEVELS else "warning",
