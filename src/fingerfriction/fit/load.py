@@ -22,24 +22,18 @@ contact. Its parameters are fitted in three steps, each where the data pin it:
    subject's summed squared residual with ``p1`` profiled out per trial: a grid over
    ``[0, inset_max] x [0, kappa_max]``, then a bounded Nelder-Mead
    (``scipy.optimize.minimize``) from the best grid point. ``kappa`` is then held where
-   every trial's ``p1`` stays >= 0 (the deformation term dissipates; measured on the
-   simulated study, the residual alone would take ``kappa`` to about 2.5/mm where 40 of
-   180 trials get a slightly negative ``p1``), flagged ``kappa-limited``, and the inset
-   refitted at that ``kappa``. Noise in ``F_N`` enters the
-   model through the pressure and pulls ``delta`` up (errors in variables: about +0.05 mm
-   with 1 % noise on ``F_N`` in the synthetic tests); with forces recovered as well as the
-   force stage does on the simulated study the effect is negligible.
+   every trial's ``p1`` stays >= 0 (the deformation term dissipates; the residual alone
+   can take ``kappa`` past that point), flagged ``kappa-limited``, and the inset refitted
+   at that ``kappa``. Noise in ``F_N`` enters the model through the pressure and pulls
+   ``delta`` up (errors in variables); ``docs/fit.md`` gives the size of both effects.
 3. **p1 per trial** by closed-form least squares on the absolute forces (the model is
    linear in ``p1``), with a standard error that allows for the autocorrelated residuals
    (Newey-West, Bartlett kernel over ``hac_mm`` of positions).
 
-Why ``mu`` is not refined jointly with the rest: on the simulated 180-trial study, mu from
-flat ground lands within 0.01 % of the truth (0.55, 0.60), while minimising the residual
-over ``mu``, ``delta`` and ``kappa`` together moves it to 0.5472 and 0.5991 (-0.51 % and
--0.15 %) for a 4-7 % smaller residual: the
-joint fit bends ``mu`` to absorb model mismatch at the features, where Eq. (4) is an
-approximation, whereas flat ground is where the model is exact (``benchmarks/science.py``
-prints both).
+Why ``mu`` is not refined jointly with the rest: minimising the residual over ``mu``,
+``delta`` and ``kappa`` together bends ``mu`` to absorb model mismatch at the features,
+where Eq. (4) is an approximation, whereas flat ground is where the model is exact
+(``benchmarks/science.py`` prints both; the figures are in ``docs/fit.md``).
 
 A trial without absolute forces (no unloaded rest, or ``sensor_highpass_hz=None`` in the
 force stage) is fitted on the paper's footing instead: the nominal load stands in for
@@ -112,11 +106,10 @@ class LoadFitOptions:
     mu_per : {'trial', 'subject'}
         The ``mu`` each trial's model uses: the trial's own flat-ground value (default; the
         subject's where the trial has too little flat ground) or the subject's, as the
-        paper. Friction varies from trial to trial (skin hydration): on the simulated study
-        with 10 % per-trial scatter of ``mu`` (``simulate --realism``) the subject's ``mu``
-        leaves the contact search nothing to fit (inset 0.06 and 0.00 mm, ``kappa`` 0) and
-        65 of 180 trials at ``p1 < 0`` (Table 1 min rho 0.43), the trial's own gives 0 of
-        180 and min rho 0.85; without scatter the two agree (min rho 0.912 both).
+        paper. Friction varies from trial to trial (skin hydration): with a per-trial
+        scatter of ``mu`` the subject's ``mu`` pushes each trial's friction error into the
+        contact search, which then collapses, and many trials get ``p1 < 0``; without
+        scatter the two agree (``docs/fit.md``).
     n_boot : int
         Bootstrap resamples of the confidence interval of ``mu`` (default 2000).
     seed : int
@@ -136,8 +129,8 @@ class LoadFitOptions:
     search_trials : int
         At most this many of a subject's trials, spread evenly over its surfaces, are used
         to find its load-bearing contact (default 36: 6 per surface of the paper's design;
-        the two parameters are the finger's, and more trials change them by less than
-        0.01 mm and 0.02 on the simulated study while the search's cost grows with them).
+        the two parameters are the finger's, so more trials change them little while the
+        search's cost grows with them; ``docs/fit.md``).
     """
 
     median_kernel: int = 11

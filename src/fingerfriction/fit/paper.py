@@ -28,8 +28,8 @@ How measurement and model are compared (the choices this module makes)
    squares minimise the same function. ``median_on='estimate'`` is the literal reading:
    filter ``F_hat`` after combining; it is nonlinear in ``(p0, p1)``, Nelder-Mead handles
    it exactly and least squares uses the filtered-basis fit as its (approximate) solution
-   (measured on synthetic trials, kernel 11: p0 within 0.03 %, p1 within 1.5 %, objective
-   within 1e-4 relative of Nelder-Mead's). A window of 1 switches the filter off.
+   (how close, on synthetic trials: ``docs/fit.md``). A window of 1 switches the filter
+   off.
 3. **Objective.** :func:`nmse` (conventional, default) and :func:`nmse_eq5` (Eq. 5 as
    printed); see their docstrings for why the conventional one is the default.
 4. **mu grid.** For each ``mu`` of the grid every trial is refitted; the subject's curve is
@@ -513,12 +513,11 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     ``F = p0 mu K + (p0 + p1 mu) S + p1 Q`` (see :class:`_Design`): with ``p0, p1`` free per
     trial, ``mu`` is identified only by the consistency of the three per-frame integrals
     across the trial, mostly through variations of the contact length (``K``). When the
-    contact length hardly varies, the summed objective is nearly flat in ``mu``: on the
-    rigid-pad trials of :mod:`fingerfriction.testing` at 10 % noise it varies by < 1 %
-    over 0.30..0.90 and the selected ``mu`` can be off by 0.1 or more (0.40 for a true 0.60
-    over 90 trials in ``benchmarks/fit.py``), while noise-free trials give the true value
-    exactly; with a contact length varying by ~2 mm (``tests/test_fit.py``) ``mu`` comes
-    out within 2 %. Inspect ``curve`` before trusting ``mu``.
+    contact length hardly varies, the summed objective is nearly flat in ``mu`` and, under
+    noise, the selected ``mu`` can be far from the truth, while noise-free trials give the
+    true value exactly; a contact length that varies over the trial pins it
+    (``tests/test_fit.py``; the figures of both cases are in ``docs/fit.md``). Inspect
+    ``curve`` before trusting ``mu``.
     """
     options = options or FitOptions()
     _check_method(method)
