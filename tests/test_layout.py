@@ -174,6 +174,7 @@ def test_no_import_cycle():
     assert not cycles, f"import cycles: {cycles}"
 
 
+@pytest.mark.slow
 def test_function_level_imports_say_why():
     bare = [f"{MODULES[mod].relative_to(PKG)}:{lineno}: {line.strip()}"
             for mod, path in MODULES.items()
@@ -209,6 +210,7 @@ def _code_lines(fn: ast.FunctionDef) -> int:
     return fn.end_lineno - start + 1
 
 
+@pytest.mark.slow
 def test_long_functions_are_few_and_named():
     long = {}
     for path in MODULES.values():

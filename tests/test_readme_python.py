@@ -84,6 +84,7 @@ def test_the_readme_python_blocks_run_in_order_as_a_script(tmp_path):
     assert (tmp_path / "loso.csv").is_file()
 
 
+@pytest.mark.slow
 def test_simulate_study_at_the_top_level_of_a_script_says_what_to_do(tmp_path):
     script = ('from fingerfriction.sim import SimOptions, simulate_study\n'
               'simulate_study("studies/tiny", SimOptions(reps=1, speeds=(80.0,)), workers=2)\n')
@@ -96,6 +97,7 @@ def test_simulate_study_at_the_top_level_of_a_script_says_what_to_do(tmp_path):
     assert not (tmp_path / "studies").exists()  # stopped before anything was written
 
 
+@pytest.mark.slow
 def test_analyze_at_the_top_level_of_a_script_says_what_to_do(tmp_path):
     (tmp_path / "study").mkdir()
     script = ('from fingerfriction.study.analyze import analyze\n'
