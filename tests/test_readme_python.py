@@ -84,16 +84,23 @@ def test_the_readme_python_blocks_run_in_order_as_a_script(tmp_path):
     assert (tmp_path / "loso.csv").is_file()
 
 
+def _unguarded_call_fails(script: str, cwd: Path, what: str) -> str:
+    """Run ``script`` (its line 2 calls ``what`` at the top level); it must exit 1 with one
+    line naming the fix, and no multiprocessing traceback. Returns that line."""
+    proc = _run(script, cwd, timeout=300)
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    last = proc.stderr.strip().splitlines()[-1]
+    assert f"{what} starts worker processes" in last and 'if __name__ == "__main__":' in last
+    assert "(line 2)" in last
+    assert "BrokenProcessPool" not in proc.stderr and "bootstrapping" not in proc.stderr
+    return last
+
+
 @pytest.mark.slow
 def test_simulate_study_at_the_top_level_of_a_script_says_what_to_do(tmp_path):
     script = ('from fingerfriction.sim import SimOptions, simulate_study\n'
               'simulate_study("studies/tiny", SimOptions(reps=1, speeds=(80.0,)), workers=2)\n')
-    proc = _run(script, tmp_path, timeout=300)
-    assert proc.returncode == 1
-    last = proc.stderr.strip().splitlines()[-1]
-    assert "simulate_study starts worker processes" in last and 'if __name__ == "__main__":' in last
-    assert "(line 2)" in last and "workers=1" in last
-    assert "BrokenProcessPool" not in proc.stderr and "bootstrapping" not in proc.stderr
+    assert "workers=1" in _unguarded_call_fails(script, tmp_path, "simulate_study")
     assert not (tmp_path / "studies").exists()  # stopped before anything was written
 
 
@@ -102,11 +109,16 @@ def test_analyze_at_the_top_level_of_a_script_says_what_to_do(tmp_path):
     (tmp_path / "study").mkdir()
     script = ('from fingerfriction.study.analyze import analyze\n'
               'analyze("study", "results", n_workers=2)\n')
-    proc = _run(script, tmp_path, timeout=300)
-    assert proc.returncode == 1
-    last = proc.stderr.strip().splitlines()[-1]
-    assert "analyze starts worker processes" in last and "(line 2)" in last
+    _unguarded_call_fails(script, tmp_path, "analyze")
     assert not (tmp_path / "results").exists()
+    # a package's __main__ run with `python -m` (as `python -m fingerfriction.cli`) is never
+    # imported again by the workers: no guard needed, the call goes on (here: no such study)
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "__init__.py").write_text("")
+    (tmp_path / "pkg" / "__main__.py").write_text(script.replace('"study"', '"missing"'))
+    proc = subprocess.run([sys.executable, "-m", "pkg"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=300)
+    assert "MainGuardError" not in proc.stderr and "'missing' does not exist" in proc.stderr
 
 
 def test_the_guard_is_read_from_the_script():

@@ -12,7 +12,10 @@ The caller is found on the stack: the frame running the body of the ``__main__``
 (``co_name == "<module>"``), if any, and its current line. That line is looked up in the
 script's syntax tree: inside a top-level ``if __name__ == "__main__":`` block is fine,
 anywhere else is the case above. An interactive session, ``python -c``, a notebook or a
-script whose source cannot be read has no such frame or file, and nothing is checked.
+script whose source cannot be read has no such frame or file, and nothing is checked;
+neither is a package's ``__main__`` run with ``python -m`` (``python -m
+fingerfriction.cli``), which multiprocessing never imports again
+(``multiprocessing.spawn._fixup_main_from_name``).
 """
 
 from __future__ import annotations
@@ -66,6 +69,9 @@ def check_main_guard(what: str, *, alternative: str = "") -> None:
         One line naming the script, the line of the call and the fix.
     """
     main = sys.modules.get("__main__")
+    name = getattr(getattr(main, "__spec__", None), "name", None)
+    if name is not None and (name == "__main__" or name.endswith(".__main__")):
+        return  # a package's __main__ (python -m): the workers do not import it again
     main_dict = getattr(main, "__dict__", None)
     frame = sys._getframe(1)
     while frame is not None:
