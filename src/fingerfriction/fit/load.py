@@ -59,6 +59,7 @@ from .common import (
     _check_kernel,
     _fit_labels,
     _one_subject,
+    fit_flag,
     flat_detrend,
     flat_segment_mask,
     median_filter,
@@ -426,12 +427,12 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
     pressure = d.FN / support
     footing = "absolute" if d.absolute else "flat"
     if not d.absolute:
-        flags.append(FitFlag("warning", "no-absolute", t.subject, tid, model_name,
+        flags.append(fit_flag("warning", "no-absolute", t.subject, tid, model_name,
                              "no absolute forces: fitted on the paper's flat-segment footing with the "
                              "nominal load standing in for F_N"))
     if y is None or y.size < 3:
         msg = "no position with load-bearing contact and a normal load to compare"
-        flags.append(FitFlag("error", "fit-failed", t.subject, tid, model_name, msg))
+        flags.append(fit_flag("error", "fit-failed", t.subject, tid, model_name, msg))
         return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, kappa=kappa,
                             p0_mean=math.nan, mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
                             footing=footing, used=used,
@@ -444,18 +445,18 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
         p1_se = _hac_se(b, y - p1 * b, d.lags)
     else:
         p1, p1_se = 0.0, math.nan
-        flags.append(FitFlag("warning", "p1-not-identified", t.subject, tid, model_name,
+        flags.append(fit_flag("warning", "p1-not-identified", t.subject, tid, model_name,
                              "the load-bearing contact never reaches a slope: p1 is not identified "
                              "(F_def = 0)"))
     if p1 < 0:
         success = False
         msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
         parts.insert(0, msg)
-        flags.append(FitFlag("error", "negative-p1", t.subject, tid, model_name, msg))
+        flags.append(fit_flag("error", "negative-p1", t.subject, tid, model_name, msg))
     n_out = int(n - np.count_nonzero(used))
     if n_out:
         level = "error" if n_out > 0.1 * n else "warning"
-        flags.append(FitFlag(level, "positions-left-out", t.subject, tid, model_name,
+        flags.append(fit_flag(level, "positions-left-out", t.subject, tid, model_name,
                              f"{n_out} of {n} positions have no load-bearing contact or a normal force "
                              "below the minimum and are left out of the fit"))
         if level == "error":
@@ -466,7 +467,7 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
         parts.insert(0, "flat-ground F_T / F_N <= 0 (wrong sign)")
     if np.any(d.FN[used] < 0):
         success = False
-        flags.append(FitFlag("error", "negative-pressure", t.subject, tid, model_name,
+        flags.append(fit_flag("error", "negative-pressure", t.subject, tid, model_name,
                              "the measured normal force is negative at some compared positions"))
     # the trial's pressure: total load over total vertical support (a ratio of sums stays
     # unbiased under noise in F_N, a mean of the pointwise pressure would not)
@@ -584,7 +585,7 @@ def _at_bound_flags(subject: str, fitted, inset: float, kappa: float, options: L
     for name, value, bound in bounds:
         if name in fitted and value > 0.98 * bound:
             what = "load-bearing inset" if name == "inset" else "rise of the pressure with height"
-            flags.append(FitFlag("warning", f"{name}-at-bound", subject, "", "load",
+            flags.append(fit_flag("warning", f"{name}-at-bound", subject, "", "load",
                                  f"the {what} reached its bound {bound:g}"))
     return flags
 
@@ -625,7 +626,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                               n_boot=options.n_boot, seed=options.seed, level=options.level)
     except ValueError as exc:
         msg = str(exc)
-        flag = FitFlag("error", "mu-unavailable", subject, "", "load", msg)
+        flag = fit_flag("error", "mu-unavailable", subject, "", "load", msg)
         return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
                               fitted=(), trials=(), flags=(flag,), success=False, message=msg)
     mu = flat.mu
@@ -649,7 +650,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                                                options={"xatol": 1e-3})
                 inset = float(res.x)
                 kappa = _physical_kappa(absolute, mu_of, inset, kappa)
-            flags.append(FitFlag("warning", "kappa-limited", subject, "", "load",
+            flags.append(fit_flag("warning", "kappa-limited", subject, "", "load",
                                  f"the pressure's rise with height is limited to {kappa:.2f}/mm, where every "
                                  f"trial's deformation weight p1 stays >= 0 (the residual alone would take "
                                  f"{best:.2f}/mm)"))

@@ -56,6 +56,7 @@ from .common import (
     _check_kernel,
     _fit_labels,
     _one_subject,
+    fit_flag,
     flat_detrend,
     flat_segment_mask,
     median_filter,
@@ -608,20 +609,20 @@ def paper_flags(fit: SubjectFit) -> list[FitFlag]:
     if g.size > 1 and fin.any():
         j = int(np.nanargmin(np.where(fin, c, np.nan)))
         if j in (0, g.size - 1):
-            out.append(FitFlag("error", "mu-at-grid-edge", s, "", "paper",
+            out.append(fit_flag("error", "mu-at-grid-edge", s, "", "paper",
                                f"mu = {fit.mu:.3f} is at the end of the grid [{g[0]:.2f}, {g[-1]:.2f}]: "
                                "the objective may still fall outside it"))
         lo, hi = float(np.min(c[fin])), float(np.max(c[fin]))
         if hi <= 1.05 * lo:
-            out.append(FitFlag("warning", "mu-not-identifiable", s, "", "paper",
+            out.append(fit_flag("warning", "mu-not-identifiable", s, "", "paper",
                                f"the summed objective changes by {100 * (hi / lo - 1):.1f} % over mu in "
                                f"[{g[0]:.2f}, {g[-1]:.2f}]: mu is not identified by these forces"))
     for tf in fit.trials:
         tid = str(tf.labels.get("trial", ""))
         if not tf.success:
             if tf.p0 < 0:
-                out.append(FitFlag("error", "negative-p0", s, tid, "paper",
+                out.append(fit_flag("error", "negative-p0", s, tid, "paper",
                                    f"p0 = {tf.p0:.3g} N/mm < 0: an unphysical (negative) pressure"))
             else:
-                out.append(FitFlag("error", "fit-failed", s, tid, "paper", tf.message))
+                out.append(fit_flag("error", "fit-failed", s, tid, "paper", tf.message))
     return out

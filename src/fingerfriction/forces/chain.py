@@ -330,7 +330,7 @@ def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, para
     """The frames' finger positions, extended at constant speed when they do not cover the
     window (a warning flag); None, with an error flag, when no frame has a finger."""
     if not np.isfinite(x_frames).any():
-        flags.append(Flag("no-finger", "x_frames holds no finger position (all NaN)", "error"))
+        flags.append(Flag("error", "no-finger", "x_frames holds no finger position (all NaN)"))
         return None
     x_lo, x_hi = float(np.nanmin(x_frames)), float(np.nanmax(x_frames))
     if params.extrapolate_mm > 0 and (x_lo > window[0] or x_hi < window[1]):
@@ -339,6 +339,7 @@ def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, para
         if ext[0] > 0 or ext[1] > 0:
             flags.append(
                 Flag(
+                    "warning",
                     "extrapolated",
                     f"x(t) was tracked over [{x_lo:.3f}, {x_hi:.3f}] mm only; it was extended at constant "
                     f"speed (fitted over {params.extrapolate_fit_s * 1e3:g} ms of tracked frames) by "
@@ -370,6 +371,7 @@ def _sensor_chain(sig: ForceSignals, params: ForceProcessingParams, flags: list)
             notch = True
             flags.append(
                 Flag(
+                    "warning",
                     "mains-notch",
                     "mains='fit' needs an unloaded baseline; the interference was removed by notch "
                     f"filters at {list(params.notch_hz)} Hz instead (they also remove the force's "
@@ -435,7 +437,7 @@ def _on_positions(x_at, sig: ForceSignals, sig_abs: ForceSignals | None, window,
             f_t_abs = resample_to_positions(x_at, sig_abs.f_t, window=window, resolution=resolution).values
             f_n_abs = resample_to_positions(x_at, sig_abs.f_n, window=window, resolution=resolution).values
     except ValueError as exc:
-        flags.append(Flag("window", f"at the force sample times, {exc}", "error"))
+        flags.append(Flag("error", "window", f"at the force sample times, {exc}"))
         return None
     check_resampling(res_t, params, flags)
     return res_t, res_n, f_t_abs, f_n_abs
@@ -455,7 +457,7 @@ def _absolute_footing(params: ForceProcessingParams, base, post, flags: list) ->
         message = ("no unloaded rest before the touch or after the lift-off anchors the drift: the "
                    "forces are known only relative to the flat segment (the paper's footing)")
     if message:
-        flags.append(Flag("no-absolute", message))
+        flags.append(Flag("warning", "no-absolute", message))
     return not message, message
 
 
@@ -471,7 +473,7 @@ def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list
         else ""
     )
     if params.baseline is None:
-        flags.append(Flag("no-baseline", "baseline=None" + consequence))
+        flags.append(Flag("warning", "no-baseline", "baseline=None" + consequence))
         return None
     if params.baseline == "auto":
         quick = lowpass_filter(np.vstack([sig.f_n, sig.f_t]), fs, min(50.0, 0.4 * fs))
@@ -490,6 +492,7 @@ def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list
     if mask.sum() < params.min_baseline_s * fs:
         flags.append(
             Flag(
+                "warning",
                 "no-baseline",
                 f"no usable unloaded baseline: {how}, less than min_baseline_s={params.min_baseline_s:g} s"
                 + consequence
@@ -523,6 +526,7 @@ def _post_baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags:
     if mask.sum() < max(params.min_baseline_s * fs, 4):
         flags.append(
             Flag(
+                "warning",
                 "no-post-baseline",
                 f"no usable unloaded rest after the lift-off: {how}, less than "
                 f"min_baseline_s={params.min_baseline_s:g} s (the record ends in contact or too soon); the "
@@ -580,6 +584,7 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
         flags.extend(tried)
         flags.append(
             Flag(
+                "warning",
                 "highpass-estimate",
                 "estimate_highpass=True but there is no usable rest after the lift-off (see the "
                 "no-post-baseline flag), so the cut-off is not determined; the prior "
@@ -593,6 +598,7 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
         if not est.success:
             flags.append(
                 Flag(
+                    "warning",
                     "highpass-estimate",
                     f"estimate_highpass=True but {est.message}; the prior sensor_highpass_hz={prior:g} Hz "
                     "was used",
@@ -609,6 +615,7 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
     if abs(est.rel_change) > params.highpass_max_change:
         flags.append(
             Flag(
+                "warning",
                 "highpass-estimate",
                 f"the sensor cut-off estimated on the rests, {est.fc_hz:.4g} +- {est.se_hz:.2g} Hz, is "
                 f"{100 * est.rel_change:+.0f} % from the prior sensor_highpass_hz={prior:g} Hz (allowed "
@@ -663,7 +670,8 @@ def _response_compensation(raw: ForceSignals, base, params: ForceProcessingParam
         post = _rough_post_rest(raw.compensate_highpass(prior), params)
     if post is None:
         flags.extend(tried)
-        flags.append(Flag("highpass-estimate", "highpass_model='second-order' but there is no usable rest "
+        flags.append(Flag("warning", "highpass-estimate",
+                          "highpass_model='second-order' but there is no usable rest "
                           "after the lift-off, so the response is not determined; the prior "
                           f"sensor_highpass_hz={prior:g} Hz (first order) was used"))
         sig = raw.compensate_highpass(prior)
@@ -684,11 +692,12 @@ def _response_compensation(raw: ForceSignals, base, params: ForceProcessingParam
         post = new
     for c, e in enumerate(ests):
         if not e.success:
-            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: {e.message}; the prior "
+            flags.append(Flag("warning", "highpass-estimate", f"transducer F{c + 1}: {e.message}; the prior "
                               f"sensor_highpass_hz={prior:g} Hz (first order) was used for it"))
         elif abs(e.cutoff_hz / prior - 1.0) > params.highpass_max_change:
             change = 100 * (e.cutoff_hz / prior - 1)
-            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: the high-pass estimated on the "
+            flags.append(Flag("warning", "highpass-estimate",
+                              f"transducer F{c + 1}: the high-pass estimated on the "
                               f"rests has its -3 dB cut-off at {e.cutoff_hz:.4g} Hz, {change:+.0f} % from "
                               "the "
                               f"prior sensor_highpass_hz={prior:g} Hz (allowed highpass_max_change="
