@@ -1,6 +1,6 @@
 """Accuracy and throughput of the force processing on a simulated study.
 
-For every trial, the recovered ``F_T(x)`` (``fingerfriction.study.trial.process_trial_forces``: the
+For every trial, the recovered ``F_T(x)`` (``fingerfriction.pipeline.trial.process_trial_forces``: the
 recorded channels, the finger positions per video frame) is compared with the *true*
 tangential force of the simulator (``truth/<trial>.npz``) brought onto the same grid by the
 same *linear* processing the recovered force went through:
@@ -59,9 +59,9 @@ from fingerfriction.forces import (
     remove_linear_drift,
     resample_to_positions,
 )
+from fingerfriction.pipeline.trial import TrialInput, process_trial_forces, read_trial_forces
 from fingerfriction.sim import SensorParams
 from fingerfriction.study import load_manifest, resolve_path
-from fingerfriction.study.trial import TrialInput, process_trial_forces, read_trial_forces
 from fingerfriction.surfaces import surface_from_spec
 from fingerfriction.video import AnalysisOptions, analyze_video
 

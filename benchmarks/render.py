@@ -1,4 +1,4 @@
-"""Benchmark of the haptic renderer's queries (fingerfriction.render).
+"""Benchmark of the haptic renderer's queries (fingerfriction.predict.render).
 
 Prints, for a renderer precomputed on a 3 mm bump (subject 1):
 
@@ -25,7 +25,7 @@ import numpy as np
 
 from fingerfriction.model import FrictionParams
 from fingerfriction.predict import flat_contact_length
-from fingerfriction.render import HapticRenderer
+from fingerfriction.predict.render import HapticRenderer
 
 
 def unpaced(fn, xs) -> float:

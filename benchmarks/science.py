@@ -45,9 +45,9 @@ from _studies import analysed_study, simulated_study  # the benchmarks' shared s
 from fingerfriction.fit import LoadFitOptions, fit_load_subject
 from fingerfriction.fit.load import _LoadDesign, _search_designs
 from fingerfriction.model import FrictionModel
-from fingerfriction.predict import trials_from_results
-from fingerfriction.stats import BOTH, correlation_table
-from fingerfriction.study.fitting import fit as fit_study
+from fingerfriction.model.stats import BOTH, correlation_table
+from fingerfriction.pipeline.fitting import fit as fit_study
+from fingerfriction.pipeline.validation import trials_from_results
 from fingerfriction.study.store import ResultsStore
 from fingerfriction.surfaces import SURFACE_NAMES
 from fingerfriction.testing import synthetic_trial

@@ -192,10 +192,8 @@ def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
     import logging
     import warnings
 
-    from fingerfriction.study.check import check_files
-    from fingerfriction.study.manifest import load_manifest
-    from fingerfriction.study.params import AnalysisParams, force_params, video_options
-    from fingerfriction.study.trial import (
+    from fingerfriction.pipeline.params import AnalysisParams, force_params, video_options
+    from fingerfriction.pipeline.trial import (
         TrialInput,
         check_trial_inputs,
         one_line,
@@ -203,6 +201,8 @@ def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
         read_trial_forces,
         run_video,
     )
+    from fingerfriction.study.check import check_files
+    from fingerfriction.study.manifest import load_manifest
 
     warnings.simplefilter("ignore")  # the video stage's warnings about the mistaken scales: expected
     logging.getLogger("fingerfriction").setLevel(logging.ERROR)
@@ -276,9 +276,9 @@ def run_mistakes(root: Path, index: dict, workers: int) -> dict:
 
 def synchronise_copies(root: Path, rows: dict, index: dict) -> None:
     """The study-level synchronisation: each copy against the unmodified trials' starts."""
+    from fingerfriction.pipeline.selfcheck import sync_checks
     from fingerfriction.selfcheck import OnsetData, SelfCheckParams, estimate_offsets
     from fingerfriction.study.manifest import load_manifest
-    from fingerfriction.study.selfcheck import sync_checks
 
     st = load_manifest(root)
     P = SelfCheckParams()
@@ -393,7 +393,7 @@ def shifted_study(study: Path, out: Path, seed: int = 21) -> tuple[Path, dict]:
 
 
 def _mu(results: Path) -> dict:
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     res = fit(results, progress=False, validate=False)
     return dict(res.mu)
@@ -557,9 +557,9 @@ def _events_one(root: str, trial_id: str, frames_path: str, truth_path: str | No
     import pandas as pd
 
     from fingerfriction.forces import sensor_signals
+    from fingerfriction.pipeline.params import video_options
+    from fingerfriction.pipeline.trial import read_trial_forces
     from fingerfriction.study.manifest import load_manifest
-    from fingerfriction.study.params import video_options
-    from fingerfriction.study.trial import read_trial_forces
     from fingerfriction.video import FrameAnalyzer, analyze_video, open_video
 
     warnings.simplefilter("ignore")

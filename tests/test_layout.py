@@ -18,15 +18,16 @@ ROOT = "fingerfriction"
 LAYERS = [
     ("base", ["_atomic", "_check", "_console", "_mainguard", "_outputs", "_progress", "_style", "flags"]),
     ("geometry", ["surfaces", "regions"]),
-    ("models", ["blindspots", "model", "mechanics", ""]),  # "": the package root's re-exports
-    ("stages", ["fit", "stats", "video", "forces", "selfcheck"]),
-    ("study data", ["study", "study.manifest", "study.store"]),
+    ("models", ["model", "mechanics", ""]),  # "": the package root's re-exports
+    ("stages", ["fit", "video", "forces", "selfcheck"]),
+    ("study data", ["study"]),
     ("experiment and prediction", ["sim", "predict", "testing"]),
-    ("one trial", ["study.params", "study.trial"]),
-    ("pipeline", ["study.plan", "study.analyze", "study.fitting", "study.selfcheck", "render"]),
+    ("one trial", ["pipeline", "pipeline.params", "pipeline.trial"]),
+    ("the study's stages", ["pipeline.plan", "pipeline.selfcheck", "pipeline.analyze", "pipeline.fitting",
+                            "pipeline.validation", "pipeline.finger_calibration"]),
     ("report", ["report"]),
     ("demo", ["demo"]),
-    ("entry points and deprecated aliases", ["cli", "pipeline", "results", "synthetic"]),
+    ("entry points", ["cli"]),
 ]
 
 #: Functions longer than 80 lines of code (their docstrings not counted), each with why.

@@ -107,7 +107,7 @@ def test_simulate_study_at_the_top_level_of_a_script_says_what_to_do(tmp_path):
 @pytest.mark.slow
 def test_analyze_at_the_top_level_of_a_script_says_what_to_do(tmp_path):
     (tmp_path / "study").mkdir()
-    script = ('from fingerfriction.study.analyze import analyze\n'
+    script = ('from fingerfriction.pipeline.analyze import analyze\n'
               'analyze("study", "results", n_workers=2)\n')
     _unguarded_call_fails(script, tmp_path, "analyze")
     assert not (tmp_path / "results").exists()

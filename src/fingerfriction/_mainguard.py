@@ -1,7 +1,7 @@
 """The check that a script starting worker processes protects its top level.
 
 :func:`~fingerfriction.sim.simulate_study` (a ``forkserver`` process pool) and
-:func:`~fingerfriction.study.analyze.analyze` (a Dask ``LocalCluster``, ``spawn``) start
+:func:`~fingerfriction.pipeline.analyze.analyze` (a Dask ``LocalCluster``, ``spawn``) start
 worker processes that import the user's script again as ``__mp_main__``. A script that calls
 them at its top level, without ``if __name__ == "__main__":``, then runs itself again in
 every new process: the pool breaks (``BrokenProcessPool``) or Dask's workers fail to start,

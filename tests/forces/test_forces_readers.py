@@ -12,7 +12,7 @@ import scipy.io
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
 from fingerfriction.forces import ForceFileError, read_force_file
-from fingerfriction.study.trial import read_trial_forces
+from fingerfriction.pipeline.trial import read_trial_forces
 
 FS = 10_000.0
 

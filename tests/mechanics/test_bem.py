@@ -181,7 +181,8 @@ def test_region_extraction_matches_the_regions_module():
     # bem extracts the regions of every sweep position with its own vectorised code; it
     # must give exactly what fingerfriction.regions.regions_from_mask gives.
     from fingerfriction.mechanics._cgkernels import contact_regions
-    from fingerfriction.mechanics.bem import _geometric_regions, _mechanical_regions
+    from fingerfriction.mechanics.solution import _mechanical_regions
+    from fingerfriction.mechanics.solution import regions_within_gap as _geometric_regions
     from fingerfriction.regions import regions_from_mask
 
     rng = np.random.default_rng(3)

@@ -10,13 +10,13 @@ import pytest
 from scipy.integrate import quad
 
 from fingerfriction.mechanics import FingerParams, hertz_half_width, solve_contact
-from fingerfriction.mechanics.bem import (
-    _layer_kernel,
-    _skin_compliance,
-    _skin_kernel,
+from fingerfriction.mechanics.kernels import (
     halfspace_kernel,
     layer_compliance,
 )
+from fingerfriction.mechanics.kernels import layer_kernel as _layer_kernel
+from fingerfriction.mechanics.kernels import skin_compliance as _skin_compliance
+from fingerfriction.mechanics.kernels import skin_kernel as _skin_kernel
 
 
 def _flat(x):

@@ -123,7 +123,7 @@ def test_fig3_has_no_step_at_the_resting_contacts_edge(data):
     near = (xc > -10.5) & (xc < -8.5)  # around the resting contact's leading edge, -9.5 mm
     assert np.abs(np.diff(occ[near])).max() < 0.01  # a smooth taper, no step
     # counting every frame (the old figure) the same data shows the step
-    from fingerfriction.blindspots import occupancy
+    from fingerfriction.model.blindspots import occupancy
 
     every = occupancy(tr.regions)
     near = (every.centers > -10.5) & (every.centers < -8.5)

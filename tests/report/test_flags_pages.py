@@ -52,7 +52,7 @@ def test_failed_trials_and_fit_failures_are_flagged_and_get_a_page(results):
     store = ResultsStore(results)
     tid = store.trial_ids()[3]
     store.write_failure(tid, "ValueError: video truncated at frame 12", {})
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     fit(results, progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # mu at its bound
     rep = make_report(results, sample=0)

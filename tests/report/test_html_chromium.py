@@ -172,7 +172,7 @@ def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp
     # trial with their parameters inside their bounds, nothing is flagged
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     clean = tmp_path / "clean"
     write_synthetic_results(clean, transient_mm=0.8)

@@ -159,7 +159,7 @@ def test_out_of_sample_validation_next_to_table1(report):
 def test_fit_without_validation_says_so(tmp_path):
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     write_synthetic_results(tmp_path / "r")
     (tmp_path / "r" / "fit").mkdir(parents=True)
@@ -198,7 +198,7 @@ def test_p_values_never_print_as_zero(report):
 def test_one_subject_report_does_not_say_both_subjects(tmp_path):
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     write_synthetic_results(tmp_path / "r", subjects={"1": 0.55})
     fit(tmp_path / "r", progress=False, validate=False)
@@ -231,7 +231,7 @@ def test_report_before_fit_says_so_at_the_top_and_on_the_console(tmp_path):
 def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     write_synthetic_results(tmp_path / "r")
     fit(tmp_path / "r", progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # truth 0.55, 0.60

@@ -14,11 +14,11 @@ from typer.testing import CliRunner
 
 from fingerfriction.cli import app
 from fingerfriction.flags import Flag
+from fingerfriction.pipeline.analyze import analyze
+from fingerfriction.pipeline.params import AnalysisParams
 from fingerfriction.report.data import load_report_data
 from fingerfriction.report.flags import collect_flags
 from fingerfriction.sim import KinematicsParams, SimOptions, simulate_study
-from fingerfriction.study.analyze import analyze
-from fingerfriction.study.params import AnalysisParams
 from fingerfriction.study.store import ResultsStore
 
 pytestmark = pytest.mark.slow

@@ -14,7 +14,7 @@ Two variants of Eq. (4) (:mod:`fingerfriction.model`), selected by name (:data:`
     unphysical, which :func:`paper_flags` reports.
 
 Both return per-trial results with ``measured``/``estimate`` series (for Table 1,
-:mod:`fingerfriction.stats`) and :class:`FitFlag` objects for everything unphysical or
+:mod:`fingerfriction.model.stats`) and :class:`FitFlag` objects for everything unphysical or
 doubtful; nothing here reads or writes files.
 """
 

@@ -103,7 +103,7 @@ def nmse_eq5(measured, estimate) -> float:
     towards a *larger* model: for a model ``c G`` with a free scale ``c`` and centred
     signals, Eq. (5) is minimised at ``c = ||F||^2 / <G, F>`` whereas least squares gives
     ``c = <G, F> / ||G||^2``; their ratio is ``1 / r^2`` (``r`` the correlation of ``G``
-    and ``F``), so noise in ``F`` inflates Eq. (5)'s parameters (``tests/test_fit.py``
+    and ``F``), so noise in ``F`` inflates Eq. (5)'s parameters (``tests/fit/test_fit.py``
     checks it; its size: ``docs/fit.md``). It is undefined (``inf``) for a flat model, e.g.
     a trial whose contact never reaches the feature after detrending.
     """

@@ -517,7 +517,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     contact length hardly varies, the summed objective is nearly flat in ``mu`` and, under
     noise, the selected ``mu`` can be far from the truth, while noise-free trials give the
     true value exactly; a contact length that varies over the trial pins it
-    (``tests/test_fit.py``; the figures of both cases are in ``docs/fit.md``). Inspect
+    (``tests/fit/test_fit.py``; the figures of both cases are in ``docs/fit.md``). Inspect
     ``curve`` before trusting ``mu``.
     """
     options = options or FitOptions()
@@ -588,7 +588,8 @@ def paper_flags(fit: SubjectFit) -> list[FitFlag]:
     * ``mu-at-grid-edge`` (error): the grid minimum is at an end of the grid, so the
       optimum may lie outside it;
     * ``mu-not-identifiable`` (warning): Eq. (4) is exactly invariant under
-      ``(mu, p0, p1) -> (p0/p1, p1 mu, p1)`` (see :func:`fingerfriction.predict.leave_one_surface_out`),
+      ``(mu, p0, p1) -> (p0/p1, p1 mu, p1)`` (see
+      :func:`fingerfriction.pipeline.validation.leave_one_surface_out`),
       and the flat-segment detrend removes most of the ``cos alpha`` term that would pin
       ``mu``; flagged when the summed objective varies by less than 5 % over the grid;
     * ``negative-p0`` and ``fit-failed`` (error), one per trial: an unphysical pressure

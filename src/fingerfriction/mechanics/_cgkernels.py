@@ -156,8 +156,8 @@ def cg_step(  # pragma: no cover - compiled
 def contact_regions(x, p, gap, tol, mech, geom):  # pragma: no cover - compiled
     """Mechanical (``p > 0``) and geometric (``gap <= tol``) regions of one solution.
 
-    The same arithmetic as :func:`.bem._mechanical_regions` and
-    :func:`.bem._geometric_regions` (cell-edge intervals; ends of the geometric ones
+    The same arithmetic as :func:`.solution._mechanical_regions` and
+    :func:`.solution.regions_within_gap` (cell-edge intervals; ends of the geometric ones
     interpolated linearly at ``gap = tol``), written into ``mech`` and ``geom``
     (``(n // 2 + 1, 2)`` each); returns their numbers of rows. One compiled pass instead
     of ~20 numpy calls per sweep position (its share of a position's time:

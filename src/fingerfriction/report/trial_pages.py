@@ -26,9 +26,9 @@ from matplotlib.figure import Figure
 
 from .._atomic import atomic_write_text
 from ..forces.signals import describe_history
+from ..pipeline.params import video_options
+from ..pipeline.trial import TrialInput
 from ..study.manifest import load_manifest
-from ..study.params import video_options
-from ..study.trial import TrialInput
 from ..video.overlay import write_results_overlay
 from .data import ReportData, TrialData
 from .figures import _label, _measured, region_events
