@@ -1,4 +1,4 @@
-"""Finger calibration from recordings (issue 15): recovery, blind spots, CPU time.
+"""Finger calibration from recordings: recovery, blind spots, CPU time.
 
 From one run:
 

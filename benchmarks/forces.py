@@ -20,7 +20,8 @@ same *linear* processing the recovered force went through:
   onto the force clock through the manifest's clock offsets.
 
 Error: RMS over the 26 mm window of (recovered - reference), in % of the reference's
-peak-to-peak. Criterion (issue 6): below 5 % on every surface and speed. Also printed:
+peak-to-peak. Criterion (the force stage's accuracy target): below 5 % on every surface and
+speed. Also printed:
 the paper's procedure as written (no high-pass compensation), the error against the
 unfiltered truth, the default without the rest after the lift-off (``post_baseline=None``:
 the drift line from the rest before the touch alone), the sensitivity to a +-5 % error in
@@ -282,7 +283,7 @@ def main(argv=None) -> int:
         groups[(r["surface"], r["speed"])].append(r)
     print(
         "\nRMS error of F_T(x) over the window, in % of the reference's peak-to-peak; criterion "
-        "(issue 6): default < 5 % on every trial.\n"
+        "(the force stage's target): default < 5 % on every trial.\n"
         "  default: mains fitted on the baseline + 500 Hz low-pass + high-pass compensation, vs the\n"
         "           truth low-passed at 500 Hz, flat-segment trend removed (the primary figure);\n"
         "  no LP:   the same result vs the truth without the low-pass;\n"

@@ -1,4 +1,4 @@
-"""The consistency stage (issue 21): does it catch each mistake a manifest can carry, how
+"""The consistency stage: does it catch each mistake a manifest can carry, how
 often does it flag a clean trial, does ``--sync auto`` recover scattered clocks, and what
 does it cost.
 
@@ -67,7 +67,7 @@ CONFIRM_OPTIONS = (
     "--world constant-pressure --chain realistic --seed 3 --reps 1",
 )
 
-#: (name, kind, argument): the mistakes of the issue, applied to a copy of every trial
+#: (name, kind, argument): the mistakes a manifest can carry, applied to a copy of every trial
 MISTAKES = [
     ("fs +1 %", "fs", 1.01),
     ("fs -1 %", "fs", 0.99),
@@ -91,7 +91,7 @@ MISTAKES = [
     ("another surface type", "type", None),
     ("unmodified", "none", None),
 ]
-#: the issue's bar: caught in >= 95 % of trials (the both-channel sensitivity is not in it:
+#: the bar: caught in >= 95 % of trials (the both-channel sensitivity is not in it:
 #: see docs/selfcheck.md, nothing in one trial's data sets the absolute force scale)
 MUST_CATCH = {m[0] for m in MISTAKES if m[1] != "none" and m[0] != "sensitivity 10x (both channels)"}
 OTHER_SHAPE = {"bump": "step-up", "step-up": "step-down", "step-down": "bump"}

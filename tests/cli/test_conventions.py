@@ -32,6 +32,7 @@ def test_version():
     assert code == 0 and out == f"fingerfriction {__version__}"
 
 
+@pytest.mark.slow
 def test_help_shows_readable_types():
     group = typer.main.get_command(app)
     assert len(group.commands) >= 12

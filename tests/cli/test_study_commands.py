@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
@@ -27,6 +28,7 @@ def test_analyze_bad_window_is_one_line_error(tmp_path):
     assert "Traceback" not in r.output
 
 
+@pytest.mark.slow
 def test_fit_and_report_on_a_results_folder(tmp_path):
     write_synthetic_results(tmp_path / "r", truth_dir=tmp_path / "study" / "truth")
     r = runner.invoke(app, ["fit", str(tmp_path / "r")])

@@ -126,6 +126,7 @@ def test_recovers_p0_p1_mu_within_2_percent_with_10_percent_noise():
     assert all(t.success for t in r.trials)
 
 
+@pytest.mark.slow
 def test_two_subjects_each_get_their_mu():
     t1, _ = make_subject(3, mu=0.55)
     t2, _ = make_subject(4, mu=0.60)
@@ -140,6 +141,7 @@ def test_two_subjects_each_get_their_mu():
 # ---------------------------------------------------------------- NM vs lstsq
 
 
+@pytest.mark.slow
 def test_nelder_mead_agrees_with_lstsq_when_model_is_linear():
     """median_on='basis' (default): both minimise the same quadratic; they agree to ~1e-7."""
     trials, _ = make_subject(5)
@@ -171,6 +173,7 @@ def test_median_on_estimate_nm_vs_lstsq_difference_is_small():
         assert abs(b.p0 / a.p0 - 1) < 0.01 and abs(b.p1 / a.p1 - 1) < 0.01
 
 
+@pytest.mark.slow
 def test_eq5_objective_inflates_the_model_under_noise():
     """Eq. 5 normalises by the model's own variance: its minimiser is a larger model than
     least squares'. Without noise both are exact; with 10 % noise Eq. 5 fits come out
@@ -304,7 +307,8 @@ _OLD_PAPER = {
 }
 
 
-@pytest.mark.parametrize("method,tol", [("lstsq", 1e-7), ("nelder-mead", 5e-6)])
+@pytest.mark.parametrize("method,tol", [("lstsq", 1e-7),
+                                        pytest.param("nelder-mead", 5e-6, marks=pytest.mark.slow)])
 def test_paper_variant_reproduces_the_earlier_code(method, tol):
     from fingerfriction.testing import synthetic_trials
 

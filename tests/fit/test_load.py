@@ -35,6 +35,7 @@ def _study(seed=0, *, mu=0.55, p0=0.03, p1=0.2, noise=0.1, inset=0.0, reps=2, su
             for s in SURFACE_NAMES for r in range(reps)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_recovers_mu_p0_p1_within_2_percent_at_10_percent_noise(seed):
     """Synthetic Eq. (4) data in absolute form, 10 % noise on F_T and on F_N (F_N from the
@@ -58,6 +59,7 @@ def test_recovers_mu_p0_p1_within_2_percent_at_10_percent_noise(seed):
         assert tf.footing == "absolute" and tf.used.all()
 
 
+@pytest.mark.slow
 def test_fitted_inset_finds_the_load_bearing_contact():
     """Forces made on the regions inset by 0.3 mm, trials carrying the regions as seen:
     exact without noise; with 5 % noise on F_T and 1 % on F_N within 0.05 mm (noise in F_N
@@ -107,6 +109,7 @@ def _force_controlled_study(seed, *, mu=0.6, p1=0.05, inset=0.35, kappa=3.0, rep
     return out
 
 
+@pytest.mark.slow
 def test_force_controlled_finger_recovers_the_load_bearing_contact_and_kappa():
     """Data made by the load-consistent model with known (mu, delta, kappa, p1): the fit
     finds them back (delta and kappa are the finger's, fitted per subject)."""
@@ -155,6 +158,7 @@ def test_flat_ground_mu_ci_covers_trial_to_trial_scatter():
     assert set(res.mu_trials) == {f"t{k}" for k in range(40)}
 
 
+@pytest.mark.slow
 def test_flat_ground_mu_without_a_transient_neither_models_nor_flags_one():
     """No start transient in the data: the residual is flat in lambda, whose minimum can
     fall on the bound; the term is dropped (the trials do not agree on an amplitude) and
@@ -182,6 +186,7 @@ def test_hac_standard_error_matches_the_scatter_of_p1():
     assert np.mean(ses) == pytest.approx(np.std(p1s), rel=0.15)
 
 
+@pytest.mark.slow
 def test_unphysical_and_fallback_fits_are_flagged_not_silent():
     trials = _study(6, p1=-0.1, reps=1)
     fit = fit_load_subject(trials, LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
@@ -208,6 +213,7 @@ def test_unphysical_and_fallback_fits_are_flagged_not_silent():
     assert "no trial with absolute forces" in fit.message
 
 
+@pytest.mark.slow
 def test_two_subjects_and_option_validation():
     fits = fit_load_trials(_study(8, reps=1, subject="S1") + _study(9, reps=1, mu=0.6, subject="S2"),
                            LoadFitOptions(inset=0.0, kappa=0.0, **FIXTURE))
@@ -226,6 +232,7 @@ def test_two_subjects_and_option_validation():
               force_abs=np.zeros(X.size))
 
 
+@pytest.mark.slow
 def test_each_trial_uses_its_own_flat_ground_mu_by_default():
     """Friction that varies from trial to trial (10 % SD): with the trial's own flat-ground
     mu (the default) every p1 comes back; with the subject's mean the friction error on
@@ -248,6 +255,7 @@ def test_each_trial_uses_its_own_flat_ground_mu_by_default():
     assert [t.mu for t in own.trials] == pytest.approx([own.flat.mu_trials[t.id] for t in trials])
 
 
+@pytest.mark.slow
 def test_a_trial_with_the_wrong_force_sign_is_flagged_and_left_out_of_mu():
     trials = _study(0, noise=0.02)
     bad = trials[3]

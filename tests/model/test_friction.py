@@ -129,6 +129,7 @@ def brute_force_load(surface, regions, f_n, mu, p1):
     return np.array(out)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["bump-2mm", "step-up-4mm", "step-down-2mm"])
 def test_load_consistent_matches_brute_force(name):
     s = get_surface(name)

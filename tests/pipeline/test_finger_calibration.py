@@ -1,4 +1,4 @@
-"""Calibrating a finger from a results folder (fingerfriction.pipeline.finger_calibration, issue 15)."""
+"""Calibrating a finger from a results folder (fingerfriction.pipeline.finger_calibration)."""
 
 from __future__ import annotations
 
@@ -46,6 +46,7 @@ DESIGN = [(f"s7-{n}-r{k}", "7", n, ld)
           for n in ("step-up-2mm", "bump-4mm") for k, ld in ((1, 0.28), (2, 0.32))]
 
 
+@pytest.mark.slow
 def test_reader_builds_trials_and_names_what_it_skipped(tmp_path):
     store = _write(tmp_path / "r", DESIGN[:2] + [("s8-bump-2mm-r1", "8", "bump-2mm", 0.3)])
     store.write_failure("s7-bump-4mm-r9", "video unreadable", {})
@@ -65,6 +66,7 @@ def test_reader_builds_trials_and_names_what_it_skipped(tmp_path):
     assert only == []
 
 
+@pytest.mark.slow
 def test_no_absolute_force_needs_an_assumed_load(tmp_path):
     _write(tmp_path / "r", DESIGN[:3], absolute=False)
     trials, skipped = trials_from_results(tmp_path / "r", "7")
@@ -78,6 +80,7 @@ def test_no_absolute_force_needs_an_assumed_load(tmp_path):
     assert np.nanmax(trials[0].load) == 0.3
 
 
+@pytest.mark.slow
 def test_too_few_trials_is_one_clear_error(tmp_path):
     _write(tmp_path / "r", DESIGN[:2])
     with pytest.raises(CalibrationError, match="subject 7: only 2 trial"):
@@ -136,6 +139,7 @@ def test_calibrate_finger_command_writes_a_finger_the_other_commands_accept(tmp_
     assert "finger subject 7 (calibrated)" in " ".join(r.output.split())
 
 
+@pytest.mark.slow
 def test_calibrate_finger_command_errors_are_one_line(tmp_path):
     _write(tmp_path / "r", DESIGN[:2])
     for args, msg in [
@@ -164,6 +168,7 @@ def test_finger_option_errors_are_one_line(tmp_path):
     assert r.exit_code == 2 and "expected SUBJECT=FILE" in r.output
 
 
+@pytest.mark.slow
 def test_held_out_calibrations_record_what_failed(tmp_path):
     from fingerfriction.pipeline.finger_calibration import calibrate_held_out
 

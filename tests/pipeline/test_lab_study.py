@@ -1,4 +1,4 @@
-"""Issue 13's acceptance on a lab-style folder: `init` -> `check` -> `analyze` -> `fit` with
+"""A lab's own recordings, end to end on a lab-style folder: `init` -> `check` -> `analyze` -> `fit` with
 no hand-written JSON, and edits that recompute only what changed.
 
 The folder (tests/pipeline/lab_folder.py) holds the virtual experiment's recordings rewritten as a

@@ -1,5 +1,5 @@
-"""What `analyze` decides for a finished trial, from its files and its stored results
-(issue 22): content, not size and modification time; stored tables verified; a missing
+"""What `analyze` decides for a finished trial, from its files and its stored results:
+content, not size and modification time; stored tables verified; a missing
 input keeps the last results; a results folder belongs to one study; one command at a
 time. Fast: the finished trials are written through the store, nothing is analysed."""
 

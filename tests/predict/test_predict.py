@@ -35,6 +35,7 @@ def bump3():
     return predict("bump:W=3,H=0.5", 1, PARAMS, step=STEP)
 
 
+@pytest.mark.slow
 def test_unrecorded_surface_end_to_end(bump3, tmp_path):
     p = bump3
     assert p.surface.width == 3.0 and p.surface.height == 0.5
@@ -57,6 +58,7 @@ def test_unrecorded_surface_end_to_end(bump3, tmp_path):
     assert len(bs) == len(p.blind_spots)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec", ["bump:W=3,H=0.5", "step-up:W=3,H=0.6"])
 def test_blind_spots_consistent_with_contact_sweep(bump3, spec):
     """The prediction's blind spots are the gaps of the forward model's own sweep: never
@@ -109,6 +111,7 @@ def test_failed_sweep_is_an_error_not_a_number():
     np.testing.assert_array_equal(_sweep_regions(res, "geometric"), reg)
 
 
+@pytest.mark.slow
 def test_mechanical_contact_option():
     g = predict("bump-2mm", 2, PARAMS, step=0.2)
     m = predict("bump-2mm", 2, PARAMS, step=0.2, contact="mechanical")
@@ -261,6 +264,7 @@ def _study_trials(forward_study, *, reps, noise, param_sd, seed=0, drift_correct
     return trials
 
 
+@pytest.mark.slow
 def test_loso_exact_on_forward_generated_study(forward_study, tmp_path):
     from fingerfriction.fit import FitOptions
     from fingerfriction.pipeline.validation import leave_one_surface_out
@@ -286,6 +290,7 @@ def test_loso_exact_on_forward_generated_study(forward_study, tmp_path):
     np.testing.assert_allclose(predicted, measured, rtol=0, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_loso_absolute_forces(forward_study):
     """FitOptions(detrend=False): absolute forces, predicted with their flat level."""
     from fingerfriction.fit import FitOptions
@@ -341,6 +346,7 @@ def _load_study_trials(forward_study, *, reps, noise, seed=0):
     return trials
 
 
+@pytest.mark.slow
 def test_loso_load_model_exact_on_forward_generated_study(forward_study):
     """The load-consistent model on data it made: mu from flat ground, p1 and the
     (default-fitted) load-bearing contact come back, the prediction at the nominal load of
@@ -364,6 +370,7 @@ def test_loso_load_model_exact_on_forward_generated_study(forward_study):
         assert row.inset_mm == 0.0 and row.kappa_per_mm == 0.0 and np.isnan(row.p0)
 
 
+@pytest.mark.slow
 def test_loso_bad_input(forward_study):
     from fingerfriction.pipeline.validation import leave_one_surface_out
 
@@ -465,6 +472,7 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     assert bad.exit_code == 2 and "Traceback" not in bad.output
 
 
+@pytest.mark.slow
 def test_loso_short_window_without_forward_flat_segment():
     """In a window where the forward finger touches the feature (within 70 um) from the
     first positions, the prediction needs no flat segment of its own: its footing is the
@@ -501,6 +509,7 @@ def test_loso_short_window_without_forward_flat_segment():
     np.testing.assert_allclose(predicted, eq4 - level, rtol=0, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_predict_uses_the_load_consistent_model_by_default():
     """Without parameters: the load-consistent model (its pressure carries the 0.3 N), the
     paper's on request; both are Amontons' law on flat ground, they differ on the relief."""
@@ -518,8 +527,9 @@ def test_predict_uses_the_load_consistent_model_by_default():
         predict("bump:W=3,H=0.5", 1, step=0.05, model="hertz")
 
 
+@pytest.mark.slow
 def test_loso_heldout_fingers_replace_the_finger_of_one_surface_only(forward_study):
-    """heldout_fingers (issue 15: fingers calibrated on the other surfaces) change the
+    """heldout_fingers (fingers calibrated on the other surfaces) change the
     forward finger of the held-out surface named, for the subject named, and nothing else."""
     from fingerfriction.fit import FitOptions
     from fingerfriction.pipeline.validation import _with_calibrated, leave_one_surface_out

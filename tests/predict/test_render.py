@@ -53,6 +53,7 @@ def _rms_rel(a, b):
     return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ext", [".wav", ".csv"])
 def test_exported_command_replayed_on_flat_reproduces_force(renderer, tmp_path, ext):
     speed, rate = 80.0, 2000
@@ -79,6 +80,7 @@ def test_exported_command_replayed_on_flat_reproduces_force(renderer, tmp_path, 
     assert _rms_rel(replay, np.interp(x_wrong, pred.positions, pred.F_T)) > 0.05
 
 
+@pytest.mark.slow
 def test_replay_at_another_normal_force(tmp_path):
     pred = predict(SPEC, 1, FrictionParams(0.6, 0.05, 0.1), step=0.05)
     L = flat_contact_length(1, load=0.5)
@@ -90,6 +92,7 @@ def test_replay_at_another_normal_force(tmp_path):
     assert _rms_rel(replay, np.interp(x, pred.positions, pred.F_T)) < 0.05
 
 
+@pytest.mark.slow
 def test_query_matches_interpolation_and_batch(renderer):
     rng = np.random.default_rng(7)
     xs = rng.uniform(-16.0, 16.0, 2000)  # includes positions outside the table
@@ -106,6 +109,7 @@ def test_query_matches_interpolation_and_batch(renderer):
     assert renderer.query_many(np.zeros((3, 4))).shape == (3, 4)
 
 
+@pytest.mark.slow
 def test_table_csv(renderer, tmp_path):
     p = renderer.write_table(tmp_path / "table.csv")
     df = pd.read_csv(p)
@@ -114,6 +118,7 @@ def test_table_csv(renderer, tmp_path):
     assert np.allclose(np.diff(df["x_mm"]), 0.01)
 
 
+@pytest.mark.slow
 def test_display_range_clipping_warns(caplog):
     pred = predict(SPEC, 1, FrictionParams(0.55, 0.0656, 0.1), step=0.1)
     L = flat_contact_length(1)
@@ -124,6 +129,7 @@ def test_display_range_clipping_warns(caplog):
     assert r.mu_cmd.min() >= 0.3 and r.mu_cmd.max() <= 0.6
 
 
+@pytest.mark.slow
 def test_bad_input(renderer, tmp_path):
     with pytest.raises(ValueError, match=r"speed must be a positive number \(mm/s\), got -1"):
         renderer.command_signal(-1, 1000)
@@ -141,6 +147,7 @@ def test_bad_input(renderer, tmp_path):
         read_command(tmp_path / "missing.wav")
 
 
+@pytest.mark.slow
 def test_cli_render(tmp_path):
     from typer.testing import CliRunner
 

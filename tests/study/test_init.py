@@ -122,6 +122,7 @@ def test_command_line_values():
         parse_mapping(["SU4"], "--surface")
 
 
+@pytest.mark.slow
 def test_init_command_refusals_and_skip_bad(lab):
     import json
 

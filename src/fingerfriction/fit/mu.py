@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from .common import FitFlag, Trial, flat_segment_mask
+from .common import Trial, fit_flag, flat_segment_mask
 
 __all__ = ["FlatGroundMu", "flat_ground_mu"]
 
@@ -106,13 +106,13 @@ def _flat_segments(trials, subject: str, min_load: float, min_flat_mm: float):
     for t in trials:
         d = _flat_data(t, min_load, min_flat_mm)
         if d is None:
-            flags.append(FitFlag("warning", "short-flat", subject, t.id, "load",
+            flags.append(fit_flag("warning", "short-flat", subject, t.id, "load",
                                  f"less than {min_flat_mm:g} mm of flat ground before the feature: "
                                  "the trial takes no part in mu"))
             continue
         ratio = float(d[1].sum() / d[2].sum())
         if not ratio > 0:
-            flags.append(FitFlag("error", "negative-mu", subject, t.id, "load",
+            flags.append(fit_flag("error", "negative-mu", subject, t.id, "load",
                                  f"flat-ground friction ratio F_T / F_N = {ratio:.3g} <= 0: the tangential "
                                  "force has the wrong sign (sensor axis or sliding direction?); the trial "
                                  "takes no part in mu"))
@@ -203,7 +203,7 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
     if transient:
         lam, mus, at_bound = _fit_transient(data, float(transient_max_mm))
         if at_bound:
-            flags.append(FitFlag("warning", "transient-at-bound", subject, "", "load",
+            flags.append(fit_flag("warning", "transient-at-bound", subject, "", "load",
                                  f"the start transient's decay length reached its bound "
                                  f"{transient_max_mm:g} mm: the flat-ground ratio drifts over the whole "
                                  "flat segment"))
@@ -218,7 +218,7 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
         se = float(np.std(boots, ddof=1))
     else:
         ci, se = (math.nan, math.nan), math.nan
-        flags.append(FitFlag("warning", "mu-ci-unavailable", subject, "", "load",
+        flags.append(fit_flag("warning", "mu-ci-unavailable", subject, "", "load",
                              "mu comes from a single trial: no confidence interval"))
     return FlatGroundMu(subject=subject, mu=mu, ci=ci, se=se, level=level,
                         mu_trials=dict(zip(ids, (float(m) for m in mus), strict=True)),

@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write
+from ..flags import Flag
 from .checks import (
-    Flag,
     ForceDataError,
     check_channels,
     check_flat_rest,
@@ -328,7 +328,7 @@ def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, para
     """The frames' finger positions, extended at constant speed when they do not cover the
     window (a warning flag); None, with an error flag, when no frame has a finger."""
     if not np.isfinite(x_frames).any():
-        flags.append(Flag("no-finger", "x_frames holds no finger position (all NaN)", "error"))
+        flags.append(Flag("error", "no-finger", "x_frames holds no finger position (all NaN)"))
         return None
     x_lo, x_hi = float(np.nanmin(x_frames)), float(np.nanmax(x_frames))
     if params.extrapolate_mm > 0 and (x_lo > window[0] or x_hi < window[1]):
@@ -337,6 +337,7 @@ def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, para
         if ext[0] > 0 or ext[1] > 0:
             flags.append(
                 Flag(
+                    "warning",
                     "extrapolated",
                     f"x(t) was tracked over [{x_lo:.3f}, {x_hi:.3f}] mm only; it was extended at constant "
                     f"speed (fitted over {params.extrapolate_fit_s * 1e3:g} ms of tracked frames) by "
@@ -386,7 +387,7 @@ def _on_positions(x_at, sig: ForceSignals, sig_abs: ForceSignals | None, window,
             f_t_abs = resample_to_positions(x_at, sig_abs.f_t, window=window, resolution=resolution).values
             f_n_abs = resample_to_positions(x_at, sig_abs.f_n, window=window, resolution=resolution).values
     except ValueError as exc:
-        flags.append(Flag("window", f"at the force sample times, {exc}", "error"))
+        flags.append(Flag("error", "window", f"at the force sample times, {exc}"))
         return None
     check_resampling(res_t, params, flags)
     return res_t, res_n, f_t_abs, f_n_abs
@@ -406,7 +407,7 @@ def _absolute_footing(params: ForceProcessingParams, base, post, flags: list) ->
         message = ("no unloaded rest before the touch or after the lift-off anchors the drift: the "
                    "forces are known only relative to the flat segment (the paper's footing)")
     if message:
-        flags.append(Flag("no-absolute", message))
+        flags.append(Flag("warning", "no-absolute", message))
     return not message, message
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from .checks import Flag
+from ..flags import Flag
 from .filters import lowpass_filter
 from .params import ForceProcessingParams
 from .response import estimate_response
@@ -42,6 +42,7 @@ def sensor_chain(sig: ForceSignals, params: ForceProcessingParams, flags: list):
             notch = True
             flags.append(
                 Flag(
+                    "warning",
                     "mains-notch",
                     "mains='fit' needs an unloaded baseline; the interference was removed by notch "
                     f"filters at {list(params.notch_hz)} Hz instead (they also remove the force's "
@@ -80,7 +81,7 @@ def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list
         else ""
     )
     if params.baseline is None:
-        flags.append(Flag("no-baseline", "baseline=None" + consequence))
+        flags.append(Flag("warning", "no-baseline", "baseline=None" + consequence))
         return None
     if params.baseline == "auto":
         quick = lowpass_filter(np.vstack([sig.f_n, sig.f_t]), fs, min(50.0, 0.4 * fs))
@@ -99,6 +100,7 @@ def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list
     if mask.sum() < params.min_baseline_s * fs:
         flags.append(
             Flag(
+                "warning",
                 "no-baseline",
                 f"no usable unloaded baseline: {how}, less than min_baseline_s={params.min_baseline_s:g} s"
                 + consequence
@@ -132,6 +134,7 @@ def _post_baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags:
     if mask.sum() < max(params.min_baseline_s * fs, 4):
         flags.append(
             Flag(
+                "warning",
                 "no-post-baseline",
                 f"no usable unloaded rest after the lift-off: {how}, less than "
                 f"min_baseline_s={params.min_baseline_s:g} s (the record ends in contact or too soon); the "
@@ -189,6 +192,7 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
         flags.extend(tried)
         flags.append(
             Flag(
+                "warning",
                 "highpass-estimate",
                 "estimate_highpass=True but there is no usable rest after the lift-off (see the "
                 "no-post-baseline flag), so the cut-off is not determined; the prior "
@@ -202,6 +206,7 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
         if not est.success:
             flags.append(
                 Flag(
+                    "warning",
                     "highpass-estimate",
                     f"estimate_highpass=True but {est.message}; the prior sensor_highpass_hz={prior:g} Hz "
                     "was used",
@@ -218,6 +223,7 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
     if abs(est.rel_change) > params.highpass_max_change:
         flags.append(
             Flag(
+                "warning",
                 "highpass-estimate",
                 f"the sensor cut-off estimated on the rests, {est.fc_hz:.4g} +- {est.se_hz:.2g} Hz, is "
                 f"{100 * est.rel_change:+.0f} % from the prior sensor_highpass_hz={prior:g} Hz (allowed "
@@ -272,7 +278,8 @@ def _response_compensation(raw: ForceSignals, base, params: ForceProcessingParam
         post = _rough_post_rest(raw.compensate_highpass(prior), params)
     if post is None:
         flags.extend(tried)
-        flags.append(Flag("highpass-estimate", "highpass_model='second-order' but there is no usable rest "
+        flags.append(Flag("warning", "highpass-estimate",
+                          "highpass_model='second-order' but there is no usable rest "
                           "after the lift-off, so the response is not determined; the prior "
                           f"sensor_highpass_hz={prior:g} Hz (first order) was used"))
         sig = raw.compensate_highpass(prior)
@@ -293,11 +300,12 @@ def _response_compensation(raw: ForceSignals, base, params: ForceProcessingParam
         post = new
     for c, e in enumerate(ests):
         if not e.success:
-            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: {e.message}; the prior "
+            flags.append(Flag("warning", "highpass-estimate", f"transducer F{c + 1}: {e.message}; the prior "
                               f"sensor_highpass_hz={prior:g} Hz (first order) was used for it"))
         elif abs(e.cutoff_hz / prior - 1.0) > params.highpass_max_change:
             change = 100 * (e.cutoff_hz / prior - 1)
-            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: the high-pass estimated on the "
+            flags.append(Flag("warning", "highpass-estimate",
+                              f"transducer F{c + 1}: the high-pass estimated on the "
                               f"rests has its -3 dB cut-off at {e.cutoff_hz:.4g} Hz, {change:+.0f} % from "
                               "the "
                               f"prior sensor_highpass_hz={prior:g} Hz (allowed highpass_max_change="

@@ -1,4 +1,4 @@
-"""Calibrate a subject's finger from recorded contact regions (issue 15).
+"""Calibrate a subject's finger from recorded contact regions.
 
 The forward model (:mod:`~fingerfriction.mechanics.bem`) knows the fingers it is given.
 This module finds the finger of a recorded subject: the shape and modulus parameters of
@@ -203,8 +203,9 @@ class CalibrationOptions:
         How each BEM solve starts: ``'positions'`` (default) from the previous position's
         pressure, linearly extrapolated, as :func:`~.sweep.sweep` does; ``'parameters'``
         from the last base sweep's pressure at the same position (previous parameters,
-        same grid cells). Measured on a 36-trial subject (benchmarks/calibrate.py): 19.8
-        vs 22.7 CG iterations per solve, so the positions' start is the default.
+        same grid cells). The positions' start needs fewer CG iterations per solve
+        (``benchmarks/calibrate.py``, figures in ``docs/mechanics.md``), so it is the
+        default.
         ``'none'``: every solve starts cold (a reference for the benchmark).
     end_bias_px : float
         Size in px of the per-end widening of the measured regions whose effect on the

@@ -48,13 +48,11 @@ On flat ground (``S = Q = 0``, every region at the same height) this is Amontons
 measured forces (:func:`fingerfriction.fit.flat_ground_mu`), and the only parameter per
 trial is the deformation weight ``p1`` (N/mm, as the paper's). When ``F_N`` happens to be
 the load of a constant pressure, ``F_N = p0 sum_i s_i`` with ``kappa = 0``, the variant
-*is* the paper's Eq. (4). Measured on the simulated study, sharing the load by height fits
-the held-out surfaces better than sharing it by region length (a power of ``s_i``): a
-short region is the top of a bump but also the lower flat left behind a step, and only
-height tells them apart. The deformation stress of Eq. (3) is taken as a tangential (dissipative) term
-that carries no load; measured on the simulated study, letting it carry load (the literal
-reading ``sigma_p = p0 + p1 dh/dx``) fits worse and gives negative ``p1`` in a third of the
-trials.
+*is* the paper's Eq. (4). The load is shared by height, not by region length (a power of
+``s_i``): a short region is the top of a bump but also the lower flat left behind a step,
+and only height tells them apart. The deformation stress of Eq. (3) is taken as a
+tangential (dissipative) term that carries no load, not the literal reading ``sigma_p =
+p0 + p1 dh/dx``. How each alternative fared on the simulated study: ``docs/fit.md``.
 
 Load-bearing contact. The paper's regions ``C_i`` are geometric: finger and surface within
 3 px (about 70 um) of each other. Under a soft finger the gap opens slowly at a contact

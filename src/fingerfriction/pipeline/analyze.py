@@ -27,6 +27,7 @@ import dask
 from distributed import Client, LocalCluster, as_completed
 
 from .. import __version__
+from .._mainguard import check_main_guard
 from .._outputs import check_output_dir
 from .._progress import ProgressBar
 from ..study.check import check_files
@@ -230,6 +231,8 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
         raise ValueError(f"n_workers must be an integer in [1, {MAX_WORKERS}], got {n_workers!r}")
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
+    if scheduler is None:
+        check_main_guard("analyze", alternative="or pass the address of a running Dask scheduler")
     study_dir, out = Path(study), Path(out)
     if not study_dir.is_dir():
         raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")

@@ -22,6 +22,7 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from ..flags import Flag
 from ..selfcheck import ORDER, Check, OffsetEstimate, OnsetData, estimate_offsets
 from ..study.check import check_study
 from ..study.manifest import Study
@@ -260,7 +261,7 @@ def _act(
             store.write_failure(tid, reason, {**kept, "info": info})
             out.failed.append((tid, reason))
             return
-        finfo["flags"] += [c.line() for c in extra]
+        finfo["flags"] += [c.to_flag().to_dict() for c in extra]
         info["forces"] = finfo
         if check.level == "warning":
             out.moved.append((tid, est.offset_s))
@@ -268,7 +269,7 @@ def _act(
         return
     if extra:
         finfo = dict(info.get("forces") or {})
-        finfo["flags"] = [*finfo.get("flags", []), *(c.line() for c in extra)]
+        finfo["flags"] = [*finfo.get("flags", []), *(c.to_flag().to_dict() for c in extra)]
         info["forces"] = finfo
     store.update_status(tid, {"info": info})
 
@@ -299,7 +300,7 @@ def _reprocess(
     kept_flags = [
         f
         for f in (info.get("forces") or {}).get("flags", [])
-        if f not in finfo["flags"] and f.split(":", 1)[0] in _SELFCHECK_CODES
+        if f not in finfo["flags"] and Flag.from_dict(f).code in _SELFCHECK_CODES
     ]
     finfo["flags"] += kept_flags
     finfo["history"].insert(

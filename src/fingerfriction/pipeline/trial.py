@@ -158,7 +158,7 @@ class TrialResult:
     ----------
     trial_id : str
     frames : pandas.DataFrame
-        Per-frame table (:func:`fingerfriction.study.store.frames_table`).
+        Per-frame table (:func:`fingerfriction.study.tables.frames_table`).
     forces : pandas.DataFrame
         Per-position table: ``x_mm``, ``F_T_N``, ``F_N_N`` (paper's footing), ``F_T_abs_N``,
         ``F_N_abs_N`` (absolute footing, NaN when unavailable), ``n_samples``.
@@ -321,7 +321,7 @@ def process_trial_forces(trial: TrialInput, x_frames, *, params: ForceProcessing
 def force_info(prof: ForceProfile) -> dict:
     """The force stage's diagnostics stored with a trial's results: flags, flat segment,
     footing, and the history of every processing step (JSON-serialisable)."""
-    return {"flags": [f"{f.code}: {f.message}" for f in prof.flags],
+    return {"flags": [f.to_dict() for f in prof.flags],  # Flag records: the level is kept
             "flat_segment_mm": list(prof.flat_segment_mm), "message": prof.message,
             "absolute": bool(prof.absolute), "absolute_message": prof.absolute_message,
             "history": [dict(h) for h in prof.history]}
@@ -397,7 +397,7 @@ def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> Tr
                           x_source=v.x_source)
     n_flag = int(sum(1 for s in v.flags if s))
     finfo = force_info(prof)
-    finfo["flags"] += [c.line() for c in checks.warnings]  # the report's warnings block shows them
+    finfo["flags"] += [c.to_flag().to_dict() for c in checks.warnings]  # shown in the report's warnings
     if checks.record.fs_hz != record.fs_hz:
         finfo["history"].insert(0, {"step": "synchronise", "fs_hz_manifest": record.fs_hz,
                                     "fs_hz_used": checks.record.fs_hz, "by": "mains frequency"})

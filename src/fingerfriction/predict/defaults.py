@@ -196,7 +196,7 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
             raise ValueError(f"{path}: a folder without fit/fit.json; run 'fingerfriction fit' first")
     try:
         with open(path, "rb") as fh:
-            d = parse_json(fh.read(), str(path))  # bounded depth and size (issue 22)
+            d = parse_json(fh.read(), str(path))  # bounded depth and size: no run out of memory
     except OSError as exc:
         raise ValueError(f"{path}: cannot read parameters ({exc.strerror})") from None
     if not isinstance(d, dict):

@@ -73,8 +73,8 @@ def choose_pages(data: ReportData, flagged: list[str], sample: int | None) -> li
 
 
 def _svg(fig: Figure) -> str:
-    """The figure as base64 SVG (text kept as text): vector, and a third faster to write
-    than a PNG of these plots (measured: 0.17 against 0.24 s per page of three)."""
+    """The figure as base64 SVG (text kept as text): vector, and faster to write than a
+    PNG of these plots (``docs/study.md``)."""
     buf = io.BytesIO()
     with figure_style():
         fig.savefig(buf, format="svg")

@@ -18,17 +18,15 @@ added to the force clock to put it on the video clock (the correction to
 trial, so one ``G`` pins every ``tau_i``: a wrong offset shows as a trial whose rise does
 not fall on its finger's curve.
 
-Measured on the virtual study with realism on (2 subjects x 6 surfaces x 3 speeds,
-``docs/selfcheck.md``): the trials' offsets relative to their subject's other trials come
-out within 0.2 ms RMS (0.05 ms with the true x(t)); a common offset of all of a finger's
-trials is seen only through the differences between accelerations, weakly (within about
-2 ms). The features of the relief are not used: how a relief shapes the force is what the
-study measures, and an assumed shape biases the offset by up to 0.8 mm of travel (20 ms
-at 40 mm/s) on the same study.
+What it resolves (figures in ``docs/selfcheck.md``): the trials' offsets relative to
+their subject's other trials; a common offset of all of a finger's trials is seen only
+through the differences between accelerations, weakly. The features of the relief are not
+used: how a relief shapes the force is what the study measures, and an assumed shape
+biases the offset.
 
 The ratio of the clock rates is not fitted here: over the 0.1 s of the start it is not
 determined. The force clock is read against the mains instead (:mod:`.clock`), the video
-clock against its frames' time stamps (:func:`fingerfriction.video.readers.frame_rate`).
+clock against its frames' time stamps (:func:`fingerfriction.video.reader_base.frame_rate`).
 """
 
 from __future__ import annotations

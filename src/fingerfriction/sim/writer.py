@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import __version__
 from .._atomic import atomic_write_text
+from .._mainguard import check_main_guard
 from ..regions import regions_from_mask
 from ..study import ForceInfo, Study, TrialRecord, VideoInfo, write_manifest
 from ..surfaces import Surface, surface_from_spec
@@ -412,6 +413,8 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
         workers = os.cpu_count() or 1
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if workers > 1:
+        check_main_guard("simulate_study", alternative="or pass workers=1")
     out = Path(out)
     header = _truth_header(opts)
     resume = _check_folder(out, header)
