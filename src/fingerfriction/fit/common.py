@@ -367,8 +367,9 @@ def _check_kernel(kernel) -> int:
 
 
 #: Levels of a :class:`FitFlag`: ``'error'`` (the result must not be used: a failed or
-#: unphysical fit) and ``'warning'`` (usable, with a caveat).
-FLAG_LEVELS = ("error", "warning")
+#: unphysical fit), ``'warning'`` (usable, with a caveat) and ``'info'`` (what the fit did
+#: that a reader should know, e.g. a parameter held at its physical limit).
+FLAG_LEVELS = ("error", "warning", "info")
 
 
 @dataclass(frozen=True)
@@ -377,7 +378,7 @@ class FitFlag:
 
     Attributes
     ----------
-    level : {'error', 'warning'}
+    level : {'error', 'warning', 'info'}
     code : str
         Short machine-readable kind, e.g. ``'mu-at-grid-edge'``, ``'negative-p0'``,
         ``'negative-p1'``, ``'no-absolute'``.
@@ -385,7 +386,8 @@ class FitFlag:
     trial : str
         Trial id, '' for a flag about the whole subject.
     model : str
-        ``'load'`` or ``'paper'``.
+        The model variant (:mod:`fingerfriction.fit.variants`), or ``''`` for a flag about
+        the study's model choice (``model-rejected``).
     message : str
         One line saying what and why.
     """
