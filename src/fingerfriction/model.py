@@ -101,7 +101,6 @@ from .regions import as_regions
 from .surfaces import Surface
 
 __all__ = [
-    "MODELS",
     "FrictionParams",
     "LoadParams",
     "ModelForces",
@@ -110,10 +109,6 @@ __all__ = [
     "load_terms",
     "T_matrix",
 ]
-
-#: The model variants: ``'load'`` (load-consistent Eq. 4, the default) and ``'paper'``
-#: (Eq. 4 as printed, constant pressure).
-MODELS = ("load", "paper")
 
 #: Smallest vertical support ``K - mu S`` (mm) of the load-bearing contact for which the
 #: load-consistent pressure is defined; below it (no load-bearing contact) it is NaN.

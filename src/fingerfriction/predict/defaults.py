@@ -202,7 +202,7 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
     if isinstance(d.get("mu"), dict):
         return _params_from_pipeline_fit(d, subject, path, model)
     try:
-        if d.get("model") in ("load", "interlock"):  # LoadParams.to_json()
+        if d.get("model") is not None and get(d["model"]).params_type is LoadParams:  # LoadParams.to_json()
             return LoadParams.from_json(json.dumps(d))
         return _params_from_mapping(d, subject, path)
     except (TypeError, KeyError) as exc:
