@@ -14,8 +14,9 @@ A. **Unknown fingers.** A virtual study of 2 subjects whose fingers are drawn ar
    subject's calibration (target: under 5 min) and where it goes.
 B. **Where the time goes.** Per stage and per pass; one fine-level evaluation (all the
    BEM sweeps of one parameter set) with each warm start, against cold starts.
-C. **The paper's fingers come back.** The seed-0 study (``/work/studies/full`` and its
-   ``analyze`` results): each subject calibrated starting from the *other* subject's
+C. **The paper's fingers come back.** The seed-0 study (the paper's design, simulated and
+   analysed into ``benchmarks/out/studies/`` the first time, shared with other benchmarks):
+   each subject calibrated starting from the *other* subject's
    default finger (about 20 % away), compared with its true (default) finger.
 D. **Predictions that transfer.** On the study of A (after ``fingerfriction fit``):
    leave-one-surface-out with each subject's finger calibrated on the other five surfaces
@@ -40,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _studies import STUDIES, analysed_study, simulated_study
 from fingerfriction.mechanics import SUBJECTS
 from fingerfriction.mechanics._calibration_problem import _Problem
 from fingerfriction.mechanics.calibrate import CalibrationOptions
@@ -186,15 +188,16 @@ def transfer(exe: str, results: str, true: dict) -> list:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--study", default="/work/studies/finger/seed1", help="simulated study folder (A)")
+    ap.add_argument("--study", default=None,
+                    help="simulated study folder (A; default benchmarks/out/studies/finger-seedS)")
     ap.add_argument("--results", default=None, help="its results folder (default STUDY-results)")
     ap.add_argument("--finger-seed", type=int, default=1)
-    ap.add_argument("--full", default="/work/studies/full", help="seed-0 study (C)")
-    ap.add_argument("--full-results", default="/work/studies/full-results", help="its results (C)")
+    ap.add_argument("--full", default=None, help="seed-0 study (C; default: simulated into benchmarks/out/)")
+    ap.add_argument("--full-results", default=None, help="its results (C; default: analysed beside it)")
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
     exe = str(Path(sys.executable).with_name("fingerfriction"))
-    study = args.study
+    study = args.study or str(STUDIES / f"finger-seed{args.finger_seed}")
     results = args.results or study.rstrip("/") + "-results"
     summary = []
 
@@ -232,6 +235,12 @@ def main() -> None:
     warm_start_table(results, s0, calibrated[s0].finger)
 
     print("\nC. The paper's fingers come back (seed-0 study, started from the other subject's default)")
+    if args.full is None:
+        full = simulated_study("paper-seed0", "--seed", "0")
+        given = Path(args.full_results) if args.full_results else None
+        args.full_results = str(analysed_study(full, results=given))
+    elif args.full_results is None:
+        args.full_results = str(analysed_study(Path(args.full)))
     if not (Path(args.full_results) / "run.json").is_file():
         print(f"   {args.full_results} has no results: run `fingerfriction analyze {args.full} --out DIR` "
               "and pass --full-results DIR")

@@ -34,7 +34,8 @@ Usage::
 
     python benchmarks/forces.py [STUDY] [--x-source truth|video] [--limit N]
 
-STUDY defaults to /work/studies/full, else the study with most trials in /work/studies.
+STUDY defaults to the paper's seed-0 study, simulated into benchmarks/out/studies/ (gitignored)
+the first time and shared with the other benchmarks.
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _studies import simulated_study
 from fingerfriction.forces import (
     ForceDataError,
     ForceProcessingParams,
@@ -62,25 +64,10 @@ from fingerfriction.study.trial import TrialInput, process_trial_forces, read_tr
 from fingerfriction.surfaces import surface_from_spec
 from fingerfriction.video import AnalysisOptions, analyze_video
 
-STUDIES = Path("/work/studies")
-
 
 def pick_study(arg: str | None) -> Path:
-    if arg:
-        return Path(arg)
-    if (STUDIES / "full" / "manifest.json").exists():
-        return STUDIES / "full"
-    best, n_best = None, -1
-    for m in sorted(STUDIES.glob("*/manifest.json")):
-        try:
-            n = len(json.loads(m.read_text()).get("trials", []))
-        except (OSError, ValueError):
-            continue
-        if n > n_best:
-            best, n_best = m.parent, n
-    if best is None:
-        sys.exit(f"no study found in {STUDIES}; pass one")
-    return best
+    """The study given, else the paper's seed-0 study simulated into benchmarks/out/."""
+    return Path(arg) if arg else simulated_study("paper-seed0", "--seed", "0")
 
 
 def reference_profile(

@@ -11,11 +11,10 @@ The report is measured on the results this run analysed (then fitted), or with
 CPU seconds of the process writing it (figures, tables, trial pages with their
 animations, the HTML), target under 60 s for the 180-trial study.
 
-The study is, in order of preference: ``--study``; ``/work/studies/full`` (the paper's
-180 trials, written by ``fingerfriction simulate``); the largest study found under
-``/work/studies``; else a small study simulated into ``benchmarks/out/`` (gitignored).
-When the study has fewer than 180 trials the time for 180 is extrapolated from the
-measured time per trial, and the output says so.
+The study is ``--study``, else the paper's 180 trials (seed 0), simulated with
+``fingerfriction simulate`` into ``benchmarks/out/studies/`` (gitignored) the first time and
+shared with the other benchmarks. When the study has fewer than 180 trials the time for 180
+is extrapolated from the measured time per trial, and the output says so.
 
 The speed-up is measured on the first ``--speedup-trials`` trials (default 24, balanced
 over the conditions in manifest order is not guaranteed; use ``0`` for every trial):
@@ -36,6 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from _studies import simulated_study
 from fingerfriction.study.analyze import analyze
 from fingerfriction.study.params import AnalysisParams, sim_params
 
@@ -50,23 +50,12 @@ def _n_trials(study: Path) -> int:
 
 
 def find_study(arg: str | None, out: Path) -> tuple[Path, str]:
+    """The study given with --study, else the paper's seed-0 study (simulated into
+    benchmarks/out/studies/ the first time, shared with the other benchmarks)."""
     if arg:
         return Path(arg), "given with --study"
-    full = Path("/work/studies/full")
-    if _n_trials(full):
-        return full, "/work/studies/full"
-    root = Path("/work/studies")
-    cands = sorted((p for p in root.glob("*") if _n_trials(p)), key=_n_trials, reverse=True) \
-        if root.is_dir() else []
-    if cands:
-        return cands[0], f"largest study under /work/studies ({cands[0].name})"
-    from fingerfriction.sim import SimOptions, simulate_study
-
-    study = out / "study"
-    print(f"no study found: simulating 1 subject x 2 surfaces x 3 speeds x 2 reps into {study} ...",
-          flush=True)
-    simulate_study(study, SimOptions(reps=2, subjects=("1",), surfaces=("bump-2mm", "step-up-2mm"), seed=0))
-    return study, "simulated by this benchmark"
+    study = simulated_study("paper-seed0", "--seed", "0")
+    return study, "the paper's design, seed 0 (benchmarks/out/studies)"
 
 
 def _frames(results: Path) -> int:

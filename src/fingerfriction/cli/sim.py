@@ -72,6 +72,13 @@ def simulate_cmd(
     realism: Annotated[bool, typer.Option(
         "--realism", help="A harder study: friction drawn per trial (10 % SD), falling with load, and the "
                           "normal force wandering over +-50 mN (fingerfriction.sim.RealismParams).")] = False,
+    world: Annotated[str, typer.Option(
+        "--world", help="The true physics: load-sharing (default), constant-pressure or interlocking "
+                        "(docs/worlds.md).")] = "load-sharing",
+    chain: Annotated[str, typer.Option(
+        "--chain", help="The measurement chain: ideal (default: the analysis inverts it exactly) or "
+                        "realistic (second-order sensor of unknown cut-off, crosstalk, curved drift, a "
+                        "normal force that follows the relief; docs/worlds.md).")] = "ideal",
     finger: Annotated[
         list[str] | None,
         typer.Option("--finger", help="SUBJECT=FILE: that subject's finger, a finger JSON file (repeat)."),
@@ -93,6 +100,7 @@ def simulate_cmd(
 
     kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
                 "contact_model": contact_model, "realism": RealismParams() if realism else None,
+                "world": world, "chain": chain,
                 **_design(surfaces, subjects, speeds)}
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")

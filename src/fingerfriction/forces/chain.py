@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
+from scipy import ndimage
 
 from .._atomic import atomic_write
 from .checks import (
@@ -34,7 +35,8 @@ from .positions import (
     resample_to_positions,
 )
 from .readers import ForceRecord
-from .sensor import detect_baseline, detect_post_baseline
+from .response import estimate_response
+from .sensor import compose, detect_baseline, detect_post_baseline
 from .signals import ForceSignals
 
 __all__ = ["ForceProfile", "process_forces"]
@@ -315,7 +317,9 @@ def _sensor_chain(sig: ForceSignals, params: ForceProcessingParams, flags: list)
     if params.lowpass_hz is not None:
         sig = sig.lowpass(params.lowpass_hz, order=params.lowpass_order)
     post = None
-    if params.sensor_highpass_hz is not None:
+    if params.sensor_highpass_hz is not None and params.highpass_model == "second-order":
+        sig, post = _response_compensation(sig, base, params, flags)
+    elif params.sensor_highpass_hz is not None:
         if params.estimate_highpass:
             fc, sig, post = _estimated_compensation(sig, base, params, flags)
         else:
@@ -539,6 +543,89 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
             )
         )
     return est.fc_hz, again, post
+
+
+def _rough_post_rest(sig: ForceSignals, params: ForceProcessingParams):
+    """A first guess of the rest after the lift-off when the forces compensated at the prior
+    do not settle (a second pole left uninverted decays slowly, so neither their level nor
+    their rate marks the rest): the unloading is the fastest fall of ``F_N`` (its
+    derivative, smoothed by an 8 ms Gaussian, at its minimum); the rest starts
+    ``baseline_guard_s`` after that derivative is back above a tenth of its minimum.
+    ``(mask, description)`` or None."""
+    fs = sig.fs_hz
+    rate = ndimage.gaussian_filter1d(sig.f_n, 0.008 * fs, order=1, mode="nearest") * fs
+    k_min = int(np.argmin(rate))
+    back = np.flatnonzero(rate[k_min:] > 0.1 * rate[k_min])
+    if not back.size or not rate[k_min] < 0:
+        return None
+    k = k_min + int(back[0]) + int(round(params.baseline_guard_s * fs))
+    mask = np.arange(sig.f_n.size) >= k
+    if mask.sum() < max(params.min_baseline_s * fs, 8):
+        return None
+    return mask, (f"first guess: from {params.baseline_guard_s:g} s after the unloading (the fastest fall "
+                  f"of F_N) to the end ({mask.sum() / fs:.4f} s)")
+
+
+def _response_compensation(raw: ForceSignals, base, params: ForceProcessingParams, flags: list):
+    """``highpass_model='second-order'``: each transducer's response estimated on the rests
+    (:func:`~fingerfriction.forces.response.estimate_response`) and inverted, its drift
+    removed through it (:meth:`ForceSignals.compensate_response`).
+
+    The rest after the lift-off is detected on the forces compensated at the prior (first
+    order, tried at 0.7-1.3 times it), else guessed (:func:`_rough_post_rest`); after the
+    estimate it is detected again on the compensated forces and the estimate repeated (at
+    most twice) while it changes. Without any rest after the lift-off the response is not
+    determined: the prior's first order is used, with a flag.
+
+    Returns
+    -------
+    (signals, post) : compensated and drift-corrected signals, and the rest after the
+    lift-off ``(mask, description)`` or None.
+    """
+    prior = params.sensor_highpass_hz
+    tried: list = []
+    post = _post_baseline_mask(raw.compensate_highpass(prior), params, tried)
+    if post is None and params.post_baseline == "auto":
+        for s in (0.9, 1.1, 0.8, 1.2, 0.7, 1.3):
+            post = _post_baseline_mask(raw.compensate_highpass(s * prior), params, [])
+            if post is not None:
+                break
+        if post is None:
+            post = _rough_post_rest(raw.compensate_highpass(prior), params)
+    if post is None:
+        flags.extend(tried)
+        flags.append(Flag("highpass-estimate", "highpass_model='second-order' but there is no usable rest "
+                          "after the lift-off, so the response is not determined; the prior "
+                          f"sensor_highpass_hz={prior:g} Hz (first order) was used"))
+        sig = raw.compensate_highpass(prior)
+        if base is not None:
+            sig = sig.remove_rest_drift(base, prior, rests="before the touch")
+        return sig, None
+    chans = compose(raw.f_n, raw.f_t)
+    for _ in range(3):
+        rests = post[0] if base is None else post[0] | base
+        ests = [estimate_response(y, rests, raw.fs_hz, prior) for y in chans]
+        sig = raw.compensate_response([e.response for e in ests], rests,
+                                      rests_text=_rests_text(base, post), estimates=ests)
+        if params.post_baseline != "auto":
+            break
+        new = _post_baseline_mask(sig, params, [])
+        if new is None or np.array_equal(new[0], post[0]):
+            break
+        post = new
+    for c, e in enumerate(ests):
+        if not e.success:
+            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: {e.message}; the prior "
+                              f"sensor_highpass_hz={prior:g} Hz (first order) was used for it"))
+        elif abs(e.cutoff_hz / prior - 1.0) > params.highpass_max_change:
+            change = 100 * (e.cutoff_hz / prior - 1)
+            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: the high-pass estimated on the "
+                              f"rests has its -3 dB cut-off at {e.cutoff_hz:.4g} Hz, {change:+.0f} % from "
+                              "the "
+                              f"prior sensor_highpass_hz={prior:g} Hz (allowed highpass_max_change="
+                              f"{params.highpass_max_change:g}); it was used: check the sensor's "
+                              "specification, and that the rests are free of contact"))
+    return sig, post
 
 
 def _empty_profile(params, window, flat, flags, signals=None, x_at=None) -> ForceProfile:

@@ -118,6 +118,15 @@ class ForceProcessingParams:
         before trusting the estimate). Needs ``sensor_highpass_hz`` and ``post_baseline``;
         without a usable rest after the lift-off, or when the rests do not determine the
         cut-off, the prior is used, with a flag.
+    highpass_model : {"first-order", "second-order"}
+        The sensor's high-pass. ``"first-order"`` (default): one pole at
+        ``sensor_highpass_hz`` (or its estimate with ``estimate_highpass``), shared by
+        ``F_N`` and ``F_T``. ``"second-order"`` (beyond the paper,
+        :mod:`fingerfriction.forces.response`): a response ``s^2 / (s^2 + a1 s + a0)``
+        estimated for each transducer channel on the rests (``sensor_highpass_hz`` is the
+        prior; ``estimate_highpass`` is implied), for chains with a second pole (an
+        AC-coupled conditioner) or transducers whose cut-offs differ. Needs
+        ``sensor_highpass_hz`` and ``post_baseline``.
     highpass_max_change : float
         With ``estimate_highpass``: an estimate further than this fraction from the prior
         is used but flagged (``"highpass-estimate"``). Default 0.3.
@@ -149,6 +158,7 @@ class ForceProcessingParams:
     rest_rate_n_per_s: float = 0.5
     estimate_highpass: bool = False
     highpass_max_change: float = 0.3
+    highpass_model: str = "first-order"
 
     def __post_init__(self) -> None:
         notch = tuple(float(f) for f in np.atleast_1d(np.asarray(self.notch_hz, dtype=float)))
@@ -218,9 +228,22 @@ class ForceProcessingParams:
         if not isinstance(self.estimate_highpass, (bool, np.bool_)):
             raise TypeError(f"estimate_highpass must be True or False, got {self.estimate_highpass!r}")
         object.__setattr__(self, "estimate_highpass", bool(self.estimate_highpass))
+        self._check_highpass_model()
         if self.estimate_highpass and (self.sensor_highpass_hz is None or self.post_baseline is None):
             raise ValueError(
                 "estimate_highpass=True needs sensor_highpass_hz (the prior, in Hz) and post_baseline "
+                f"(the rest after the lift-off carries the information), got sensor_highpass_hz="
+                f"{self.sensor_highpass_hz!r}, post_baseline={self.post_baseline!r}"
+            )
+
+    def _check_highpass_model(self) -> None:
+        if self.highpass_model not in ("first-order", "second-order"):
+            raise ValueError(
+                f"highpass_model must be 'first-order' or 'second-order', got {self.highpass_model!r}")
+        if self.highpass_model == "second-order" and (
+                self.sensor_highpass_hz is None or self.post_baseline is None):
+            raise ValueError(
+                "highpass_model='second-order' needs sensor_highpass_hz (the prior, in Hz) and post_baseline "
                 f"(the rest after the lift-off carries the information), got sensor_highpass_hz="
                 f"{self.sensor_highpass_hz!r}, post_baseline={self.post_baseline!r}"
             )

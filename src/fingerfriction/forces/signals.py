@@ -16,9 +16,11 @@ import numpy as np
 
 from .filters import design_lowpass, design_notch, zero_phase
 from .readers import ForceRecord
+from .response import rest_drift_image
 from .sensor import (
     HighpassEstimate,
     compensate_highpass,
+    compose,
     decompose,
     estimate_highpass,
     fit_baseline,
@@ -164,6 +166,38 @@ class ForceSignals:
             step[f"{key}_rest_rms_N"] = [fit.rms_before, fit.rms_after]
         return self._with(step, **out)
 
+    def compensate_response(self, responses, rests, *, rests_text: str = "", estimates=()) -> ForceSignals:
+        """Invert each transducer channel's high-pass and remove its residual drift.
+
+        ``F1, F2`` are composed from ``F_N, F_T`` (:func:`compose`), each is inverted with
+        its :class:`~fingerfriction.forces.response.HighpassResponse` and the image of its
+        drift line fitted on the rests ``rests`` (:func:`~fingerfriction.forces.response.
+        rest_drift_image`) is subtracted, and the channels are decomposed back.
+        ``estimates`` (the :class:`~fingerfriction.forces.response.ResponseEstimate` per
+        channel, optional) are recorded in the history.
+        """
+        fs = self.fs_hz
+        chans = compose(self.f_n, self.f_t)
+        out, step = [], {"step": "compensate_response", "rests": rests_text, "n_samples": int(np.sum(rests))}
+        for c, (y, resp) in enumerate(zip(chans, responses, strict=True)):
+            comp = resp.invert(y, fs)
+            image, coef = rest_drift_image(comp, rests, fs, resp)
+            out.append(comp - image)
+            key = f"F{c + 1}"
+            step[f"{key}_a1_rad_s"] = resp.a1
+            step[f"{key}_a0_rad2_s2"] = resp.a0
+            step[f"{key}_cutoff_hz"] = resp.cutoff_hz(fs)
+            step[f"{key}_poles_hz"] = [str(p) if isinstance(p, complex) else float(p)
+                                       for p in resp.poles_hz(fs)]
+            step[f"{key}_drift_N"] = [float(v) for v in coef]
+            if estimates:
+                est = estimates[c]
+                step[f"{key}_estimated"] = bool(est.success)
+                step[f"{key}_message"] = est.message
+                step[f"{key}_rest_rms_N"] = est.rms_residual_n
+        f_n, f_t = decompose(out[0], out[1])
+        return self._with(step, f_n=f_n, f_t=f_t)
+
     def remove_drift(self, mask, *, segment: str = "") -> ForceSignals:
         """Subtract a line in time fitted over ``mask`` (the flat segment) from both forces."""
         t = self.times()
@@ -236,6 +270,13 @@ def describe_step(step: dict) -> str:
                 f"({step.get('n_samples', '?')} samples), subtracted{rms_text}")
     if name == "remove_drift":
         return f"flat-segment line removed (the paper's footing): {step.get('segment', '')}"
+    if name == "compensate_response":
+        cuts = ", ".join(f"F{c} {step.get(f'F{c}_cutoff_hz', float('nan')):.3f} Hz" for c in (1, 2))
+        how = "estimated on the rests" if all(step.get(f"F{c}_estimated", False) for c in (1, 2)) else \
+            "not all estimated (see the flags)"
+        return (f"sensor high-pass inverted per transducer as a second-order response ({cuts}, {how}), "
+                f"residual drift fitted through it on the rests ({step.get('n_samples', '?')} samples), "
+                "subtracted")
     fields = ", ".join(f"{k}={v}" for k, v in step.items() if k != "step")
     return f"{name}: {fields}" if fields else str(name)
 

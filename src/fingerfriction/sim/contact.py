@@ -45,7 +45,9 @@ from scipy.ndimage import gaussian_filter1d
 
 from .. import mechanics
 from ..mechanics import ContactSolver, sweep
+from ..mechanics.fe import FEProvider
 from ..surfaces import Surface
+from ._geometry import geometric_distance
 from ._io import write_npz
 
 __all__ = [
@@ -55,6 +57,7 @@ __all__ = [
     "BridgedFoundation",
     "MechanicsProvider",
     "build_table",
+    "EXTRA_INTEGRALS",
     "default_provider",
     "get_provider",
 ]
@@ -326,14 +329,23 @@ def default_provider():
     return MechanicsProvider()
 
 
-def get_provider(name: str):
-    """A contact provider by name: ``'mechanics-bem'`` or ``'bridged-foundation'``."""
+def get_provider(name: str, *, fingers: dict | None = None):
+    """A contact provider by name: ``'mechanics-bem'``, ``'bridged-foundation'`` or ``'fe'``
+    (the layered finite-element finger, :class:`fingerfriction.mechanics.fe.FEProvider`).
+
+    ``fingers`` (subject label -> the model's finger parameters) overrides the provider's
+    default fingers (``mechanics-bem``: ``FingerParams``; ``fe``: ``FEFingerParams``).
+    """
     if name == MechanicsProvider.name:
-        return MechanicsProvider()
+        return MechanicsProvider(fingers=fingers)
     if name == BridgedFoundation.name:
+        if fingers:
+            raise ValueError("the bridged-foundation contact model takes no finger files")
         return BridgedFoundation()
+    if name == FEProvider.name:
+        return FEProvider(fingers=fingers)
     raise ValueError(
-        f"unknown contact model {name!r}; known: {MechanicsProvider.name}, {BridgedFoundation.name}"
+        f"unknown contact model {name!r}; known: {MechanicsProvider.name}, {BridgedFoundation.name}, fe"
     )
 
 
@@ -358,6 +370,12 @@ class ContactTable:
         s cos a`` (``s = dh/dx``, ``a = atan s``): what the true force law needs.
     provider : str
         Name of the contact model that produced the table.
+    extra : (L, n, len(EXTRA_INTEGRALS)) ndarray or None
+        Further integrals the simulator's worlds need (:data:`EXTRA_INTEGRALS`), computed
+        by :func:`build_table` from ``y_f``, ``p`` and the surface whatever the provider.
+    geom_tol_mm : float
+        The distance in mm within which a surface point counts as in geometric contact
+        in the ``g_*`` integrals of :attr:`extra` (the paper's 3 px, 0.069 mm).
     """
 
     xi: np.ndarray
@@ -367,6 +385,8 @@ class ContactTable:
     p: np.ndarray
     integrals: np.ndarray
     provider: str
+    extra: np.ndarray | None = None
+    geom_tol_mm: float = 0.069
 
     def _pos_index(self, x_c: np.ndarray):
         pos = self.positions
@@ -387,9 +407,20 @@ class ContactTable:
 
     def interp_integrals(self, x_c: np.ndarray, load: np.ndarray) -> np.ndarray:
         """Bilinear interpolation of :attr:`integrals`, ``(k, 5)`` for ``k`` samples."""
+        return self._interp(self.integrals, x_c, load)
+
+    def interp_extra(self, x_c: np.ndarray, load: np.ndarray) -> dict:
+        """Bilinear interpolation of :attr:`extra`: name (:data:`EXTRA_INTEGRALS`) ->
+        ``(k,)`` array for ``k`` samples."""
+        if self.extra is None:
+            raise ValueError("this contact table has no extra integrals (built before they existed); "
+                             "build it again with build_table")
+        I = self._interp(self.extra, x_c, load)
+        return {name: I[:, k] for k, name in enumerate(EXTRA_INTEGRALS)}
+
+    def _interp(self, I: np.ndarray, x_c: np.ndarray, load: np.ndarray) -> np.ndarray:
         i0, w = self._pos_index(x_c)
         j0, v = self._load_index(load)
-        I = self.integrals
         j1 = np.minimum(j0 + 1, I.shape[0] - 1)
         i1 = np.minimum(i0 + 1, I.shape[1] - 1)
         w = w[:, None]
@@ -414,9 +445,11 @@ class ContactTable:
 
     def save(self, path) -> None:
         """Write the table as an uncompressed ``.npz`` (readable with ``mmap``-free np.load)."""
+        extra = {} if self.extra is None else {"extra": self.extra}
         write_npz(path, {
             "xi": self.xi, "positions": self.positions, "loads": self.loads, "y_f": self.y_f,
             "p": self.p, "integrals": self.integrals, "provider": np.array(self.provider),
+            "geom_tol_mm": np.float64(self.geom_tol_mm), **extra,
         }, compress=False)
 
     @classmethod
@@ -427,14 +460,18 @@ class ContactTable:
         t0 = tables[0]
         for t in tables[1:]:
             if not (np.array_equal(t.xi, t0.xi) and np.array_equal(t.positions, t0.positions)
-                    and t.provider == t0.provider):
-                raise ValueError("ContactTable.stack: tables differ in grid, positions or provider")
+                    and t.provider == t0.provider and t.geom_tol_mm == t0.geom_tol_mm
+                    and (t.extra is None) == (t0.extra is None)):
+                raise ValueError("ContactTable.stack: tables differ in grid, positions, provider or "
+                                 "geometric tolerance")
         if len(tables) == 1:
             return t0
         return cls(
             xi=t0.xi, positions=t0.positions, loads=np.concatenate([t.loads for t in tables]),
             y_f=np.concatenate([t.y_f for t in tables]), p=np.concatenate([t.p for t in tables]),
             integrals=np.concatenate([t.integrals for t in tables]), provider=t0.provider,
+            extra=None if t0.extra is None else np.concatenate([t.extra for t in tables]),
+            geom_tol_mm=t0.geom_tol_mm,
         )
 
     @classmethod
@@ -443,6 +480,8 @@ class ContactTable:
             return cls(
                 xi=z["xi"], positions=z["positions"], loads=z["loads"], y_f=z["y_f"], p=z["p"],
                 integrals=z["integrals"], provider=str(z["provider"]),
+                extra=z["extra"] if "extra" in z.files else None,
+                geom_tol_mm=float(z["geom_tol_mm"]) if "geom_tol_mm" in z.files else 0.069,
             )
 
 
@@ -453,7 +492,7 @@ def table_position_range(surface: Surface, half_extent: float, margin: float = 0
 
 
 def build_table(surface: Surface, subject: str, *, loads=(0.22, 0.3, 0.38), step: float = 0.02,
-                provider=None) -> ContactTable:
+                provider=None, geom_tol_mm: float = 0.069) -> ContactTable:
     """Tabulate the contact of a subject's finger on ``surface``.
 
     Parameters
@@ -467,6 +506,10 @@ def build_table(surface: Surface, subject: str, *, loads=(0.22, 0.3, 0.38), step
         Spacing of finger positions in mm (default 0.02 mm, under one pixel).
     provider : optional
         A contact provider (see the module docstring); :func:`default_provider` if omitted.
+    geom_tol_mm : float
+        Distance in mm within which a surface point is in geometric contact, for the
+        ``g_*`` integrals of :data:`EXTRA_INTEGRALS` (default 0.069 mm: the paper's 3 px of
+        23 um; the simulator passes 3 of its camera's pixels).
 
     Returns
     -------
@@ -477,6 +520,8 @@ def build_table(surface: Surface, subject: str, *, loads=(0.22, 0.3, 0.38), step
         raise ValueError(f"loads must be positive and increasing (N), got {loads.tolist()}")
     if not (math.isfinite(step) and step > 0):
         raise ValueError(f"step must be a positive length in mm, got {step!r}")
+    if not (math.isfinite(geom_tol_mm) and geom_tol_mm > 0):
+        raise ValueError(f"geom_tol_mm must be a positive length in mm, got {geom_tol_mm!r}")
     if provider is None:
         provider = default_provider()
     xi = np.asarray(provider.grid(subject), float)
@@ -491,10 +536,42 @@ def build_table(surface: Surface, subject: str, *, loads=(0.22, 0.3, 0.38), step
     sl = np.asarray(surface.dhdx(X), float)
     c = 1.0 / np.sqrt(1.0 + sl * sl)
     weights = np.stack([np.ones_like(sl), sl * c, c, sl * sl * c, sl * c])  # (5, n, m)
+    h = np.asarray(surface.h(X), float)
+    extra = np.empty((loads.size, n, len(EXTRA_INTEGRALS)))
     for j, load in enumerate(loads):
         yj, pj = provider.solve(surface, subject, positions, float(load))
         y_f[j] = yj
         p[j] = pj
         integ[j] = np.einsum("knm,nm->nk", weights, pj) * dxi
+        extra[j] = _extra_integrals(xi, np.asarray(yj, float), np.asarray(pj, float), h, weights, geom_tol_mm)
     return ContactTable(xi=xi, positions=positions, loads=loads, y_f=y_f, p=p, integrals=integ,
-                        provider=provider.name)
+                        provider=provider.name, extra=extra, geom_tol_mm=float(geom_tol_mm))
+
+
+#: Names of :attr:`ContactTable.extra`, all per finger position and load (``s = dh/dx``,
+#: ``a = atan s``, ``p`` the pressure in N/mm^2, ``G`` the geometric contact: surface
+#: points within ``geom_tol_mm`` of the deformed outline, the contact the camera sees):
+#:
+#: * ``sin_up``, ``sin_down``: ``int p sin a dx`` over rising (``s > 0``) and falling
+#:   (``s < 0``) ground, N/mm (the horizontal push of the pressure on slopes, by side);
+#: * ``h``: ``int p h dx``, N (divided by ``int p dx``: the load-weighted height of the
+#:   ground the finger stands on, mm);
+#: * ``g_len``, ``g_sin``, ``g_cos``, ``g_ssin``, ``g_scos``: ``int_G w dx`` for the
+#:   weights ``1, sin a, cos a, s sin a, s cos a``, mm (the paper's Eq. 4 integrals on the
+#:   geometric contact regions, Janko et al. 2018).
+EXTRA_INTEGRALS = ("sin_up", "sin_down", "h", "g_len", "g_sin", "g_cos", "g_ssin", "g_scos")
+
+
+def _extra_integrals(xi, y_f, p, h, weights, tol) -> np.ndarray:
+    """:data:`EXTRA_INTEGRALS` of one load, ``(n, len(EXTRA_INTEGRALS))``; ``weights`` as in
+    :func:`build_table` (``1, sin a, cos a, s sin a, s cos a``, each ``(n, m)``)."""
+    dxi = float(xi[1] - xi[0])
+    sin_a = weights[1]
+    rising = sin_a > 0
+    out = [np.sum(p * sin_a * rising, axis=1) * dxi, np.sum(p * sin_a * (sin_a < 0), axis=1) * dxi,
+           np.sum(p * h, axis=1) * dxi]
+    g = np.empty(p.shape, bool)
+    for s0 in range(0, p.shape[0], 256):  # chunks: the distance search holds a few (256, m) arrays
+        g[s0 : s0 + 256] = geometric_distance(xi, y_f[s0 : s0 + 256], h[s0 : s0 + 256], tol) <= tol
+    out += [np.sum(w * g, axis=1) * dxi for w in weights]
+    return np.stack(out, axis=1)

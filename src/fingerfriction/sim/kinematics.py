@@ -30,7 +30,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
-__all__ = ["KinematicsParams", "Kinematics", "simulate_kinematics", "min_jerk"]
+__all__ = ["KinematicsParams", "Kinematics", "simulate_kinematics", "min_jerk", "smooth_noise"]
 
 
 @dataclass(frozen=True)
@@ -111,6 +111,9 @@ class Kinematics:
         Start of the descent, of the slide, time the finger passes ``x_stop`` (s).
     mean_speed : float
         The trial's target cruise speed in mm/s.
+    f_target : float
+        The trial's normal-force target in N: the level the force wanders around (the
+        drawn target through the soft limit, without the wander).
     """
 
     t: np.ndarray
@@ -123,6 +126,7 @@ class Kinematics:
     t_slide_start: float
     t_stop: float
     mean_speed: float
+    f_target: float = math.nan
 
 
 def min_jerk(u):
@@ -131,8 +135,9 @@ def min_jerk(u):
     return u**3 * (10 - 15 * u + 6 * u * u)
 
 
-def _smooth_noise(rng: np.random.Generator, n: int, fs: float, fc: float) -> np.ndarray:
-    """Unit-variance Gaussian noise low-passed at ``fc`` Hz (zero-phase Butterworth)."""
+def smooth_noise(rng: np.random.Generator, n: int, fs: float, fc: float) -> np.ndarray:
+    """Unit-variance Gaussian noise low-passed at ``fc`` Hz (zero-phase second-order
+    Butterworth), ``n`` samples at ``fs`` Hz; draws ``n + 2 fs / fc`` normals from ``rng``."""
     pad = int(fs / max(fc, 0.1))
     w = rng.standard_normal(n + 2 * pad)
     sos = butter(2, fc, fs=fs, output="sos")
@@ -173,7 +178,7 @@ def simulate_kinematics(speed_mm_s: float, rng: np.random.Generator,
     t_cruise_max = 1.6 * dist / v_mean + P.ramp_s
     n_slide_max = int(math.ceil((P.ramp_s + t_cruise_max + P.ramp_s) / dt))
     n_before = int(round(t_slide / dt))
-    fluct = _smooth_noise(rng, n_slide_max, fs, P.fluct_hz)
+    fluct = smooth_noise(rng, n_slide_max, fs, P.fluct_hz)
     ts = np.arange(n_slide_max) * dt
     ramp_in = min_jerk(ts / P.ramp_s) if P.ramp_s > 0 else np.ones_like(ts)
     v = v_mean * (1.0 + P.speed_sd * fluct) * ramp_in
@@ -201,7 +206,7 @@ def simulate_kinematics(speed_mm_s: float, rng: np.random.Generator,
     z = P.z_top * (1.0 - min_jerk(u_desc))
     t_unload = max(t_slide + x_slide.size * dt, t_contact + P.load_s)
     # normal force: load ramp, fluctuation, soft limit, unload ramp
-    ffl = P.force_sd * _smooth_noise(rng, n, fs, P.fluct_hz)
+    ffl = P.force_sd * smooth_noise(rng, n, fs, P.fluct_hz)
     dev = (f_target - P.force_n) + ffl
     dev = P.force_limit * np.tanh(dev / P.force_limit)
     f_n = (P.force_n + dev) * min_jerk((t - t_contact) / P.load_s) * (
@@ -212,4 +217,5 @@ def simulate_kinematics(speed_mm_s: float, rng: np.random.Generator,
     return Kinematics(
         t=t, x=x, z=z, f_n=f_n, sliding_distance=slid, in_contact=in_contact,
         t_descent=t_descent, t_slide_start=t_slide, t_stop=t_stop, mean_speed=v_mean,
+        f_target=float(P.force_n + P.force_limit * math.tanh((f_target - P.force_n) / P.force_limit)),
     )

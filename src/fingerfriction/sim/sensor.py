@@ -26,9 +26,9 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.signal import butter, lfilter
+from scipy.signal import butter, lfilter, sosfilt
 
-__all__ = ["SensorParams", "to_channels", "from_channels", "apply_sensor", "SQRT2"]
+__all__ = ["SensorParams", "to_channels", "from_channels", "apply_sensor", "highpass2", "SQRT2"]
 
 SQRT2 = math.sqrt(2.0)
 
@@ -111,8 +111,16 @@ def from_channels(f1, f2):
     return (f1 + f2) / SQRT2, (f1 - f2) / SQRT2
 
 
+def highpass2(x: np.ndarray, poles, fs: float) -> np.ndarray:
+    """Cascaded first-order high-passes (bilinear transform, from rest) at ``poles`` Hz."""
+    secs = [butter(1, float(f), btype="highpass", fs=fs, output="sos") for f in poles if f > 0]
+    if not secs:
+        return np.asarray(x, float)
+    return sosfilt(np.concatenate(secs), np.asarray(x, float))
+
+
 def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
-                 params: SensorParams | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 params: SensorParams | None = None, *, chain=None) -> tuple[np.ndarray, np.ndarray]:
     """Recorded channels ``(F1, F2)`` in N for true forces sampled at ``params.fs_hz``.
 
     Parameters
@@ -120,7 +128,12 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
     f_n, f_t : (n,) ndarray
         True normal and tangential force on the plate, N.
     rng : numpy.random.Generator
+        Every draw of the ideal chain (the same draws with or without ``chain``).
     params : SensorParams, optional
+    chain : ChainDraws, optional
+        A trial's realistic chain (:mod:`fingerfriction.sim.chain`): the channels are
+        mixed by its crosstalk matrix, go through its second-order high-pass (instead of
+        the first-order ``params.highpass_hz``), and get its extra drift.
 
     Returns
     -------
@@ -131,7 +144,12 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
     f1, f2 = to_channels(f_n, f_t)
     n = f1.size
     t = np.arange(n) / P.fs_hz
-    if P.highpass_hz > 0:
+    if chain is not None:
+        M = chain.crosstalk
+        f1, f2 = M[0, 0] * f1 + M[0, 1] * f2, M[1, 0] * f1 + M[1, 1] * f2
+        f1 = highpass2(f1, chain.poles_hz[0], P.fs_hz)
+        f2 = highpass2(f2, chain.poles_hz[1], P.fs_hz)
+    elif P.highpass_hz > 0:
         b, a = butter(1, P.highpass_hz, btype="highpass", fs=P.fs_hz)
         f1 = lfilter(b, a, f1)
         f2 = lfilter(b, a, f2)
@@ -141,11 +159,13 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
         for amp, f, ph in zip(P.mains_n, (50.0, 150.0, 300.0), phases, strict=True)
     )
     out = []
-    for ch in (f1, f2):
+    for c, ch in enumerate((f1, f2)):
         off = P.drift_offset_n * rng.standard_normal()
         rate = P.drift_rate_n_per_s * rng.standard_normal()
         gain = 1.0 + 0.2 * rng.standard_normal()
         y = ch + off + rate * t + gain * mains + P.noise_n * rng.standard_normal(n)
+        if chain is not None:
+            y = y + chain.drift[c]
         lsb = P.lsb_n
         k = np.clip(np.rint(y / lsb), -(2 ** (P.bits - 1)), 2 ** (P.bits - 1) - 1)
         out.append(k * lsb)

@@ -14,14 +14,12 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 import multiprocessing as mp
 import os
 import shutil
-import zlib
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -31,248 +29,28 @@ from .. import __version__
 from .._atomic import atomic_write_text
 from ..regions import regions_from_mask
 from ..study import ForceInfo, Study, TrialRecord, VideoInfo, write_manifest
-from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
+from ..surfaces import Surface, surface_from_spec
 from ..video.writers import VideoWriter
+from ._geometry import geometric_distance, geometric_mask
 from ._io import write_npz
-from .camera import Camera, CameraParams
-from .contact import ContactTable, MechanicsProvider, SimFinger, build_table, get_provider
-from .fingers import check_finger_options, study_fingers
-from .kinematics import Kinematics, KinematicsParams, simulate_kinematics
-from .physics import SUBJECT_FORCE_LAWS, ForceLaw, RealismParams, true_forces
-from .sensor import SensorParams, apply_sensor
+from .camera import Camera
+from .chain import RealisticChain, couple_normal_force, draw_device, draw_trial_chain, speed_scaled_kinematics
+from .contact import ContactTable, SimFinger, build_table
+from .kinematics import Kinematics, simulate_kinematics
+from .options import VIDEO_EXT, SimOptions, TrialSpec, _realism_rng, _rngs, _stream
+from .physics import SUBJECT_FORCE_LAWS, ForceLaw
+from .sensor import apply_sensor
+from .worlds import LoadSharing, TrialMotion
 
 __all__ = ["SimOptions", "TrialSpec", "simulate_study", "simulate_trial", "plan_trial", "StudyFolderError"]
 
 log = logging.getLogger(__name__)
 
-PAPER_SPEEDS = (40.0, 80.0, 120.0)
 TRUTH_FORMAT = "fingerfriction-sim-truth"
-VIDEO_EXT = {"ffv1-mkv": "mkv", "tiff": "tif"}
 
 
 class StudyFolderError(ValueError):
     """The output folder holds something other than this study; nothing was written."""
-
-
-@dataclass(frozen=True)
-class SimOptions:
-    """What to simulate (validated; every mistake is a ``ValueError`` naming the option).
-
-    Parameters
-    ----------
-    reps : int
-        Repetitions per condition (>= 1; the paper: 5).
-    subjects : tuple of str
-        Subject labels known to the contact model and to
-        :data:`~fingerfriction.sim.physics.SUBJECT_FORCE_LAWS` (``'1'``, ``'2'``).
-    surfaces : tuple of str
-        Paper surface names (``bump-2mm`` ...) or parametric specs (``bump:W=3,H=0.5``).
-    speeds : tuple of float
-        Nominal sliding speeds in mm/s (> 0).
-    seed : int
-        Study seed (>= 0).
-    video_format : {'ffv1-mkv', 'tiff'}
-    camera, sensor, kinematics : parameter dataclasses
-    contact_model : {'mechanics-bem', 'bridged-foundation'}
-        The contact provider (:mod:`fingerfriction.sim.contact`).
-    table_step : float
-        Finger-position step of the contact tables in mm.
-    table_loads : tuple of float
-        Normal loads of the contact tables in N.
-    video_end_mm : float
-        The video stops at the first frame where the finger centre is past this position.
-    realism : RealismParams, optional
-        A harder experiment (:class:`~fingerfriction.sim.physics.RealismParams`): friction
-        drawn per trial, friction falling with load, the normal force wandering over the
-        full +-50 mN. None (default) keeps the default study's figures comparable.
-    fingers : dict, optional
-        Subject label -> finger (``FingerParams``, its dict or a finger file's object):
-        overrides the calibrated finger of that subject (:mod:`~fingerfriction.sim.fingers`).
-    finger_seed : int, optional
-        Draw every subject without an override around its calibrated finger (radius,
-        modulus, flat length within +-25 %, :func:`~fingerfriction.sim.fingers.draw_finger`).
-    """
-
-    reps: int = 5
-    subjects: tuple = ("1", "2")
-    surfaces: tuple = SURFACE_NAMES
-    speeds: tuple = PAPER_SPEEDS
-    seed: int = 0
-    video_format: str = "ffv1-mkv"
-    camera: CameraParams = field(default_factory=CameraParams)
-    sensor: SensorParams = field(default_factory=SensorParams)
-    kinematics: KinematicsParams = field(default_factory=KinematicsParams)
-    contact_model: str = "mechanics-bem"
-    table_step: float = 0.02
-    table_loads: tuple = (0.22, 0.3, 0.38)
-    video_end_mm: float = 14.0
-    realism: RealismParams | None = None
-    fingers: dict = field(default_factory=dict)
-    finger_seed: int | None = None
-
-    def __post_init__(self) -> None:
-        if self.realism is not None:
-            if not isinstance(self.realism, RealismParams):
-                raise TypeError(f"realism must be a RealismParams or None, got {type(self.realism).__name__}")
-            # the normal force wanders over the full +-50 mN
-            object.__setattr__(self, "kinematics", replace(
-                self.kinematics, force_sd_trial=self.realism.force_sd_trial, force_sd=self.realism.force_sd))
-        if isinstance(self.reps, bool) or not isinstance(self.reps, (int, np.integer)) or self.reps < 1:
-            raise ValueError(f"reps must be an integer >= 1, got {self.reps!r}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise ValueError(f"seed must be an integer >= 0, got {self.seed!r}")
-        subs = tuple(str(s) for s in self.subjects)
-        if not subs:
-            raise ValueError("subjects must not be empty")
-        fingers, fseed = check_finger_options(self.fingers, self.finger_seed, subs, self.contact_model)
-        object.__setattr__(self, "fingers", fingers)
-        object.__setattr__(self, "finger_seed", fseed)
-        provider = self.provider(subs)
-        for s in subs:
-            if s not in SUBJECT_FORCE_LAWS:
-                raise ValueError(
-                    f"unknown subject {s!r}; simulated subjects: {', '.join(SUBJECT_FORCE_LAWS)}"
-                )
-            provider.finger_dict(s)  # the contact model must know the subject too
-        if len(set(subs)) != len(subs):
-            raise ValueError(f"subjects has duplicates: {list(subs)}")
-        surfs = tuple(str(s) for s in self.surfaces)
-        if not surfs:
-            raise ValueError("surfaces must not be empty")
-        names = []
-        for s in surfs:
-            if os.path.exists(s) or s.lower().endswith(".csv"):
-                raise ValueError(
-                    f"surface {s!r}: the simulator takes surface names or 'shape:W=..,H=..' specs"
-                )
-            if s not in SURFACE_NAMES and ":" not in s:
-                raise ValueError(f"unknown surface {s!r}; known surfaces: {', '.join(SURFACE_NAMES)} "
-                                 "(or a spec like 'bump:W=3,H=0.5')")
-            try:
-                names.append(surface_from_spec(s).name)
-            except (ValueError, TypeError) as exc:
-                raise ValueError(f"surface {s!r}: {exc}") from None
-        if len(set(names)) != len(names):
-            raise ValueError(f"surfaces has duplicates: {surfs}")
-        sp = []
-        for v in self.speeds:
-            try:
-                f = float(v)
-            except (TypeError, ValueError):
-                raise ValueError(f"speed {v!r} is not a number (mm/s)") from None
-            if not math.isfinite(f) or f <= 0:
-                raise ValueError(f"speed must be a positive speed in mm/s, got {v!r}")
-            if f > 1000:
-                raise ValueError(f"speed {f} mm/s is beyond what the simulator supports (<= 1000 mm/s)")
-            sp.append(f)
-        if not sp:
-            raise ValueError("speeds must not be empty")
-        if len(set(sp)) != len(sp):
-            raise ValueError(f"speeds has duplicates: {sp}")
-        if self.video_format not in VIDEO_EXT:
-            raise ValueError(f"video_format must be one of {', '.join(VIDEO_EXT)}, got {self.video_format!r}")
-        if not (self.table_step > 0 and math.isfinite(self.table_step)):
-            raise ValueError(f"table_step must be a positive length in mm, got {self.table_step!r}")
-        object.__setattr__(self, "subjects", subs)
-        object.__setattr__(self, "surfaces", surfs)
-        object.__setattr__(self, "speeds", tuple(sp))
-        object.__setattr__(self, "table_loads", tuple(float(v) for v in self.table_loads))
-        object.__setattr__(self, "reps", int(self.reps))
-        object.__setattr__(self, "seed", int(self.seed))
-
-    def surface(self, spec: str) -> Surface:
-        return surface_from_spec(spec)
-
-    def provider(self, subjects=None):
-        """The contact provider, with this study's fingers (:mod:`~fingerfriction.sim.fingers`)."""
-        fingers = study_fingers(self.fingers, self.finger_seed, subjects or self.subjects)
-        return get_provider(self.contact_model) if fingers is None else MechanicsProvider(fingers=fingers)
-
-    def trial_specs(self) -> list[TrialSpec]:
-        """The design in a fixed order: subject, surface, speed, repetition."""
-        out = []
-        for subj in self.subjects:
-            for s in self.surfaces:
-                name = surface_from_spec(s).name
-                for v in self.speeds:
-                    for r in range(1, self.reps + 1):
-                        tid = f"s{subj}-{name}-v{v:03.0f}-r{r}" if float(v).is_integer() else \
-                            f"s{subj}-{name}-v{v:g}-r{r}"
-                        out.append(TrialSpec(tid, subj, s, name, v, r))
-        return out
-
-    def to_dict(self) -> dict:
-        """Everything that determines the study's content (used to recognise it on resume)."""
-        return {
-            "reps": self.reps, "subjects": list(self.subjects), "surfaces": list(self.surfaces),
-            "speeds": list(self.speeds), "seed": self.seed, "video_format": self.video_format,
-            "camera": self.camera.to_dict(), "sensor": self.sensor.to_dict(),
-            "kinematics": self.kinematics.to_dict(), "contact_model": self.contact_model,
-            "table_step": self.table_step,
-            "table_loads": list(self.table_loads), "video_end_mm": self.video_end_mm,
-            # only when set, so that the default study's record is unchanged
-            **({"realism": self.realism.to_dict()} if self.realism is not None else {}),
-            # only when set, so a default study's description (and resume check) is unchanged
-            **({"fingers": self.fingers} if self.fingers else {}),
-            **({"finger_seed": self.finger_seed} if self.finger_seed is not None else {}),
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict) -> SimOptions:
-        """The options back from :meth:`to_dict` (e.g. ``truth/study.json``'s ``options``).
-
-        Raises
-        ------
-        ValueError
-            For an unknown or invalid field (named in the message).
-        """
-        if not isinstance(d, dict):
-            raise ValueError(f"simulation options must be a dict, got {type(d).__name__}")
-        d = dict(d)
-        sub = {"camera": CameraParams, "sensor": SensorParams, "kinematics": KinematicsParams}
-        try:
-            for key, kind in sub.items():
-                if key in d:
-                    fields = dict(d[key])
-                    fields.pop("lsb_n", None)  # derived, written for the reader's benefit
-                    if "mains_n" in fields:
-                        fields["mains_n"] = tuple(fields["mains_n"])
-                    d[key] = kind(**fields)
-            for key in ("subjects", "surfaces", "speeds", "table_loads"):
-                if key in d:
-                    d[key] = tuple(d[key])
-            if d.get("realism") is not None:
-                d["realism"] = RealismParams(**dict(d["realism"]))
-            return cls(**d)
-        except TypeError as exc:  # unknown field names
-            raise ValueError(f"simulation options: {exc}") from None
-
-
-@dataclass(frozen=True)
-class TrialSpec:
-    """One trial of the design: ids and conditions."""
-
-    id: str
-    subject: str
-    surface_spec: str
-    surface_name: str
-    speed_mm_s: float
-    repetition: int
-
-    def seed_sequence(self, seed: int) -> np.random.SeedSequence:
-        """The trial's random stream: keyed by the study seed and the trial id only."""
-        return np.random.SeedSequence(seed, spawn_key=(zlib.crc32(self.id.encode("utf-8")),))
-
-
-def _rngs(spec: TrialSpec, seed: int):
-    kin, sensor, camera = spec.seed_sequence(seed).spawn(3)
-    return np.random.default_rng(kin), np.random.default_rng(sensor), np.random.default_rng(camera)
-
-
-def _realism_rng(spec: TrialSpec, seed: int) -> np.random.Generator:
-    """A fourth stream of the trial for the realism draws: the first three (kinematics,
-    sensor, camera) are the same as without it, so switching realism off changes nothing."""
-    return np.random.default_rng(spec.seed_sequence(seed).spawn(4)[3])
 
 
 @dataclass(frozen=True)
@@ -288,7 +66,10 @@ class TrialPlan:
 def plan_trial(spec: TrialSpec, opts: SimOptions) -> TrialPlan:
     """Draw the trial's kinematics and compute its manifest record (no files written)."""
     rk, _, _ = _rngs(spec, opts.seed)
-    kin = simulate_kinematics(spec.speed_mm_s, rk, opts.kinematics)
+    kparams = opts.kinematics
+    if opts.chain_name == "realistic":  # motor noise grows with speed
+        kparams = speed_scaled_kinematics(kparams, spec.speed_mm_s, opts.chain)
+    kin = simulate_kinematics(spec.speed_mm_s, rk, kparams)
     cam = opts.camera
     fs = opts.kinematics.fs_hz
     step = fs / cam.fps
@@ -319,64 +100,6 @@ def plan_trial(spec: TrialSpec, opts: SimOptions) -> TrialPlan:
 def _feature_height(surf: Surface) -> float:
     h = getattr(surf, "height", None)
     return float(h) if h is not None else float(surf.max_height)
-
-
-def geometric_mask(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, tol_mm: float) -> np.ndarray:
-    """Surface points within ``tol_mm`` of the finger outline (the paper's 3-px criterion).
-
-    Parameters
-    ----------
-    xi : (m,) ndarray
-        Uniform grid in mm (positions relative to the finger; the surface points are at
-        the same positions).
-    y_f, h : (m,) ndarray
-        Finger outline and surface heights in mm on that grid.
-    tol_mm : float
-
-    Returns
-    -------
-    (m,) bool ndarray
-        True where the Euclidean distance from the surface point ``(x_j, h_j)`` to the
-        finger outline (the polyline through ``(x_i, y_f_i)``) is at most ``tol_mm``
-        (:func:`geometric_distance`).
-    """
-    return geometric_distance(xi, y_f, h, tol_mm) <= tol_mm
-
-
-def geometric_distance(xi: np.ndarray, y_f: np.ndarray, h: np.ndarray, reach_mm: float) -> np.ndarray:
-    """Euclidean distance in mm from each surface point to the finger outline.
-
-    Parameters
-    ----------
-    xi : (m,) ndarray
-        Uniform grid in mm (as in :func:`geometric_mask`).
-    y_f, h : (m,) ndarray
-        Finger outline and surface heights in mm on that grid.
-    reach_mm : float
-        Distances up to this are exact; beyond it the result is an upper bound (the
-        search looks at outline segments within ``reach_mm`` sideways only).
-
-    Returns
-    -------
-    (m,) ndarray
-        Distance in mm from ``(x_j, h_j)`` to the polyline through ``(x_i, y_f_i)``.
-    """
-    dx = float(xi[1] - xi[0])
-    m = xi.size
-    best = np.abs(y_f - h)  # vertical distance to the vertex above: an upper bound
-    K = int(math.ceil(reach_mm / dx)) + 1
-    for k in range(-K, K):
-        # segment from vertex i = j + k to i + 1, for every surface point j
-        j = np.arange(max(0, -k), min(m, m - 1 - k))
-        i = j + k
-        ax, ay = xi[i], y_f[i]
-        bx, by = xi[i + 1], y_f[i + 1]
-        px, py = xi[j], h[j]
-        vx, vy = bx - ax, by - ay
-        tpar = np.clip(((px - ax) * vx + (py - ay) * vy) / (vx * vx + vy * vy), 0.0, 1.0)
-        d = np.hypot(ax + tpar * vx - px, ay + tpar * vy - py)
-        best[j] = np.minimum(best[j], d)
-    return best
 
 
 def frame_outline(kin: Kinematics, table: ContactTable, i: int) -> tuple[float, np.ndarray, np.ndarray]:
@@ -410,24 +133,81 @@ def frame_outline(kin: Kinematics, table: ContactTable, i: int) -> tuple[float, 
     return x_c, y_f, p
 
 
-def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw,
-                   root: Path) -> TrialRecord:
-    """Simulate one trial and write its video, force and truth files under ``root``."""
-    spec, kin, rec = plan.spec, plan.kin, plan.record
-    _, rs, rc = _rngs(spec, opts.seed)
-    surf = surface_from_spec(spec.surface_spec)
+def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw | None = None,
+                   root: Path | None = None) -> TrialRecord:
+    """Simulate one trial and write its video, force and truth files under ``root``.
 
-    # forces
+    ``law`` overrides the subject's :data:`~fingerfriction.sim.physics.SUBJECT_FORCE_LAWS`
+    in the ``load-sharing`` world (other worlds ignore it).
+    """
+    if root is None:
+        raise TypeError("simulate_trial needs root, the study folder")
+    spec, rec = plan.spec, plan.record
+    kin, forces, F1, F2, truth_extra = _trial_forces(plan, opts, table, law)
+    surf = surface_from_spec(spec.surface_spec)
+    frames = _write_video(plan, opts, table, kin, surf, root / rec.video.path)
+    write_npz(root / rec.force.path, {"F1": F1, "F2": F2})
+    load_exp = truth_extra.pop("mu_load_exponent")
+    write_npz(root / rec.truth, {
+        "t_force": kin.t, "x_finger_force": kin.x, "F_N": kin.f_n, "F_T": forces.f_t,
+        "F_T_int": forces.f_int, "F_T_def": forces.f_def, **frames,
+        "geom_tol_mm": np.float64(3.0 * opts.camera.mm_per_px),
+        "mm_per_px": np.float64(opts.camera.mm_per_px),
+        "x0_px": np.float64(opts.camera.x0_px), "y0_row": np.float64(opts.camera.y0_row),
+        "mean_speed_mm_s": np.float64(kin.mean_speed), "z_finger_force": kin.z,
+        "mu_load_exponent": np.float64(load_exp),
+        "world": np.array(opts.world.name), "chain": np.array(opts.chain_name),
+        "F_N_target": np.float64(kin.f_target),
+        **{k: np.asarray(v, np.float64) if np.ndim(v) == 0 else np.asarray(v)
+           for k, v in forces.truth.items()},
+        **{k: np.asarray(v) for k, v in truth_extra.items()},
+    })
+    return rec
+
+
+def _trial_forces(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: ForceLaw | None):
+    """The trial's normal force (the participant's coupling to the relief with the realistic
+    chain), the world's forces and the recorded channels: ``(kin, WorldForces, F1, F2,
+    truth)``, ``kin`` with the normal force on the plate, ``truth`` the chain's per-trial
+    values (and ``mu_load_exponent``)."""
+    spec, kin = plan.spec, plan.kin
+    _, rs, _ = _rngs(spec, opts.seed)
+    fs = opts.kinematics.fs_hz
+    truth: dict = {}
+    if opts.chain_name == "realistic":
+        rp = _stream(spec, opts.seed, "participant")
+        f_n, participant = couple_normal_force(kin, table, opts.chain, rp)
+        kin = replace(kin, f_n=f_n)
+        truth.update(participant)
     mu_scale, load_exp, f_ref = 1.0, 0.0, 0.3
     if opts.realism is not None:
         mu_scale = opts.realism.trial_mu_scale(_realism_rng(spec, opts.seed))
         load_exp, f_ref = opts.realism.mu_load_exponent, opts.realism.f_ref_n
-    f_t, f_int, f_def = true_forces(table, law, kin.x, kin.f_n, kin.sliding_distance,
-                                    kin.mean_speed, kin.in_contact, mu_scale=mu_scale,
-                                    load_exponent=load_exp, f_ref_n=f_ref)
-    F1, F2 = apply_sensor(kin.f_n, f_t, rs, opts.sensor)
+    motion = TrialMotion(t=kin.t, x=kin.x, f_n=kin.f_n, sliding_distance=kin.sliding_distance,
+                         in_contact=kin.in_contact, mean_speed=kin.mean_speed, f_target=kin.f_target,
+                         t_slide_start=kin.t_slide_start)
+    world = opts.world
+    kw = {"law": law} if isinstance(world, LoadSharing) else {}
+    forces = world.trial_forces(table, motion, spec.subject, _stream(spec, opts.seed, "world"),
+                                mu_scale=mu_scale, load_exponent=load_exp, f_ref_n=f_ref, **kw)
+    # friction follows contact length, not load, in the constant-pressure world
+    truth["mu_load_exponent"] = 0.0 if world.name == "constant-pressure" else load_exp
+    chain = None
+    if opts.chain_name == "realistic":
+        chain = draw_trial_chain(_stream(spec, opts.seed, "chain"), kin.t.size, fs, opts.chain,
+                                 _device(opts.seed, opts.chain))
+        truth.update(chain.truth(fs))
+    F1, F2 = apply_sensor(kin.f_n, forces.f_t, rs, opts.sensor, chain=chain)
+    return kin, forces, F1, F2, truth
 
-    # video + per-frame truth
+
+def _write_video(plan: TrialPlan, opts: SimOptions, table: ContactTable, kin: Kinematics, surf: Surface,
+                 path: Path) -> dict:
+    """Render and write the trial's video; return the per-frame truth (``t_video``,
+    ``x_finger_video``, ``has_finger``, ``regions_mech``, ``regions_geom``, ``field_mm``,
+    ``regions_geom_clipped``)."""
+    rec = plan.record
+    _, _, rc = _rngs(plan.spec, opts.seed)
     cam = Camera(surf, opts.camera)
     tol = 3.0 * opts.camera.mm_per_px
     xi = table.xi
@@ -435,7 +215,7 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
     has_finger = np.zeros(n_f, bool)
     geom_masks, mech_masks, grids = [], [], []
     cp = cam.params
-    vw = VideoWriter(root / rec.video.path, opts.video_format, cp.width, cp.height, cp.fps)
+    vw = VideoWriter(path, opts.video_format, cp.width, cp.height, cp.fps)
     try:
         for k, i in enumerate(plan.frame_idx):
             if k == rec.video.calibration_frame:
@@ -458,21 +238,26 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
         vw.abort()
         raise
     reg_geom = _stack_regions(grids, geom_masks)
-    reg_mech = _stack_regions(grids, mech_masks)
-    t_video = kin.t[plan.frame_idx]
-    x_video = np.where(has_finger, kin.x[plan.frame_idx], np.nan)
+    field_mm = np.array([(-0.5 - cp.x0_px) * cp.mm_per_px, (cp.width - 0.5 - cp.x0_px) * cp.mm_per_px])
+    with np.errstate(invalid="ignore"):
+        clipped = (np.any(reg_geom[..., 0] < field_mm[0], axis=1)
+                   | np.any(reg_geom[..., 1] > field_mm[1], axis=1))
+    return {"t_video": kin.t[plan.frame_idx],
+            "x_finger_video": np.where(has_finger, kin.x[plan.frame_idx], np.nan),
+            "has_finger": has_finger, "regions_mech": _stack_regions(grids, mech_masks),
+            "regions_geom": reg_geom, "field_mm": field_mm, "regions_geom_clipped": clipped}
 
-    write_npz(root / rec.force.path, {"F1": F1, "F2": F2})
-    write_npz(root / rec.truth, {
-        "t_force": kin.t, "x_finger_force": kin.x, "F_N": kin.f_n, "F_T": f_t,
-        "F_T_int": f_int, "F_T_def": f_def, "t_video": t_video, "x_finger_video": x_video,
-        "has_finger": has_finger, "regions_mech": reg_mech, "regions_geom": reg_geom,
-        "geom_tol_mm": np.float64(tol), "mm_per_px": np.float64(opts.camera.mm_per_px),
-        "x0_px": np.float64(opts.camera.x0_px), "y0_row": np.float64(opts.camera.y0_row),
-        "mean_speed_mm_s": np.float64(kin.mean_speed), "z_finger_force": kin.z,
-        "mu_trial": np.float64(law.mu * mu_scale), "mu_load_exponent": np.float64(load_exp),
-    })
-    return rec
+
+_DEVICES: dict = {}
+
+
+def _device(seed: int, chain: RealisticChain) -> dict:
+    """The study's sensor device (:func:`~fingerfriction.sim.chain.draw_device`), cached."""
+    key = (int(seed), chain)
+    if key not in _DEVICES:
+        _DEVICES.clear()
+        _DEVICES[key] = draw_device(seed, chain)
+    return _DEVICES[key]
 
 
 def _stack_regions(grids, masks) -> np.ndarray:
@@ -499,6 +284,9 @@ def _truth_header(opts: SimOptions) -> dict:
         s: {"finger": provider.finger_dict(s), "force_law": SUBJECT_FORCE_LAWS[s].to_dict()}
         for s in opts.subjects
     }
+    chain = {"name": opts.chain_name}
+    if opts.chain_name == "realistic":
+        chain.update(params=opts.chain.to_dict(), device=_device(opts.seed, opts.chain))
     return {
         "format": TRUTH_FORMAT,
         "schema_version": 1,
@@ -506,6 +294,8 @@ def _truth_header(opts: SimOptions) -> dict:
         "geom_tol_mm": 3.0 * opts.camera.mm_per_px,
         "options": opts.to_dict(),
         "subjects": subjects,
+        "world": opts.world.to_dict(),
+        "chain": chain,
     }
 
 
@@ -574,7 +364,7 @@ def _table_task(surface_spec: str, subject: str, load: float, opts: SimOptions, 
     if not os.path.exists(path):
         surf = surface_from_spec(surface_spec)
         table = build_table(surf, subject, loads=(load,), step=opts.table_step,
-                            provider=opts.provider())
+                            provider=opts.provider(), geom_tol_mm=3.0 * opts.camera.mm_per_px)
         table.save(path)
     return path
 
@@ -742,4 +532,4 @@ def default_options(**kw) -> SimOptions:
     return SimOptions(**kw)
 
 
-__all__ += ["default_options", "SimFinger"]
+__all__ += ["default_options", "SimFinger", "geometric_distance", "geometric_mask"]

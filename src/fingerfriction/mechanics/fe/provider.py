@@ -1,0 +1,198 @@
+"""The FE finger as a contact provider of the simulator, with an on-disk cache of its sweeps.
+
+:class:`FEProvider` implements the contact-provider protocol of
+:mod:`fingerfriction.sim.contact` (``name``, ``finger_dict``, ``grid``, ``solve``): for a
+surface, a subject and a load it solves the finger at each tabulated position and returns
+the deformed lower outline ``y_f`` and the pressure ``p`` on the relative grid ``xi``.
+
+* Flat ground: where the finely meshed contact arc of the finger
+  (:attr:`FEMeshParams.contact_half_width` either side of the centre) does not reach the
+  relief feature, the solution is that of flat ground at the ground's level, translated:
+  it is solved once per level.
+* Elsewhere the positions are solved in increasing order, each warm-started from the
+  previous one (:meth:`FEContactSolver.solve`).
+* Cache: each ``solve`` result is stored under a key, a digest of everything it depends on
+  (the code's :data:`CACHE_VERSION`, the finger, the mesh, the surface, the positions, the
+  load and the grid), as ``<cache_dir>/<key>.npz``; a call with the same inputs reads it
+  back, a changed parameter gives a new key and is computed. ``cache_dir`` defaults to
+  ``$FINGERFRICTION_CACHE/fe`` or ``~/.cache/fingerfriction/fe``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import logging
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..._atomic import atomic_write_bytes
+from ...surfaces import Surface
+from .params import LITERATURE_FINGER, FEFingerParams, FEMeshParams, params_key
+from .solver import FEContactSolver, FEState
+
+__all__ = ["FEProvider", "FE_SUBJECTS", "CACHE_VERSION", "default_cache_dir", "surface_key"]
+
+log = logging.getLogger(__name__)
+
+#: Bumped whenever a change of the solver changes its results (invalidates every cache entry).
+CACHE_VERSION = 1
+
+#: The FE provider's default fingers of the two simulated subjects: the literature finger,
+#: and for subject 2 the same layers on a slightly larger outline (the paper's subjects
+#: differ modestly).
+FE_SUBJECTS: dict[str, FEFingerParams] = {
+    "1": dataclasses.replace(LITERATURE_FINGER, name="subject 1 (FE, literature values)"),
+    "2": dataclasses.replace(LITERATURE_FINGER, radius=12.0, semi_height=7.0, bone_half_width=7.0,
+                             name="subject 2 (FE, literature values)"),
+}
+
+
+def default_cache_dir() -> Path:
+    """``$FINGERFRICTION_CACHE/fe`` if set, else ``~/.cache/fingerfriction/fe``."""
+    root = os.environ.get("FINGERFRICTION_CACHE")
+    return (Path(root) if root else Path.home() / ".cache" / "fingerfriction") / "fe"
+
+
+def surface_key(surface) -> object:
+    """A JSON-ready description of a surface for the cache key."""
+    if hasattr(surface, "to_dict"):
+        return surface.to_dict()
+    return repr(surface)
+
+
+class FEProvider:
+    """Contact provider backed by the layered FE finger (see the module notes).
+
+    Parameters
+    ----------
+    fingers : dict, optional
+        Subject label -> :class:`FEFingerParams` (default :data:`FE_SUBJECTS`).
+    mesh : FEMeshParams, optional
+        Mesh resolution (default :class:`FEMeshParams`).
+    grid_step : float
+        Spacing in mm of the relative grid ``xi`` (default 0.02).
+    cache_dir : path-like or None, optional
+        Where solved sweeps are kept (default :func:`default_cache_dir`); ``False`` for no
+        cache.
+    """
+
+    name = "fe"
+
+    def __init__(self, *, fingers: dict | None = None, mesh: FEMeshParams | None = None,
+                 grid_step: float = 0.02, cache_dir=None):
+        self.fingers = dict(FE_SUBJECTS if fingers is None else fingers)
+        for k, f in self.fingers.items():
+            if not isinstance(f, FEFingerParams):
+                raise TypeError(f"finger of subject {k!r} must be an FEFingerParams, got {type(f).__name__}")
+        self.mesh = mesh or FEMeshParams()
+        if not (isinstance(grid_step, (int, float)) and math.isfinite(grid_step) and grid_step > 0):
+            raise ValueError(f"grid_step must be a positive length in mm, got {grid_step!r}")
+        self.grid_step = float(grid_step)
+        self.cache_dir = None if cache_dir is False else Path(cache_dir or default_cache_dir())
+        self.failures = 0
+        self.computed = 0  # sweeps solved (not read from the cache), for tests and benchmarks
+        self._solvers: dict = {}
+
+    def _finger(self, subject: str) -> FEFingerParams:
+        try:
+            return self.fingers[str(subject)]
+        except KeyError:
+            raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
+
+    def finger_dict(self, subject: str) -> dict:
+        return {"model": self.name, "mesh": self.mesh.to_dict(), **self._finger(subject).to_dict()}
+
+    def grid(self, subject: str) -> np.ndarray:
+        f = self._finger(subject)
+        m = int(math.floor(0.995 * f.radius / self.grid_step))
+        return self.grid_step * np.arange(-m, m + 1)
+
+    def solver(self, subject: str) -> FEContactSolver:
+        f = self._finger(subject)
+        key = (f, self.mesh)
+        if key not in self._solvers:
+            self._solvers = {key: FEContactSolver(f, self.mesh)}
+        return self._solvers[key]
+
+    def cache_key(self, surface, subject: str, x_centres: np.ndarray, load: float) -> str:
+        xc = np.asarray(x_centres, float)
+        return params_key("fe-table", CACHE_VERSION, self._finger(subject).to_dict(), self.mesh.to_dict(),
+                          surface_key(surface), np.round(xc, 9).tolist(), round(float(load), 12),
+                          self.grid_step)
+
+    def solve(self, surface: Surface, subject: str, x_centres, load: float):
+        """Outline ``y_f`` (mm) and pressure ``p`` (MPa), each ``(n_positions, xi.size)``."""
+        xc = np.asarray(x_centres, float)
+        if xc.ndim != 1 or xc.size == 0 or not np.all(np.isfinite(xc)):
+            raise ValueError("x_centres must be a non-empty 1-D array of finite positions in mm")
+        path = None
+        if self.cache_dir is not None:
+            path = self.cache_dir / f"{self.cache_key(surface, subject, xc, load)}.npz"
+            if path.is_file():
+                try:
+                    with np.load(path, allow_pickle=False) as z:
+                        y, p = z["y_f"], z["p"]
+                    if y.shape == (xc.size, self.grid(subject).size) and p.shape == y.shape:
+                        return y.astype(float), p.astype(float)
+                except (OSError, ValueError, KeyError):
+                    pass
+                log.warning("ignoring an unreadable FE cache entry %s", path)
+        y, p = self._compute(surface, subject, xc, float(load))
+        self.computed += 1
+        if path is not None:
+            buf = io.BytesIO()
+            np.savez_compressed(buf, y_f=y, p=p)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write_bytes(path, buf.getvalue())
+        return y, p
+
+    def _compute(self, surface, subject, xc, load):
+        finger = self._finger(subject)
+        s = self.solver(subject)
+        xi = self.grid(subject)
+        reach = min(self.mesh.contact_half_width, 0.97 * finger.radius) + 0.5
+        a, b = surface.feature_extent if isinstance(surface, Surface) else (-math.inf, math.inf)
+        flat = (xc + reach < a) | (xc - reach > b)
+        y = np.empty((xc.size, xi.size))
+        p = np.empty_like(y)
+        states: dict = {}
+
+        def flat_state(level):
+            if level not in states:
+                sol, st = s.solve(lambda x: np.full_like(np.asarray(x, float), level), 0.0, load=load)
+                if not sol.success:
+                    self.failures += 1
+                    log.warning("FE flat-ground solve did not converge (%s)", sol.message)
+                states[level] = (sol, st)
+            return states[level]
+
+        for i in np.flatnonzero(flat):
+            level = float(np.asarray(surface.h(np.array([xc[i]])), float)[0])
+            sol, _ = flat_state(level)
+            sol0 = dataclasses.replace(sol, outline_x=sol.outline_x + xc[i])
+            y[i], p[i] = sol0.on_grid(xc[i] + xi, load, finger.width)
+        idx = np.flatnonzero(~flat)
+        if idx.size:
+            order = idx[np.argsort(xc[idx])]
+            x0 = xc[order[0]]
+            level = float(np.asarray(surface.h(np.array([x0 - reach - 1.0])), float)[0])
+            _, st = flat_state(level)
+            step = float(np.min(np.diff(np.sort(xc[idx])))) if idx.size > 1 else 0.1
+            state = FEState(u=st.u, z=st.z, x_c=x0 - step, P=st.P)
+            bad = 0
+            for i in order:
+                sol, new = s.solve(surface, xc[i], load=load, warm=state)
+                if sol.success:
+                    state = new
+                else:
+                    bad += 1
+                y[i], p[i] = sol.on_grid(xc[i] + xi, load, finger.width)
+            if bad:
+                self.failures += bad
+                log.warning("FE contact did not converge at %d of %d positions (%s, subject %s, %g N)",
+                            bad, idx.size, getattr(surface, "name", "surface"), subject, load)
+        return y, p
