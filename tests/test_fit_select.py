@@ -217,3 +217,29 @@ def test_deformation_split_by_slope_direction():
         np.testing.assert_allclose(split, sym, atol=1e-9)
     assert LoadParams.from_json(LoadParams(0.5, 0.1, p1_down=-0.02).to_json()).p1_down == -0.02
     assert "p1_down" not in LoadParams(0.5, 0.1).to_json()
+
+
+def test_the_constant_pressure_variant_leaves_out_where_the_camera_cut_the_contact(contact):
+    """Near the window's ends the camera's field cuts the flat-ground contact: the regions
+    seen are shorter than the contact that makes the force. The constant-pressure law (in
+    the contact's length) measures p0 where the whole contact is seen."""
+    from fingerfriction.fit.pressure import fit_pressure_subject
+
+    s, x, reg, fm = contact["step-up-2mm", "1"]
+    mu, p0, p1 = 0.55, 0.025, 0.08
+    F = fm.forces(reg, FrictionParams(mu, p0, p1)).total
+    fn = np.full(x.size, p0 * fm.integrals(reg)[0, 1])  # the flat contact's load, held
+    edge = -14.0  # the camera's left edge (mm): the contact at the window's start runs past it
+    cut = reg.copy()
+    cut[..., 0] = np.where(np.isfinite(cut[..., 0]), np.maximum(cut[..., 0], edge), np.nan)
+    clipped = np.any(reg[..., 0] < edge, axis=1)
+    assert 0.05 < clipped.mean() < 0.4
+    opts = LoadFitOptions(median_kernel=1, n_boot=200, transient=False)
+    trials = [Trial(x, F, cut, s, "1", {"trial": f"t{k}"}, force_abs=F, normal_abs=fn,
+                    clipped=clipped if k < 3 else None) for k in range(6)]
+    with_flag = fit_pressure_subject(trials[:3], opts)
+    without = fit_pressure_subject(trials[3:], opts)
+    assert with_flag.trials[0].p0_mean == pytest.approx(p0, rel=1e-3)
+    assert without.trials[0].p0_mean > 1.05 * p0  # the cut contact read as a higher pressure
+    assert "clipped-left-out" in {f.code for f in with_flag.trials[0].flags}
+    assert not with_flag.trials[0].used[clipped].any()

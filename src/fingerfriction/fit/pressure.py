@@ -15,7 +15,12 @@ footing leaves free:
    ground Eq. (4) is ``F_T = p0 mu L`` and its normal load ``F_N = p0 L``, so ``mu`` is the
    ratio of the two, with its bootstrap confidence interval over trials;
 2. **p0 per trial from flat ground**: the load the flat contact carries over its length,
-   ``p0 = sum F_N / sum K`` over the flat segment (``K = L`` there);
+   ``p0 = sum F_N / sum K`` over the flat segment (``K = L`` there). Positions where the
+   camera's field cut the contact (``Trial.clipped``: near the window's ends a flat-ground
+   contact of 12-13 mm leaves the 29 mm field) are left out here and in step 3: the
+   regions seen there are shorter than the contact that makes the force, and this law, in
+   the contact's length, would read the cut as a change of friction (the load-consistent
+   variant is immune on flat ground, where its friction is ``mu F_N`` whatever the length);
 3. **p1 per trial** by closed-form least squares on ``F_T - p0 (S + mu K)`` over every
    position with contact, with a Newey-West standard error (as the load-consistent
    variant's).
@@ -80,15 +85,18 @@ def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, option
     raw = model.integrals(t.regions)  # S, K, Q (mm)
     contact = raw[:, 1] > 0
     load_ok = t.normal_abs >= options.min_load if options.min_load > 0 else np.ones(t.n, bool)
-    flat = flat_segment_mask(t.regions, t.surface) & load_ok
+    # where the camera cut the contact, the regions are shorter than the contact that makes
+    # the force: a law in the contact's length cannot be evaluated there (module notes)
+    seen = ~t.clipped if t.clipped is not None else np.ones(t.n, bool)
+    flat = flat_segment_mask(t.regions, t.surface) & load_ok & seen
     if np.count_nonzero(flat) < 2:
-        return _failed(t, mu, mu_flat, flags, "fewer than 2 flat-ground positions with a normal load: "
-                       "p0 cannot be measured")
+        return _failed(t, mu, mu_flat, flags, "fewer than 2 flat-ground positions with a normal load and "
+                       "the whole contact in the camera's field: p0 cannot be measured")
     B = median_filter(raw, options.median_kernel) @ T_matrix(mu)  # (S + mu K, Q + mu S)
     # the flat ground's load over its vertical support (K - mu S = K there): a ratio of
     # sums, unbiased under noise in F_N
     p0 = float(np.sum(t.normal_abs[flat]) / np.sum(raw[flat, 1]))
-    used = contact & load_ok
+    used = contact & load_ok & seen
     f_int = p0 * B[:, 0]
     y = (t.force_abs - f_int)[used]
     b = B[used, 1]
@@ -107,7 +115,12 @@ def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, option
         msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
         parts.insert(0, msg)
         flags.append(FitFlag("error", "negative-p1", t.subject, t.id, NAME, msg))
-    n_out = int(t.n - np.count_nonzero(used))
+    n_cut = int(np.count_nonzero(~seen))
+    if n_cut:
+        flags.append(FitFlag("info", "clipped-left-out", t.subject, t.id, NAME,
+                             f"{n_cut} of {t.n} positions, where the camera's field cut the contact, are "
+                             "left out (the constant-pressure law needs the whole contact)"))
+    n_out = int(np.count_nonzero(seen & ~used))
     if n_out:
         level = "error" if n_out > 0.1 * t.n else "warning"
         flags.append(FitFlag(level, "positions-left-out", t.subject, t.id, NAME,

@@ -326,8 +326,10 @@ class PressureVariant(Variant):
             vg = est(t.regions, params.p0)
             return {"m": t.force, "g": g - g.mean(), "vm": t.force, "vg": vg - vg.mean(), "lm": t.force,
                     "lg": np.full(t.n, np.nan)}
-        return {"m": t.force_abs, "g": g, "vm": t.force_abs, "vg": est(t.regions, own), "lm": t.force_abs,
-                "lg": est(fwd, own)}
+        vg = est(t.regions, own)
+        if t.clipped is not None:  # the camera cut the contact: the video regions are not the contact
+            vg = np.where(t.clipped, np.nan, vg)
+        return {"m": t.force_abs, "g": g, "vm": t.force_abs, "vg": vg, "lm": t.force_abs, "lg": est(fwd, own)}
 
     @staticmethod
     def _own_p0(t: Trial, model: FrictionModel, min_load: float) -> float:
@@ -335,6 +337,8 @@ class PressureVariant(Variant):
         if not t.has_absolute:
             return math.nan
         flat = flat_segment_mask(t.regions, t.surface) & (t.normal_abs >= min_load)
+        if t.clipped is not None:
+            flat &= ~t.clipped
         K = model.integrals(t.regions[flat])[:, 1]
         ok = flat.sum() >= 2 and np.sum(K) > 0
         return float(np.sum(t.normal_abs[flat]) / np.sum(K)) if ok else math.nan
