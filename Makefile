@@ -3,7 +3,7 @@ PYTHON ?= python3.11
 VENV ?= .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint venv clean chromium
+.PHONY: demo test check lint venv clean chromium
 
 $(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
@@ -38,8 +38,13 @@ chromium:
 	      || { echo "error: installing chromium failed; see $(CHROMIUM_LOG)"; exit 1; }; \
 	  else echo "note: chromium not found; install Debian's chromium package for the HTML report test"; fi; }
 
+# Tests run on every core (pytest-xdist): the whole suite in `make test` (CI), the fast tier
+# (everything not marked slow) in `make check` for everyday work.
 test: $(VENV)/.installed-test lint chromium
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto
+
+check: $(VENV)/.installed-test lint
+	$(BIN)/python -m pytest -n auto -m "not slow"
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info .pytest_cache .ruff_cache $(CHROMIUM_LOG)
