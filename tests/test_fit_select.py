@@ -243,3 +243,16 @@ def test_the_constant_pressure_variant_leaves_out_where_the_camera_cut_the_conta
     assert without.trials[0].p0_mean > 1.05 * p0  # the cut contact read as a higher pressure
     assert "clipped-left-out" in {f.code for f in with_flag.trials[0].flags}
     assert not with_flag.trials[0].used[clipped].any()
+
+
+def test_newey_west_covariance_of_one_column_is_the_standard_error_squared():
+    from fingerfriction.fit.weights import column_weights, hac_cov, hac_se
+
+    rng = np.random.default_rng(1)
+    b = rng.standard_normal(400)
+    e = np.convolve(rng.standard_normal(420), np.ones(21) / 21, "valid")  # autocorrelated
+    assert math.sqrt(hac_cov(b[:, None], e, 15)[0, 0]) == pytest.approx(hac_se(b, e, 15), rel=1e-9)
+    # a column too small to pin its weight gets 0 and is said to be unidentified
+    X = np.column_stack([b, 1e-9 * b])
+    p, ok = column_weights(X, 2.0 * b)
+    assert ok.tolist() == [True, False] and p == pytest.approx([2.0, 0.0])

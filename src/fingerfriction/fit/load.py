@@ -71,6 +71,7 @@ from .common import (
     nmse,
 )
 from .mu import FlatGroundMu, flat_ground_mu
+from .weights import column_weights, hac_se, split_weights
 
 __all__ = [
     "LoadFitOptions",
@@ -312,64 +313,6 @@ class LoadSubjectFit:
 # ------------------------------------------------------------------------ per-trial design
 
 
-def _hac_se(b: np.ndarray, e: np.ndarray, lags: int) -> float:
-    """Newey-West standard error of the slope of ``y = p1 b + e`` (Bartlett kernel)."""
-    g = b * e
-    n = g.size
-    lags = int(min(max(lags, 0), n - 1))
-    # autocovariances of g up to `lags` through the FFT (O(n log n))
-    m = 1 << int(math.ceil(math.log2(2 * n)))
-    f = np.fft.rfft(g, m)
-    acov = np.fft.irfft(f * np.conj(f), m)[: lags + 1]
-    w = 1.0 - np.arange(lags + 1) / (lags + 1.0)
-    s = acov[0] + 2.0 * float(np.sum(w[1:] * acov[1:]))
-    bb = float(b @ b)
-    return math.sqrt(max(s, 0.0)) / bb if bb > 0 else math.nan
-
-
-def _hac_cov(X: np.ndarray, e: np.ndarray, lags: int) -> np.ndarray:
-    """Newey-West covariance of the least-squares weights of ``y = X p + e`` (Bartlett
-    kernel), ``(m, m)`` for ``X`` of shape ``(n, m)``: ``(X'X)^-1 S (X'X)^-1``."""
-    g = X * e[:, None]
-    n = g.shape[0]
-    lags = int(min(max(lags, 0), n - 1))
-    S = g.T @ g
-    for k in range(1, lags + 1):
-        G = g[k:].T @ g[:-k]
-        S += (1.0 - k / (lags + 1.0)) * (G + G.T)
-    inv = np.linalg.inv(X.T @ X)
-    return inv @ S @ inv
-
-
-#: A deformation column whose norm is below this share of the largest column's is not
-#: identified by the trial (e.g. the descending-slope weight on a Step Up).
-_MIN_COLUMN = 1e-4
-
-
-def _split_lstsq(b: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares weights of the columns of ``b`` (``(n, m)``) for ``y``, and which
-    columns are identified: a column too small to pin its weight gets 0 (and False)."""
-    norms = np.sqrt(np.sum(b * b, axis=0))
-    ok = norms > _MIN_COLUMN * max(float(norms.max(initial=0.0)), 1e-300)
-    p = np.zeros(b.shape[1])
-    if ok.any():
-        p[ok] = np.linalg.lstsq(b[:, ok], y, rcond=None)[0]
-    return p, ok
-
-
-def _split_weights(b: np.ndarray, y: np.ndarray, lags: int) -> tuple[float, float, float, float, bool]:
-    """``(p1, p1_se, p1_down, p1_down_se, identified)`` of the deformation term split by
-    slope direction (NaN for a weight the trial does not identify; ``identified`` False
-    when neither is)."""
-    p, ok = _split_lstsq(b, y)
-    se = np.full(2, np.nan)
-    if ok.any():
-        se[ok] = np.sqrt(np.maximum(np.diag(_hac_cov(b[:, ok], y - b @ p, lags)), 0.0))
-    p1, p1_se = (float(p[0]), float(se[0])) if ok[0] else (0.0, math.nan)
-    down, down_se = (float(p[1]), float(se[1])) if ok[1] else (math.nan, math.nan)
-    return p1, p1_se, down, down_se, bool(ok.any())
-
-
 class _LoadDesign:
     """One trial's data and cached integrals for the load-consistent fit; with ``split``,
     the deformation term has one column per slope direction (ascending, descending)."""
@@ -485,7 +428,7 @@ class _LoadDesign:
         if y is None or y.size == 0:
             return 0.0, 0.0
         if self.split:
-            p, _ = _split_lstsq(b, y)
+            p, _ = column_weights(b, y)
             r = y - b @ p
             return float(p[0]), float(r @ r)
         bb = float(b @ b)
@@ -519,14 +462,14 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
                             subject=t.subject, labels=labels, flags=tuple(flags))
     success, parts = True, ["closed-form least squares"]
     if d.split:
-        p1, p1_se, p1_down, p1_down_se, identified = _split_weights(b, y, d.lags)
+        p1, p1_se, p1_down, p1_down_se, identified = split_weights(b, y, d.lags)
     else:
         p1_down = p1_down_se = math.nan
         bb = float(b @ b)
         identified = bb > 0
         if identified:
             p1 = float(b @ y) / bb
-            p1_se = _hac_se(b, y - p1 * b, d.lags)
+            p1_se = hac_se(b, y - p1 * b, d.lags)
     if not identified:
         p1, p1_se = 0.0, math.nan
         flags.append(FitFlag("warning", "p1-not-identified", t.subject, tid, model_name,

@@ -56,8 +56,9 @@ from .common import (
     median_filter,
     nmse,
 )
-from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit, _hac_se
+from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit
 from .mu import flat_ground_mu
+from .weights import hac_se
 
 __all__ = ["fit_pressure_subject", "fit_pressure_trials"]
 
@@ -105,7 +106,7 @@ def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, option
     if bb > 0:
         p1 = float(b @ y) / bb
         step = float(np.median(np.diff(t.x)))
-        p1_se = _hac_se(b, y - p1 * b, int(round(options.hac_mm / step)) if step > 0 else 0)
+        p1_se = hac_se(b, y - p1 * b, int(round(options.hac_mm / step)) if step > 0 else 0)
     else:
         p1, p1_se = 0.0, math.nan
         flags.append(FitFlag("warning", "p1-not-identified", t.subject, t.id, NAME,
