@@ -14,22 +14,24 @@ footing leaves free:
    load-consistent variant measures it (:func:`fingerfriction.fit.flat_ground_mu`): on flat
    ground Eq. (4) is ``F_T = p0 mu L`` and its normal load ``F_N = p0 L``, so ``mu`` is the
    ratio of the two, with its bootstrap confidence interval over trials;
-2. **p0 per trial from flat ground**: the load the flat contact carries over its length,
-   ``p0 = sum F_N / sum K`` over the flat segment (``K = L`` there). Positions where the
-   camera's field cut the contact (``Trial.clipped``: near the window's ends a flat-ground
-   contact of 12-13 mm leaves the 29 mm field) are left out here and in step 3: the
-   regions seen there are shorter than the contact that makes the force, and this law, in
-   the contact's length, would read the cut as a change of friction (the load-consistent
-   variant is immune on flat ground, where its friction is ``mu F_N`` whatever the length);
-3. **p1 per trial** by closed-form least squares on ``F_T - p0 (S + mu K)`` over every
-   position with contact, with a Newey-West standard error (as the load-consistent
-   variant's).
+2. **p0 and p1 per trial** by closed-form least squares on the absolute ``F_T`` (with
+   ``mu`` fixed, Eq. 4 is linear in them), with Newey-West standard errors; on the absolute
+   footing the flat ground's level ``p0 mu L`` pins ``p0``, so the twin of the paper's
+   footing does not arise. Positions where the camera's field cut the contact
+   (``Trial.clipped``: near the window's ends a flat-ground contact of 12-13 mm leaves the
+   29 mm field) are left out: the regions seen there are shorter than the contact that
+   makes the force, and this law, in the contact's length, would read the cut as a change
+   of friction (the load-consistent variant is immune on flat ground, where its friction is
+   ``mu F_N`` whatever the length). (A ``p0`` measured from the flat ground's load alone
+   was the first design; with the field's cut, the 4 mm features leave no flat position
+   with the whole contact in view.)
 
-What separates it from the load-consistent variant: the pressure stays at its flat-ground
-value over the feature, whatever the measured ``F_N`` does there, so the interfacial force
+What separates it from the load-consistent variant: the pressure stays at one value over
+the whole slide, whatever the measured ``F_N`` does there, so the interfacial force
 follows the contact length (the paper's Eq. 4 taken literally); the load-consistent
 variant makes the contact carry the measured ``F_N`` at every position instead. The two
-coincide when ``F_N`` happens to be the load of a constant pressure.
+coincide when ``F_N`` happens to be the load of a constant pressure. A ``p0 <= 0`` or
+``p1 < 0`` is unphysical (flagged, the trial's fit fails).
 
 The results are :class:`fingerfriction.fit.LoadTrialFit` and
 :class:`fingerfriction.fit.LoadSubjectFit` with ``model='pressure'``, ``inset`` and
@@ -52,13 +54,12 @@ from .common import (
     _by_subject,
     _fit_labels,
     _one_subject,
-    flat_segment_mask,
     median_filter,
     nmse,
 )
 from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit
 from .mu import flat_ground_mu
-from .weights import hac_se
+from .weights import column_weights, hac_cov
 
 __all__ = ["fit_pressure_subject", "fit_pressure_trials"]
 
@@ -78,7 +79,7 @@ def _failed(t: Trial, mu: float, mu_flat: float, flags: list, msg: str,
 
 def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, options: LoadFitOptions, *,
                wrong_sign: bool = False) -> LoadTrialFit:
-    """p0 from the trial's flat ground, p1 by least squares (module notes, steps 2 and 3)."""
+    """p0 and p1 by least squares where the whole contact is seen (module notes, step 2)."""
     flags: list[FitFlag] = []
     if not t.has_absolute:
         return _failed(t, mu, mu_flat, flags, "no absolute forces: the constant-pressure variant measures "
@@ -89,28 +90,30 @@ def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, option
     # where the camera cut the contact, the regions are shorter than the contact that makes
     # the force: a law in the contact's length cannot be evaluated there (module notes)
     seen = ~t.clipped if t.clipped is not None else np.ones(t.n, bool)
-    flat = flat_segment_mask(t.regions, t.surface) & load_ok & seen
-    if np.count_nonzero(flat) < 2:
-        return _failed(t, mu, mu_flat, flags, "fewer than 2 flat-ground positions with a normal load and "
-                       "the whole contact in the camera's field: p0 cannot be measured")
-    B = median_filter(raw, options.median_kernel) @ T_matrix(mu)  # (S + mu K, Q + mu S)
-    # the flat ground's load over its vertical support (K - mu S = K there): a ratio of
-    # sums, unbiased under noise in F_N
-    p0 = float(np.sum(t.normal_abs[flat]) / np.sum(raw[flat, 1]))
     used = contact & load_ok & seen
-    f_int = p0 * B[:, 0]
-    y = (t.force_abs - f_int)[used]
-    b = B[used, 1]
-    bb = float(b @ b)
-    success, parts = True, ["p0 from flat ground, p1 by closed-form least squares"]
-    if bb > 0:
-        p1 = float(b @ y) / bb
-        step = float(np.median(np.diff(t.x)))
-        p1_se = hac_se(b, y - p1 * b, int(round(options.hac_mm / step)) if step > 0 else 0)
-    else:
-        p1, p1_se = 0.0, math.nan
+    if np.count_nonzero(used) < 3:
+        return _failed(t, mu, mu_flat, flags, "fewer than 3 positions with a normal load and the whole "
+                       "contact in the camera's field: nothing to fit")
+    B = median_filter(raw, options.median_kernel) @ T_matrix(mu)  # (S + mu K, Q + mu S)
+    X, y = B[used], t.force_abs[used]
+    p, ok = column_weights(X, y)
+    step = float(np.median(np.diff(t.x)))
+    lags = int(round(options.hac_mm / step)) if step > 0 else 0
+    cov = np.full((2, 2), np.nan)
+    if ok.any():
+        cov[np.ix_(ok, ok)] = hac_cov(X[:, ok], y - X @ p, lags)
+    p0, p1 = float(p[0]), float(p[1])
+    p1_se = math.sqrt(max(float(cov[1, 1]), 0.0)) if ok[1] else math.nan
+    success, parts = True, ["p0 and p1 by closed-form least squares"]
+    if not ok[1]:
         flags.append(FitFlag("warning", "p1-not-identified", t.subject, t.id, NAME,
                              "the contact never reaches a slope: p1 is not identified (F_def = 0)"))
+    if not p0 > 0:
+        success = False
+        msg = f"p0 = {p0:.4g} N/mm <= 0: an unphysical (negative) pressure"
+        parts.insert(0, msg)
+        flags.append(FitFlag("error", "negative-p0", t.subject, t.id, NAME, msg))
+    f_int = p0 * B[:, 0]
     if p1 < 0:
         success = False
         msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
@@ -189,7 +192,7 @@ def fit_pressure_subject(trials: Sequence[Trial], options: LoadFitOptions | None
     flags = list(flat.flags) + [f for tf in fits for f in tf.flags]
     n_bad = sum(not f.success for f in fits)
     parts = [f"mu = {flat.mu:.4f} (flat ground, {100 * flat.level:g} % CI [{flat.ci[0]:.4f}, "
-             f"{flat.ci[1]:.4f}]); one constant pressure p0 per trial from flat ground"]
+             f"{flat.ci[1]:.4f}]); one constant pressure p0 per trial"]
     if n_bad:
         parts.append(f"{n_bad} of {len(fits)} trial fits failed or unphysical")
     return LoadSubjectFit(subject=subject, mu=flat.mu, flat=flat, inset=0.0, kappa=0.0, fitted=(),

@@ -321,6 +321,7 @@ class PressureVariant(Variant):
             return median_filter(model.integrals(regions), ctx.kernel) @ coef
 
         own = self._own_p0(t, model, ctx.min_load)  # the trial's load: its flat-ground pressure
+        own = own if math.isfinite(own) else params.p0  # no flat ground seen whole: the training's
         g = est(fwd, params.p0)
         if not t.has_absolute:  # the paper's footing: compare shapes only (rho detrends)
             vg = est(t.regions, params.p0)
