@@ -19,11 +19,11 @@ LAYERS = [
     ("base", ["_atomic", "_check", "_console", "_outputs", "_progress", "_style"]),
     ("geometry", ["surfaces", "regions"]),
     ("models", ["blindspots", "model", "mechanics", ""]),  # "": the package root's re-exports
-    ("stages", ["fit", "stats", "video", "forces"]),
+    ("stages", ["fit", "stats", "video", "forces", "selfcheck"]),
     ("study data", ["study", "study.manifest", "study.store"]),
     ("experiment and prediction", ["sim", "predict", "testing"]),
     ("one trial", ["study.params", "study.trial"]),
-    ("pipeline", ["study.analyze", "study.fitting", "render"]),
+    ("pipeline", ["study.analyze", "study.fitting", "study.selfcheck", "render"]),
     ("report", ["report"]),
     ("demo", ["demo"]),
     ("entry points and deprecated aliases", ["cli", "pipeline", "results", "synthetic"]),

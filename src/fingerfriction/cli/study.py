@@ -111,6 +111,8 @@ def init_cmd(
             console.print(f"  {escape(u.path)}: {escape(u.reason)}", highlight=False)
         if len(res.unmatched) > 40:
             console.print(f"  ... and {len(res.unmatched) - 40} more", highlight=False)
+    for note in res.notes:
+        console.print(f"[bold yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
     print_problems(res.problems)
     try:
         path = write_init(res, study, dry_run=dry_run, overwrite=overwrite, skip_bad=skip_bad)
@@ -139,12 +141,18 @@ def _print_init_table(res) -> None:
 
 def check_cmd(
     study: str = typer.Argument(..., help="Study folder (with manifest.json), or the manifest."),
+    deep: bool = typer.Option(False, "--deep", help="Also run every trial's video analysis and the "
+                              "consistency checks between its video and forces (channels, units, clocks, "
+                              "surface, video-force offset; docs/selfcheck.md): slow, writes nothing."),
 ) -> None:
     """Validate a study and list every problem at once: each manifest field of each trial,
     and each recording against its entry (present, readable, frame count and rate, image
     size, force channels, sample count and rate). Exit status 2 if there is any."""
     from ..study.check import check_study  # heavy (video and force readers); imported when run
 
+    if deep:
+        _deep_check(study)
+        return
     res = check_study(study)
     print_problems(res.problems)
     n_ok = len(res.study.trials) if res.study is not None else 0
@@ -153,6 +161,23 @@ def check_cmd(
         fail(f"{len(res.problems)} problem(s): {n_ok} of {res.n_entries} trials are fine, "
              f"{len(res.by_trial())} have problems{whole}")
     console.print(f"{res.manifest}: {n_ok} trials, no problem found", highlight=False)
+
+
+def _deep_check(study: str) -> None:
+    """``check --deep``: the shallow problems, then each consistency finding of each trial;
+    exit status 2 if there is any error (a warning alone keeps 0)."""
+    from ..study.selfcheck import deep_check  # heavy (every stage); imported when the command runs
+
+    with console_log(0, echo):
+        problems, found = deep_check(study)
+    print_problems(problems)
+    warnings = [p for p in problems if p.kind == "deep" and p.message.startswith("warning ")]
+    errors = [p for p in problems if p not in warnings]
+    if errors:
+        fail(f"{len(errors)} problem(s) in {len({p.trial for p in errors})} trial(s) and {len(warnings)} "
+             f"warning(s); {len(found)} trials analysed")
+    more = f", {len(warnings)} warning(s)" if warnings else ""
+    console.print(f"{study}: {len(found)} trials analysed, no problem found{more}", highlight=False)
 
 
 def analyze_cmd(
@@ -173,22 +198,30 @@ def analyze_cmd(
     dry_run: bool = typer.Option(False, "--dry-run", help="List the trials that would be computed and why "
                                  "(new, input changed, manifest entry changed, parameters changed); run "
                                  "and write nothing."),
+    sync: str = typer.Option("check", "--sync", help="Video-force clock offset: check (measure it from the "
+                             "start of each slide and fail a trial whose manifest offset is off; default), "
+                             "auto (use the measured offset) or manifest (trust the manifest)."),
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
-    """Every trial through video analysis and force processing, in parallel (resumable).
+    """Every trial through video analysis, the consistency checks and force processing, in
+    parallel (resumable).
 
     The study is checked first (as `fingerfriction check`): mistakes in the manifest stop
     the run; a trial whose recordings do not match its entry fails, the others go on. A
     finished trial is computed again when its input files, its manifest entry or the
     analysis parameters changed."""
+    from ..selfcheck import SYNC_MODES  # heavy (both stages), as above
     from ..study.analyze import StudyCheckError, analyze, plan_analysis  # heavy (Dask, both stages)
     from ..study.params import POSITIONS, AnalysisParams, sim_params  # heavy (both stages), as above
 
     try:
         if position not in POSITIONS:
             raise ValueError(f"--position must be one of {', '.join(POSITIONS)}, got {position!r}")
+        if sync not in SYNC_MODES:
+            raise ValueError(f"--sync must be one of {', '.join(SYNC_MODES)}, got {sync!r}")
         opts = sim_params(position) if simulated else {"video": {"position": position}, "forces": {}}
+        opts["selfcheck"] = {"sync": sync}
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
@@ -214,8 +247,25 @@ def analyze_cmd(
     print_summary(summary_line(
         "analyze", [f"{res.n_computed} computed", f"{res.n_skipped} already done",
                     f"{res.n_failed} failed of {plural(res.n_trials, 'trial')}",
-                    f"{res.scheduler} scheduler, {res.n_workers} workers"],
+                    f"{res.scheduler} scheduler, {res.n_workers} workers", _sync_fact(res.sync)],
         elapsed_s=res.elapsed_s, output=str(res.results), log=log))
+
+
+def _sync_fact(sync: dict) -> str:
+    """The summary's word on the video-force synchronisation (``--sync``)."""
+    trials = (sync or {}).get("trials") or {}
+    if not trials:
+        return ""
+    checks = [t.get("check") or {} for t in trials.values()]
+    if sync.get("mode") == "auto":
+        moved = [c for c in checks if c.get("level") == "warning"]
+        if not moved:
+            return f"sync auto: {plural(len(trials), 'trial')} within a few frames of the manifest"
+        worst = max(moved, key=lambda c: abs(c.get("figure") or 0.0))
+        return (f"sync auto: {plural(len(moved), 'trial')} moved by more than a few frames (up to "
+                f"{worst.get('figure', 0.0):+.1f} ms): the manifest's clocks disagree")
+    off = sum(c.get("level") == "error" for c in checks)
+    return f"sync checked: {off} of {plural(len(trials), 'trial')} off the video's clock"
 
 
 def fit_cmd(

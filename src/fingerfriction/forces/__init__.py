@@ -13,7 +13,7 @@ processed by :func:`fingerfriction.study.trial.process_trial_forces`.
 
 from __future__ import annotations
 
-from .chain import ForceProfile, process_forces
+from .chain import ForceProfile, SensorSignals, process_forces, sensor_signals
 from .checks import Flag, ForceDataError, find_clipping, nan_runs
 from .filters import design_lowpass, design_notch, lowpass_filter, notch_filter
 from .params import ForceProcessingParams
@@ -78,6 +78,8 @@ __all__ = [
     "notch_filter",
     "positions_at_times",
     "process_forces",
+    "sensor_signals",
+    "SensorSignals",
     "read_force_file",
     "remove_linear_drift",
     "resample_to_positions",

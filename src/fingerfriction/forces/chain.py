@@ -39,7 +39,7 @@ from .response import estimate_response
 from .sensor import compose, detect_baseline, detect_post_baseline
 from .signals import ForceSignals
 
-__all__ = ["ForceProfile", "process_forces"]
+__all__ = ["ForceProfile", "process_forces", "sensor_signals", "SensorSignals"]
 
 logger = logging.getLogger(__name__)
 
@@ -131,7 +131,7 @@ class ForceProfile:
 def process_forces(record: ForceRecord, t_frames, x_frames, *,
                    feature_extent_mm: tuple[float, float] = (0.0, 0.0),
                    params: ForceProcessingParams | None = None, regions=None,
-                   on_error: str = "raise") -> ForceProfile:
+                   on_error: str = "raise", sensor: SensorSignals | None = None) -> ForceProfile:
     """Run the Methods' force processing on one trial: ``F_T(x)`` on the position grid.
 
     Steps, one call each: input checks (:mod:`.checks`); decomposition and the sensor
@@ -162,6 +162,9 @@ def process_forces(record: ForceRecord, t_frames, x_frames, *,
         ``"raise"`` (default): raise :class:`ForceDataError` on the first error found.
         ``"flag"``: return a :class:`ForceProfile` with ``success=False``, the reasons in
         ``flags`` and NaN forces wherever they could not be computed.
+    sensor : SensorSignals, optional
+        The sensor's steps already run on this record (:func:`sensor_signals`, with the
+        same sampling rate and parameters): they are not run again.
 
     Returns
     -------
@@ -189,7 +192,12 @@ def process_forces(record: ForceRecord, t_frames, x_frames, *,
     if checked is None:
         return _failed(on_error, params, window, flat_mm, flags)
     f1, f2, t, x_at = checked
-    sig, base, post = _sensor_chain(ForceSignals.from_record(replace(record, f1=f1, f2=f2)), params, flags)
+    if sensor is not None and sensor.fs_hz == record.fs_hz and sensor.params == params:
+        sig, base, post = replace(sensor.signals, t0_s=record.t0_s), sensor.base, sensor.post
+        flags.extend(sensor.flags)
+    else:
+        raw = ForceSignals.from_record(replace(record, f1=f1, f2=f2))
+        sig, base, post = _sensor_chain(raw, params, flags)
     mask, flat_mm, how = _flat_segment(t, tf, x_at, regions, feature_start, flat_mm, window, params)
     if not check_flat_segment(x_at, mask, how, params, flags):
         return _failed(on_error, params, window, flat_mm, flags)
@@ -206,6 +214,62 @@ def process_forces(record: ForceRecord, t_frames, x_frames, *,
                         x_at_samples=x_at, flat_segment_mm=flat_mm, window_mm=window, flags=tuple(flags),
                         flat_mask=mask, success=True, message="ok", params=params, f_t_abs=f_t_abs,
                         f_n_abs=f_n_abs, absolute=absolute, absolute_message=absolute_message)
+
+
+@dataclass(frozen=True)
+class SensorSignals:
+    """The forces in time after the sensor's steps (:func:`sensor_signals`).
+
+    Attributes
+    ----------
+    signals : ForceSignals
+        ``F_N``, ``F_T`` in N on the force clock, with their history.
+    flags : tuple of Flag
+        What the sensor's steps noticed (a missing rest...), not the channels' checks.
+    base : (n,) bool ndarray or None
+        The unloaded rest before the touch.
+    post : tuple or None
+        The rest after the lift-off, ``(mask, description)``.
+    fs_hz, params : float, ForceProcessingParams
+        The sampling rate and parameters they were computed with (:func:`process_forces`
+        reuses them only for the same ones).
+    """
+
+    signals: ForceSignals
+    flags: tuple
+    base: np.ndarray | None
+    post: tuple | None
+    fs_hz: float
+    params: ForceProcessingParams
+
+
+def sensor_signals(record: ForceRecord, params: ForceProcessingParams | None = None) -> SensorSignals:
+    """The sensor's steps of :func:`process_forces` alone: the forces in time, before anything
+    that needs the video (the clock offsets, positions, the flat segment).
+
+    Decomposition, then the rest before the touch (drift line and mains), notch, low-pass,
+    inversion of the sensor's high-pass and the rests' residual drift, as
+    :func:`process_forces` does them; short NaN runs are filled as there (a clipped or
+    NaN-ridden channel is flagged by :func:`process_forces`, not here).
+
+    Parameters
+    ----------
+    record : ForceRecord
+    params : ForceProcessingParams, optional
+
+    Returns
+    -------
+    SensorSignals
+        Pass it to :func:`process_forces` (``sensor=``) to process the same record
+        without running these steps again.
+    """
+    params = ForceProcessingParams() if params is None else params
+    f1, f2 = check_channels(record, params, [])
+    f1 = np.where(np.isfinite(f1), f1, 0.0)
+    f2 = np.where(np.isfinite(f2), f2, 0.0)
+    flags: list[Flag] = []
+    sig, base, post = _sensor_chain(ForceSignals.from_record(replace(record, f1=f1, f2=f2)), params, flags)
+    return SensorSignals(sig, tuple(flags), base, post, float(record.fs_hz), params)
 
 
 def _failed(on_error: str, params: ForceProcessingParams, window, flat_mm, flags: list) -> ForceProfile:

@@ -19,7 +19,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
@@ -32,6 +32,7 @@ from .._progress import ProgressBar
 from .check import check_files, check_study
 from .manifest import Study, TrialRecord, resolve_path
 from .params import AnalysisParams
+from .selfcheck import synchronise_study
 from .store import TRIAL_FORMAT, ResultsStore, now, params_digest, sha256_file
 from .trial import TrialInput, one_line, process_trial
 
@@ -90,6 +91,10 @@ class AnalyzeResult:
         Number of workers that ran the trials.
     plan : tuple of TrialPlan
         What was decided for each trial before the run, and why.
+    sync : dict
+        The synchronisation of this run's trials (:meth:`.selfcheck.SyncOutcome.record`):
+        the mode and each trial's measured video-force offset; empty with
+        ``sync='manifest'``.
     """
 
     results: Path
@@ -103,6 +108,7 @@ class AnalyzeResult:
     n_workers: int
     compute_s: float = 0.0
     plan: tuple = ()
+    sync: dict = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -374,7 +380,7 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
     st, pdict, pdigest = plan.study, plan.params, plan.params_sha256
     todo_trials = [st.trial(p.trial_id) for p in plan.trials]
     store = ResultsStore(out)
-    raw = {"video": dict(params.video), "forces": dict(params.forces)}
+    raw = {"video": dict(params.video), "forces": dict(params.forces), "selfcheck": dict(params.selfcheck)}
     t_start = time.perf_counter()
     started = now()
     skipped = plan.skipped
@@ -389,6 +395,7 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
     bar = ProgressBar(progress, len(todo_trials), "analyze")
     try:
         run.run_all(st, skipped, bad, todo, raw, scheduler, n_workers, bar)
+        run.synchronise(st, params)
     finally:
         bar.close()
         elapsed = time.perf_counter() - t_start
@@ -399,7 +406,7 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
     return AnalyzeResult(results=store.root, n_trials=len(todo_trials), n_computed=run.n_ok,
                          n_skipped=len(skipped), n_failed=run.n_fail, failures=tuple(run.failures),
                          elapsed_s=elapsed, scheduler=run.scheduler, n_workers=run.n_workers,
-                         compute_s=run.compute_s, plan=plan.trials)
+                         compute_s=run.compute_s, plan=plan.trials, sync=run.sync)
 
 
 def _checked_todo(st: Study, plan: AnalysisPlan) -> tuple[list[TrialRecord], dict[str, list[str]]]:
@@ -441,6 +448,8 @@ class _Run:
         self.params, self.entries = params, entries
         self.n_ok = self.n_fail = 0
         self.failures: list[tuple[str, str]] = []
+        self.ok_ids: list[str] = []
+        self.sync: dict = {}
         self.scheduler, self.n_workers = "none", 0
         self.t_submit = self.t_done = None
 
@@ -499,6 +508,24 @@ class _Run:
             if cluster is not None:
                 cluster.close()
 
+    def synchronise(self, st: Study, params: AnalysisParams) -> None:
+        """The study-level part of the consistency stage (:func:`~.selfcheck.synchronise_study`)
+        on the trials computed in this run: failed or moved trials are counted and logged."""
+        if not self.ok_ids:
+            return
+        out = synchronise_study(self.store, st, params, self.ok_ids)
+        self.sync = out.record()
+        for tid, reason in out.failed:
+            self.n_ok -= 1
+            self.n_fail += 1
+            self.failures.append((tid, reason))
+            logger.warning("trial %s failed: %s", tid, reason)
+        for tid, line in out.warnings:
+            code, _, message = line.partition(": ")
+            logger.warning(f"{code} in trial %s: %s", tid, message)
+        if self.t_done is not None:
+            self.t_done = time.perf_counter()
+
     @property
     def compute_s(self) -> float:
         """Seconds from the first submission to the last result (0 when nothing ran)."""
@@ -511,7 +538,8 @@ class _Run:
                 "compute_s": round(self.compute_s, 3),
                 "scheduler": self.scheduler, "n_workers": self.n_workers, "force": bool(force),
                 "computed": self.n_ok, "skipped": n_skipped, "failed": self.n_fail,
-                "interrupted": self.n_ok + self.n_fail + n_skipped < n_trials}
+                "interrupted": self.n_ok + self.n_fail + n_skipped < n_trials,
+                **({"sync": self.sync} if self.sync else {})}
 
     def record(self, t: TrialRecord, res: dict, bar: ProgressBar) -> None:
         """Write one trial's result (or failure) into the store; count it; report it."""
@@ -524,6 +552,10 @@ class _Run:
         if res["ok"]:
             self.store.write_trial(t.id, res["frames"], res["forces"], {**status, "info": res["info"]})
             self.n_ok += 1
+            self.ok_ids.append(t.id)
+            for c in (res["info"].get("selfcheck") or {}).get("checks", []):
+                if c.get("level") == "warning":  # the console summary groups them by kind (code)
+                    logger.warning(f"{c.get('code')} in trial %s: %s", t.id, c.get("message"))
             outcome = TrialOutcome(t.id, "ok", "", status["elapsed_s"])
         else:
             self.store.write_failure(t.id, res["reason"], status)

@@ -11,6 +11,8 @@ Two kinds of problem, each one line naming the file and the field
   file, another frame count, frame rate or image size than the manifest says, a force
   channel that is not in the file, another sample count or sampling rate, a time column
   that is not uniform. Fields the manifest leaves to the files are read from them here.
+  A video's frame rate is its frames' time stamps' when it has them, its header's setting
+  otherwise (:func:`~fingerfriction.video.readers.frame_rate`, the rule ``init`` uses).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..forces.readers import read_force_file
-from ..video.readers import probe_video
+from ..video.readers import FPS_TOLERANCE, probe_video
 from .manifest import Study, TrialRecord, read_manifest_json
 from .records import MANIFEST_NAME, ForceInfo, ManifestError, Problem, VideoInfo, _problem, resolve_path
 
@@ -206,8 +208,14 @@ def _check_video(study: Study, v: VideoInfo, tid: str, where: str, problems: lis
         said = getattr(v, k)
         if said is not None and said != val:
             bad(k, f"the manifest says {said}, the file has {val}")
-    if v.fps is not None and info.fps is not None and abs(v.fps - info.fps) > 1e-6 * info.fps:
-        bad("fps", f"the manifest says {v.fps:g} Hz, the file says {info.fps:g} Hz")
+    if v.fps is not None and info.fps is not None and abs(v.fps - info.fps) > FPS_TOLERANCE * info.fps:
+        if info.rate.source == "time stamps":
+            header = f" (its header's {info.rate.nominal:g} Hz is not what the camera ran at)" \
+                if info.rate.note else ""
+            bad("fps", f"the manifest says {v.fps:g} Hz, the file's frame time stamps say {info.fps:.6g} Hz"
+                       f"{header}")
+        else:
+            bad("fps", f"the manifest says {v.fps:g} Hz, the file says {info.fps:g} Hz")
     if v.fps is None and info.fps is None:
         bad("fps", "not given, and the file does not state its frame rate; give it")
     if v.calibration_frame >= info.n_frames:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from ..forces.readers import FORCE_FORMATS, infer_force_format, read_force_file
 from ..surfaces import SURFACE_NAMES, surface_from_spec
-from ..video.readers import probe_video
+from ..video.readers import FPS_TOLERANCE, probe_video
 from .manifest import Study, write_manifest
 from .patterns import MatchResult, list_candidates, match_recordings
 from .records import MANIFEST_NAME
@@ -54,8 +54,10 @@ class InitOptions:
         (``'bump:W=3,H=0.5'``) or a CSV profile path. A token without an entry must
         itself be a name or a spec.
     fps : float or None
-        Video frame rate in Hz for files that do not state it (TIFF); a file that states
-        another rate is a problem.
+        Video frame rate in Hz for files that do not state it (TIFF); for a file that
+        states one, a confirmation: a file whose rate (its frames' time stamps when it has
+        them, else its header's setting) differs by more than
+        :data:`~fingerfriction.video.readers.FPS_TOLERANCE` is a problem.
     video_t0_s : float
         Time in s of frame 0 on the trial's common clock (the clock offset).
     calibration_frame : int
@@ -171,12 +173,16 @@ class InitResult:
     problems : tuple of str
         One line per problem (a file that cannot be read, an unknown surface token...),
         naming the file and what is wrong.
+    notes : tuple of str
+        One line per thing worth knowing that is not a problem (a video whose header's
+        frame rate disagrees with its time stamps, which were used).
     """
 
     manifest: dict
     trials: tuple
     unmatched: tuple
     problems: tuple
+    notes: tuple = ()
 
     @property
     def n_ok(self) -> int:
@@ -200,15 +206,22 @@ def _height(options: InitOptions, surface: str, default: float) -> float:
     return float(h.get(surface, h.get(None, default)))
 
 
-def _read_video(root: Path, rel: str, options: InitOptions) -> dict:
+def _read_video(root: Path, rel: str, options: InitOptions, notes: list) -> dict:
+    """The manifest's ``video`` entry of one file; the frame rate by the readers' rule
+    (:func:`~fingerfriction.video.readers.frame_rate`: time stamps first), ``--fps`` being
+    the rate of a file that states none or a confirmation of the one it states."""
     info = probe_video(root / rel)
     fps = info.fps
     if fps is None:
         if options.fps is None:
             raise ValueError(f"{rel}: the video does not state its frame rate; give it (--fps)")
         fps = options.fps
-    elif options.fps is not None and abs(fps - options.fps) > 1e-6 * fps:
-        raise ValueError(f"{rel}: the video states {fps:g} fps but --fps {options.fps:g} was given")
+    elif options.fps is not None and abs(fps - options.fps) > FPS_TOLERANCE * fps:
+        said = "its frames' time stamps say" if info.rate.source == "time stamps" else "the video states"
+        header = (f" (its header: {info.rate.nominal:g})" if info.rate.note and info.rate.nominal else "")
+        raise ValueError(f"{rel}: {said} {fps:.6g} fps{header} but --fps {options.fps:g} was given")
+    if info.rate.note:
+        notes.append(f"{rel}: {info.rate.note}")
     if options.calibration_frame >= info.n_frames:
         raise ValueError(f"{rel}: calibration frame {options.calibration_frame} is past its "
                          f"{info.n_frames} frames")
@@ -270,7 +283,7 @@ def build_manifest(root: str | os.PathLike, options: InitOptions, *, matches: Ma
             except (ValueError, TypeError) as exc:
                 surface_of[t.surface] = (f"surface {t.surface!r} of the file name: {exc}; "
                                          f"map it with --surface {t.surface}=NAME_OR_SPEC")
-    rows, entries, problems = [], [], []
+    rows, entries, problems, notes = [], [], [], []
     for t in matches.trials:
         base = dict(id=t.id, subject=t.subject, surface=t.surface, speed_mm_s=t.speed_mm_s,
                     repetition=t.repetition, video=t.video, force=t.force)
@@ -282,7 +295,7 @@ def build_manifest(root: str | os.PathLike, options: InitOptions, *, matches: Ma
         value, height = surf
         errors, video, force = [], None, None
         try:
-            video = _read_video(root, t.video, options)
+            video = _read_video(root, t.video, options, notes)
         except (ValueError, OSError) as exc:
             errors.append(_one_line(exc, t.video))
         try:
@@ -306,7 +319,7 @@ def build_manifest(root: str | os.PathLike, options: InitOptions, *, matches: Ma
     manifest = {"format": "fingerfriction-study", "schema_version": 1, "created_by": created_by,
                 "description": options.description, "surfaces": surfaces_block, "trials": entries}
     return InitResult(manifest=manifest, trials=tuple(rows), unmatched=matches.unmatched,
-                      problems=tuple(problems))
+                      problems=tuple(problems), notes=tuple(notes))
 
 
 def write_init(result: InitResult, root: str | os.PathLike, *, dry_run: bool = False, overwrite: bool = False,

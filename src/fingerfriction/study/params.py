@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 from .._check import check_option
 from ..forces import ForceProcessingParams
+from ..selfcheck import SelfCheckParams
 from ..video import AnalysisOptions
 
 __all__ = [
@@ -107,6 +108,11 @@ class AnalysisParams:
         Keyword options of :class:`fingerfriction.forces.ForceProcessingParams`; empty
         means the paper's Methods (notches at 50/150/300 Hz, 500 Hz low-pass, a 26 mm
         window on a 0.01 mm grid).
+    selfcheck : dict
+        Keyword options of :class:`fingerfriction.selfcheck.SelfCheckParams`, the
+        consistency stage between the video and the forces: ``{'sync': 'auto'}`` uses the
+        measured video-force offset (``analyze --sync``); empty means ``sync='check'`` and
+        the documented thresholds.
 
     Notes
     -----
@@ -117,23 +123,30 @@ class AnalysisParams:
 
     video: Mapping = field(default_factory=dict)
     forces: Mapping = field(default_factory=dict)
+    selfcheck: Mapping = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in ("video", "forces"):
+        for name in ("video", "forces", "selfcheck"):
             v = getattr(self, name)
             if not isinstance(v, Mapping):
                 raise TypeError(f"AnalysisParams.{name} must be a dict of options, got {type(v).__name__}")
             object.__setattr__(self, name, dict(v))
 
     def resolved(self) -> dict:
-        """``{'video': {...}, 'forces': {...}}`` with every stage parameter spelled out.
+        """``{'video': {...}, 'forces': {...}, 'selfcheck': {...}}`` with every stage parameter
+        spelled out.
 
         Raises
         ------
         ValueError
             An unknown or invalid option (from the stage's own validation).
         """
-        return {"video": _video_params(self.video), "forces": _force_params(self.forces)}
+        return {"video": _video_params(self.video), "forces": _force_params(self.forces),
+                "selfcheck": self.selfcheck_params().to_dict()}
+
+    def selfcheck_params(self) -> SelfCheckParams:
+        """The consistency stage's :class:`~fingerfriction.selfcheck.SelfCheckParams`."""
+        return SelfCheckParams.from_mapping(self.selfcheck)
 
 
 

@@ -347,6 +347,13 @@ class ResultsStore:
             d / "status.json", {"trial": trial_id, "status": "failed", "reason": one_line, **status}
         )
 
+    def update_status(self, trial_id: str, changes: dict) -> None:
+        """Replace top-level fields of a trial's status record (atomically), e.g. what a
+        study-level step measured of a finished trial; a trial without one is left alone."""
+        st = self.status(trial_id)
+        if st is not None:
+            atomic_write_json(self.trial_dir(trial_id) / "status.json", {**st, **changes})
+
     def trial_ids(self) -> list[str]:
         """Ids of every trial with a status record, sorted."""
         tdir = self.root / "trials"

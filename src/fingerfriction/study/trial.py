@@ -6,7 +6,9 @@ manifest's record of the trial with its surface and study folder), typed out
   pipeline's video options (:func:`fingerfriction.study.params.video_options`);
 * :func:`read_trial_forces` and :func:`process_trial_forces`: the force stage
   (:func:`fingerfriction.forces.process_forces`) on the trial's force file and frame times;
-* :func:`process_trial`: both, what ``analyze`` runs for every trial;
+* :func:`check_trial_inputs`: the consistency stage between them
+  (:mod:`fingerfriction.selfcheck`): channels, units, the force clock, the surface;
+* :func:`process_trial`: all three, what ``analyze`` runs for every trial;
 * :func:`finger_positions`: the per-frame finger positions the ``forces`` command uses
   (from the video, exactly as ``analyze``; a file; or a simulated study's truth).
 """
@@ -15,14 +17,22 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..forces import ForceProcessingParams, ForceProfile, ForceRecord, process_forces, read_force_file
+from ..forces import (
+    ForceProcessingParams,
+    ForceProfile,
+    ForceRecord,
+    process_forces,
+    read_force_file,
+    sensor_signals,
+)
 from ..forces.readers import channel_scale
+from ..selfcheck import SelfCheckError, SelfCheckParams, TrialChecks, check_trial
 from ..surfaces import Surface, surface_from_spec
 from ..video import FLAG_REASONS, AnalysisOptions, FrameFlag, PositionSource, analyze_video
 from .manifest import Study, TrialRecord, load_manifest, resolve_path
@@ -37,6 +47,7 @@ __all__ = [
     "read_trial_forces",
     "process_trial_forces",
     "force_info",
+    "check_trial_inputs",
     "process_trial",
     "finger_positions",
     "one_line",
@@ -119,6 +130,9 @@ class VideoOutput:
         Diagnostics (calibration, threshold, flag counts, timings).
     x_source : list of str or None
         Per frame, the estimator that gave x(t) (:func:`position_sources`).
+    surface_rows : (width,) ndarray or None
+        The calibration frame's surface profile, sub-pixel row per column of the crop
+        (:attr:`fingerfriction.video.calibrate.Calibration.surface_row`).
     """
 
     t_s: np.ndarray
@@ -128,6 +142,7 @@ class VideoOutput:
     clipped: np.ndarray
     info: dict = field(default_factory=dict)
     x_source: list | None = None
+    surface_rows: np.ndarray | None = None
 
     @property
     def frame(self) -> np.ndarray:
@@ -215,7 +230,8 @@ def run_video(trial: TrialInput, options: AnalysisOptions | Mapping | None = Non
             "clipped_frames": int(np.count_nonzero(res.clipped))}
     return VideoOutput(t_s=v.frame_times(), x_mm=np.asarray(res.x, dtype=float),
                        regions=np.asarray(res.regions, dtype=float), flags=_frame_reasons(res.flags),
-                       clipped=res.clipped, info=info, x_source=position_sources(res, opts.position))
+                       clipped=res.clipped, info=info, x_source=position_sources(res, opts.position),
+                       surface_rows=np.asarray(res.calibration.surface_row, dtype=float))
 
 
 #: Fields of a manifest ``force`` entry passed to :func:`~fingerfriction.forces.read_force_file`.
@@ -271,7 +287,8 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRec
 
 
 def process_trial_forces(trial: TrialInput, x_frames, *, params: ForceProcessingParams | None = None,
-                         regions=None, on_error: str = "raise") -> ForceProfile:
+                         regions=None, on_error: str = "raise",
+                         record: ForceRecord | None = None, sensor=None) -> ForceProfile:
     """Read and process the forces of one trial: :func:`~fingerfriction.forces.process_forces`
     on its force file, at its frame times, with the window centred on its surface's feature.
 
@@ -282,18 +299,23 @@ def process_trial_forces(trial: TrialInput, x_frames, *, params: ForceProcessing
         Finger centre in mm at each video frame (NaN: no finger).
     params, regions, on_error
         As in :func:`~fingerfriction.forces.process_forces`.
+    record : ForceRecord, optional
+        The trial's force record already read (and, after the consistency stage, its
+        clock corrected); default: read from its file.
+    sensor : SensorSignals, optional
+        Its sensor steps already run (:func:`fingerfriction.forces.sensor_signals`).
 
     Returns
     -------
     ForceProfile
     """
-    record = read_trial_forces(trial.root, trial.record)
+    record = read_trial_forces(trial.root, trial.record) if record is None else record
     tf = trial.record.video.frame_times()
     xf = np.asarray(x_frames, dtype=np.float64)
     if xf.shape != tf.shape:
         raise ValueError(f"x_frames has shape {xf.shape} but trial {trial.id!r} has {tf.size} frames")
     return process_forces(record, tf, xf, feature_extent_mm=tuple(trial.surface.feature_extent),
-                          params=params, regions=regions, on_error=on_error)
+                          params=params, regions=regions, on_error=on_error, sensor=sensor)
 
 
 def force_info(prof: ForceProfile) -> dict:
@@ -305,8 +327,41 @@ def force_info(prof: ForceProfile) -> dict:
             "history": [dict(h) for h in prof.history]}
 
 
+def check_trial_inputs(trial: TrialInput, video: VideoOutput, record: ForceRecord,
+                       params: AnalysisParams | None = None) -> TrialChecks:
+    """The consistency stage of one trial (:func:`fingerfriction.selfcheck.check_trial`):
+    its forces' channels and units, its force clock against the mains, its surface against
+    the calibration frame, and the start of its slide for the synchronisation.
+
+    Parameters
+    ----------
+    trial : TrialInput
+    video : VideoOutput
+        The video stage's output (:func:`run_video`).
+    record : ForceRecord
+        The trial's force record (:func:`read_trial_forces`).
+    params : AnalysisParams, optional
+
+    Returns
+    -------
+    TrialChecks
+        Its ``record`` is the one to process (the sampling rate corrected by the mains
+        with ``sync='auto'``), its ``sensor`` the force stage's sensor steps already run
+        on it (:func:`fingerfriction.forces.sensor_signals`).
+    """
+    params = params or AnalysisParams()
+    sc: SelfCheckParams = params.selfcheck_params()
+    sensor = sensor_signals(record, force_params(params.forces))  # the force stage's own steps, reused
+    rec = trial.record
+    checks = check_trial(trial_id=trial.id, group=str(rec.subject), record=record, signals=sensor.signals,
+                         t_frames=video.t_s, x_frames=video.x_mm, surface_rows=video.surface_rows,
+                         surface=trial.surface, height_mm=trial.height_mm, speed_mm_s=rec.speed_mm_s,
+                         params=sc)
+    return replace(checks, sensor=sensor if checks.record.fs_hz == record.fs_hz else None)
+
+
 def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> TrialResult:
-    """Run one trial through video analysis, then force processing.
+    """Run one trial through video analysis, the consistency stage, then force processing.
 
     Parameters
     ----------
@@ -321,21 +376,33 @@ def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> Tr
 
     Raises
     ------
+    SelfCheckError
+        An error-level consistency check: the recordings contradict each other or the
+        manifest (the message is the check's one-line reason).
     ValueError, OSError
         Unusable input (a path escaping the study, a corrupt file, ...), from the stages.
     """
     params = params or AnalysisParams()
     v = run_video(trial, video_options(params.video, trial.record.video.calibration_frame))
+    record = read_trial_forces(trial.root, trial.record)
+    checks = check_trial_inputs(trial, v, record, params)
+    if checks.error is not None:
+        raise SelfCheckError(checks.reason())
     prof = process_trial_forces(trial, v.x_mm, params=force_params(params.forces), regions=v.regions,
-                                on_error="raise")
+                                on_error="raise", record=checks.record, sensor=checks.sensor)
     if not prof.success:  # on_error='raise' should have raised; never keep unusable values
         raise ValueError(f"force processing failed: {prof.message}")
     forces_df = prof.to_frame()
     frames = frames_table(v.t_s, v.x_mm, v.regions, v.flags, frame=v.frame, clipped=v.clipped,
                           x_source=v.x_source)
     n_flag = int(sum(1 for s in v.flags if s))
-    info = {"video": v.info, "forces": force_info(prof), "n_frames": len(frames), "n_flagged_frames": n_flag,
-            "n_positions": len(forces_df)}
+    finfo = force_info(prof)
+    finfo["flags"] += [c.line() for c in checks.warnings]  # the report's warnings block shows them
+    if checks.record.fs_hz != record.fs_hz:
+        finfo["history"].insert(0, {"step": "synchronise", "fs_hz_manifest": record.fs_hz,
+                                    "fs_hz_used": checks.record.fs_hz, "by": "mains frequency"})
+    info = {"video": v.info, "forces": finfo, "n_frames": len(frames), "n_flagged_frames": n_flag,
+            "n_positions": len(forces_df), "selfcheck": checks.to_dict()}
     return TrialResult(trial_id=trial.id, frames=frames, forces=forces_df, info=info)
 
 

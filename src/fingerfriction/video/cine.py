@@ -17,6 +17,13 @@ documented layout directly (little-endian, structures packed at 1 byte):
     Camera settings; this module reads ``FrameRate16`` (offset 0), the ``"ST"`` marker
     (offset 140), ``Length`` (142), ``ImWidth``/``ImHeight`` (737/739), ``FrameRate``
     (uint32, 768) and ``RealBPP`` (uint32, 896) when the stored setup is long enough.
+Tagged information blocks (between the end of SETUP, ``OffSetup + Length``, and ``OffImageOffsets``)
+    Each ``BlockSize`` (uint32, bytes including this 8-byte head), ``Type`` (uint16),
+    ``Reserved`` (uint16), then its data. Type 1002, the "time only" block, holds one
+    ``TIME64`` per image (uint32 fractions of 2^-32 s, uint32 seconds): the time each image
+    was taken. This module reads it: the frame rate the camera really ran at comes from
+    these time stamps, the SETUP's ``FrameRate`` being the nominal setting (they can
+    disagree: a file states 90000 fps while its images are 111.07 us apart).
 Pointer array (at ``OffImageOffsets``)
     ``ImageCount`` little-endian int64 offsets; at each one an annotation block
     (``AnnotationSize`` uint32, annotation bytes, ``ImageSize`` uint32, total
@@ -38,7 +45,7 @@ import numpy as np
 
 from .._atomic import atomic_write
 
-__all__ = ["CineHeader", "read_cine_header", "write_cine"]
+__all__ = ["CineHeader", "read_cine_header", "write_cine", "TIME_ONLY_BLOCK"]
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +58,9 @@ _SETUP_FRAMERATE_OFFSET = 768
 _SETUP_REALBPP_OFFSET = 896
 #: Length of the SETUP block this module writes (up to and including RealBPP).
 _SETUP_WRITE_LENGTH = 900
+#: Type of the tagged information block holding one TIME64 per image ("time only block").
+TIME_ONLY_BLOCK = 1002
+_BLOCK_HEAD = struct.Struct("<IHH")  # BlockSize, Type, Reserved
 
 
 @dataclass(frozen=True)
@@ -72,7 +82,8 @@ class CineHeader:
     first_image_no : int
         Number of the first image relative to the trigger.
     fps : float or None
-        Frame rate in Hz from SETUP (None if the setup block is too short).
+        Nominal frame rate in Hz from SETUP (None if the setup block is too short): the
+        camera's setting, which the time stamps may contradict.
     image_offsets : (image_count,) int64 ndarray
         File offset of each image's annotation block.
     bottom_up : bool
@@ -81,6 +92,9 @@ class CineHeader:
         Bytes per image (``biSizeImage``).
     file_size : int
         Size of the file in bytes.
+    timestamps_s : (image_count,) float64 ndarray or None
+        Time in s of each image relative to the first one, from the time-only block
+        (exact: computed from the integer TIME64 values); None when the file has none.
     """
 
     path: str
@@ -95,6 +109,7 @@ class CineHeader:
     bottom_up: bool
     image_size: int
     file_size: int
+    timestamps_s: np.ndarray | None = None
 
     @property
     def dtype(self) -> np.dtype:
@@ -154,6 +169,7 @@ def read_cine_header(path: str | os.PathLike) -> CineHeader:
             raise _bad(path, f"biSizeImage={sizeimage} does not fit {width} x {height} x {bpp} bytes")
         fps: float | None = None
         real_bpp = bitcount
+        setup_length = 0
         if off_setup + 2 <= size:
             fh.seek(off_setup)
             setup = fh.read(_SETUP_WRITE_LENGTH)
@@ -163,6 +179,7 @@ def read_cine_header(path: str | os.PathLike) -> CineHeader:
             marked = setup[_SETUP_MARK_OFFSET:_SETUP_MARK_OFFSET + 2] == b"ST"
             if len(setup) >= _SETUP_LENGTH_OFFSET + 2 and marked:
                 length = struct.unpack_from("<H", setup, _SETUP_LENGTH_OFFSET)[0]
+                setup_length = int(length)
                 if length >= _SETUP_FRAMERATE_OFFSET + 4 and len(setup) >= _SETUP_FRAMERATE_OFFSET + 4:
                     fr = struct.unpack_from("<I", setup, _SETUP_FRAMERATE_OFFSET)[0]
                     fps = float(fr) if fr else fps
@@ -170,6 +187,7 @@ def read_cine_header(path: str | os.PathLike) -> CineHeader:
                     rb = struct.unpack_from("<I", setup, _SETUP_REALBPP_OFFSET)[0]
                     if 0 < rb <= bitcount:
                         real_bpp = int(rb)
+        stamps = _time_stamps(fh, off_setup, off_offsets, count, setup_length)
         if off_offsets + 8 * count > size:
             raise _bad(path, f"the pointer array of {count} images at offset {off_offsets} runs past "
                        f"the end of the file ({size} bytes): the file is truncated")
@@ -180,11 +198,31 @@ def read_cine_header(path: str | os.PathLike) -> CineHeader:
     return CineHeader(path=path, width=int(width), height=int(height), bit_count=int(bitcount),
                       real_bpp=real_bpp, image_count=int(count), first_image_no=int(first_no),
                       fps=fps, image_offsets=offsets, bottom_up=bottom_up,
-                      image_size=int(sizeimage), file_size=int(size))
+                      image_size=int(sizeimage), file_size=int(size), timestamps_s=stamps)
+
+
+def _time_stamps(fh, off_setup: int, off_offsets: int, count: int, setup_length: int) -> np.ndarray | None:
+    """Per-image times in s relative to the first image, from the time-only tagged block
+    between the end of SETUP and the pointer array; None when there is none (or the SETUP's
+    length is unknown, so the blocks cannot be located)."""
+    if setup_length <= 0 or count < 2:
+        return None
+    pos, end = off_setup + setup_length, off_offsets
+    while pos + _BLOCK_HEAD.size <= end:
+        fh.seek(pos)
+        block_size, kind, _ = _BLOCK_HEAD.unpack(fh.read(_BLOCK_HEAD.size))
+        if block_size < _BLOCK_HEAD.size or pos + block_size > end:
+            return None  # not a tagged block: nothing reliable here
+        if kind == TIME_ONLY_BLOCK and (block_size - _BLOCK_HEAD.size) // 8 >= count:
+            raw = np.frombuffer(fh.read(8 * count), dtype="<u4").reshape(count, 2).astype(np.int64)
+            ticks = raw[:, 1] * 2**32 + raw[:, 0]  # TIME64: seconds and 2^-32 s fractions
+            return (ticks - ticks[0]).astype(np.float64) / 2.0**32
+        pos += block_size
+    return None
 
 
 def write_cine(path: str | os.PathLike, frames, *, fps: float = 1000.0, real_bpp: int | None = None,
-               annotation: bytes = b"") -> None:
+               annotation: bytes = b"", timestamps_s=None) -> None:
     """Write gray frames as an uncompressed ``.cine`` file (the documented layout).
 
     Written for tests and for converting recordings; the file is written to a temporary
@@ -202,6 +240,10 @@ def write_cine(path: str | os.PathLike, frames, *, fps: float = 1000.0, real_bpp
         Significant bits per pixel (default 8 or 16 from the dtype).
     annotation : bytes
         Annotation bytes stored before every image.
+    timestamps_s : (n_frames,) array_like, optional
+        Time of each image in s (relative to any origin, non-decreasing), written as a
+        time-only tagged block (TIME64 per image) after SETUP, as the cameras do. Without
+        it the file has no time stamps, only the nominal ``fps``.
     """
     path = os.fspath(path)
     arr = np.asarray(frames)
@@ -213,9 +255,18 @@ def write_cine(path: str | os.PathLike, frames, *, fps: float = 1000.0, real_bpp
     bitcount = 8 * arr.dtype.itemsize
     rb = bitcount if real_bpp is None else int(real_bpp)
     img_size = h * w * arr.dtype.itemsize
+    block = b""
+    if timestamps_s is not None:
+        ts = np.asarray(timestamps_s, dtype=np.float64)
+        if ts.shape != (n,) or not np.all(np.isfinite(ts)) or np.any(np.diff(ts) < 0):
+            raise ValueError(f"timestamps_s must be {n} finite non-decreasing times in s, "
+                             f"got shape {ts.shape}")
+        ticks = np.rint((ts - ts[0]) * 2.0**32).astype(np.int64) + 1_000_000 * 2**32  # an arbitrary epoch
+        pairs = np.stack([ticks % 2**32, ticks // 2**32], axis=1).astype("<u4")
+        block = _BLOCK_HEAD.pack(_BLOCK_HEAD.size + 8 * n, TIME_ONLY_BLOCK, 1) + pairs.tobytes()
     off_bih = _FILEHEADER.size
     off_setup = off_bih + _BITMAPINFO.size
-    off_offsets = off_setup + _SETUP_WRITE_LENGTH
+    off_offsets = off_setup + _SETUP_WRITE_LENGTH + len(block)
     first_image = off_offsets + 8 * n
     ann_size = 8 + len(annotation)
     offsets = first_image + np.arange(n, dtype=np.int64) * (ann_size + img_size)
@@ -233,6 +284,7 @@ def write_cine(path: str | os.PathLike, frames, *, fps: float = 1000.0, real_bpp
                                       off_offsets, 0, 0))
             fh.write(_BITMAPINFO.pack(_BITMAPINFO.size, w, h, 1, bitcount, 0, img_size, 0, 0, 0, 0))
             fh.write(bytes(setup))
+            fh.write(block)
             fh.write(offsets.astype("<i8").tobytes())
             dt = np.dtype("<u2") if bitcount == 16 else np.dtype(np.uint8)
             for k in range(n):

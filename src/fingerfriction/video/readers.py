@@ -16,6 +16,14 @@ None if the file does not say), and :meth:`VideoReader.iter_chunks` yielding
 ``(start_index, frames)`` with ``frames`` a ``(k, height, width)`` uint8 or uint16 array.
 Colour frames are reduced to their luma (Y plane) or converted to gray.
 
+Frame rate: a file's per-frame time stamps (a ``.cine`` file's time block, a Matroska
+file's packet timestamps) say at what rate the camera really ran; the header's or
+container's setting is nominal. ``fps`` is the rate of the time stamps when the file has
+them, the nominal setting otherwise; when the two disagree (by more than
+:data:`FPS_TOLERANCE`, or the time stamps' own resolution) the time stamps win and the
+reader says so in ``fps_note`` (:func:`frame_rate`, the one rule ``init``, ``check`` and
+the readers share).
+
 A file that is truncated or corrupt part-way yields the frames that could be read, then
 stops with ``reader.truncated = True`` and ``reader.error`` set (the analysis flags the
 missing frames); a file that cannot be read at all raises ``ValueError`` naming it.
@@ -34,12 +42,79 @@ import numpy as np
 from .cine import read_cine_header
 
 __all__ = ["VideoReader", "open_video", "TiffStackReader", "MultiPageTiffReader", "AVReader",
-           "CineReader", "VIDEO_EXTENSIONS", "VideoProbe", "probe_video", "is_video_path"]
+           "CineReader", "VIDEO_EXTENSIONS", "VideoProbe", "probe_video", "is_video_path", "FrameRate",
+           "frame_rate", "FPS_TOLERANCE"]
 
 log = logging.getLogger(__name__)
 
 #: File extensions recognised by :func:`open_video` (lower case, with dot).
 VIDEO_EXTENSIONS = (".tif", ".tiff", ".avi", ".mp4", ".mkv", ".mov", ".cine")
+
+#: Relative difference between the time stamps' rate and the nominal one above which they
+#: disagree (1e-4: 0.1 ms in a 1 s recording; a camera's clock is better than this).
+FPS_TOLERANCE = 1e-4
+
+
+@dataclass(frozen=True)
+class FrameRate:
+    """A video's frame rate as the file states it, by :func:`frame_rate`'s rule.
+
+    Attributes
+    ----------
+    fps : float or None
+        The rate to use, in Hz: the time stamps' when the file has them, else the nominal.
+    nominal : float or None
+        The header's (or container's) setting, in Hz.
+    timestamps : float or None
+        The rate of the per-frame time stamps in Hz (least-squares slope over all frames).
+    source : str
+        ``'time stamps'``, ``'header'`` or ``'none'``: where ``fps`` comes from.
+    note : str
+        Why the time stamps were preferred to a nominal setting that disagrees ('' when
+        they agree or there is only one of them).
+    """
+
+    fps: float | None
+    nominal: float | None = None
+    timestamps: float | None = None
+    source: str = "none"
+    note: str = ""
+
+
+def frame_rate(nominal: float | None, times_s=None, *, resolution_s: float = 0.0) -> FrameRate:
+    """The frame rate of a video from its nominal setting and its per-frame time stamps.
+
+    Parameters
+    ----------
+    nominal : float or None
+        The rate the header states, in Hz (None or 0: none).
+    times_s : (n,) array_like, optional
+        Time of each frame in s (any origin); at least 3 to count.
+    resolution_s : float
+        Resolution of the time stamps in s (a container's time base): a disagreement
+        within it is not one.
+
+    Returns
+    -------
+    FrameRate
+        The time stamps win when they disagree with the nominal setting by more than
+        ``max(FPS_TOLERANCE, 2 resolution_s / duration)`` (relative), and ``note`` says so.
+    """
+    nominal = float(nominal) if nominal else None
+    t = None if times_s is None else np.asarray(times_s, dtype=np.float64)
+    if t is None or t.size < 3 or not np.all(np.isfinite(t)) or t[-1] <= t[0]:
+        return FrameRate(nominal, nominal, None, "header" if nominal else "none")
+    k = np.arange(t.size, dtype=np.float64)
+    period = float(np.polyfit(k, t - t[0], 1)[0])
+    ts = 1.0 / period
+    if nominal is None:
+        return FrameRate(ts, None, ts, "time stamps")
+    tol = max(FPS_TOLERANCE, 2.0 * resolution_s / (t[-1] - t[0]))
+    if abs(ts / nominal - 1.0) <= tol:
+        return FrameRate(nominal, nominal, ts, "header")
+    note = (f"the header states {nominal:g} fps but the frames' time stamps are {1e6 * period:.2f} us "
+            f"apart ({ts:.6g} fps): the time stamps are used")
+    return FrameRate(ts, nominal, ts, "time stamps", note)
 
 
 class VideoReader:
@@ -58,7 +133,10 @@ class VideoReader:
     dtype : numpy.dtype
         uint8 or uint16.
     fps : float or None
-        Frame rate in Hz, if the file records it.
+        Frame rate in Hz, if the file records it: its time stamps' rate when it has
+        per-frame time stamps, else its nominal setting (:func:`frame_rate`).
+    rate : FrameRate
+        Both, and ``rate.note`` when they disagree.
     truncated : bool
         Set once reading stopped before ``n_frames`` because the file is truncated or
         corrupt; ``error`` then says why and ``n_read`` how many frames were read.
@@ -75,6 +153,13 @@ class VideoReader:
         self.shape: tuple[int, int] = (0, 0)
         self.dtype = np.dtype(np.uint8)
         self.fps: float | None = None
+        self.rate = FrameRate(None)
+
+    def _set_rate(self, rate: FrameRate) -> None:
+        self.rate = rate
+        self.fps = rate.fps
+        if rate.note:
+            log.info("%s: %s", self.path, rate.note)
 
     # -- to implement ---------------------------------------------------------------
     def _read_range(self, start: int, stop: int, out: np.ndarray) -> int:
@@ -257,7 +342,7 @@ class MultiPageTiffReader(VideoReader):
             fps = 1.0 / float(ij["finterval"])
         elif ij.get("fps"):
             fps = float(ij["fps"])
-        self.fps = fps
+        self._set_rate(frame_rate(fps))
 
     def _read_range(self, start, stop, out):
         return self._read_images(
@@ -303,7 +388,8 @@ class AVReader(VideoReader):
                 cc = s.codec_context
                 self.shape = (int(cc.height), int(cc.width))
                 rate = s.average_rate or s.guessed_rate or s.base_rate
-                self.fps = float(rate) if rate else None
+                nominal = float(rate) if rate else None
+                self._set_rate(frame_rate(nominal))
                 pix = cc.pix_fmt or ""
                 n = int(s.frames or 0)
                 if n == 0:  # MKV does not store a frame count: count packets (no decoding)
@@ -312,7 +398,13 @@ class AVReader(VideoReader):
                         dur = float(s.duration * s.time_base)
                     elif c.duration is not None:
                         dur = c.duration / 1e6
-                    n = sum(1 for p in c.demux(s) if p.size)
+                    pts = [p.pts for p in c.demux(s) if p.size]
+                    n = len(pts)
+                    if s.time_base is not None and n >= 3 and None not in pts:
+                        # the packets' timestamps: the rate the frames were really taken at
+                        tb = float(s.time_base)
+                        self._set_rate(frame_rate(nominal, np.sort(np.asarray(pts, dtype=np.float64)) * tb,
+                                                  resolution_s=tb))
                     # The container's duration announces the frame count: fewer packets
                     # than that means the file was cut short.
                     if dur and self.fps and round(dur * self.fps) > n:
@@ -395,7 +487,7 @@ class CineReader(VideoReader):
         self.header = hdr
         self.shape = (hdr.height, hdr.width)
         self.dtype = hdr.dtype
-        self.fps = hdr.fps
+        self._set_rate(frame_rate(hdr.fps, hdr.timestamps_s))
         self.n_frames = hdr.image_count
         self._fh = open(path, "rb")
 
@@ -478,11 +570,14 @@ class VideoProbe:
         Frames the file announces.
     fps : float or None
         Frame rate in Hz, or None when the file does not record it (a TIFF without
-        ImageJ metadata, a folder of TIFF files).
+        ImageJ metadata, a folder of TIFF files): the rate of the frames' time stamps when
+        the file has them, else its nominal setting (:func:`frame_rate`).
     width, height : int
         Frame size in pixels.
     dtype : str
         ``'uint8'`` or ``'uint16'``.
+    rate : FrameRate
+        The nominal and time-stamp rates, and a note when they disagree.
     """
 
     path: str
@@ -492,6 +587,7 @@ class VideoProbe:
     width: int
     height: int
     dtype: str
+    rate: FrameRate = FrameRate(None)
 
 
 def probe_video(path: str | os.PathLike) -> VideoProbe:
@@ -515,7 +611,7 @@ def probe_video(path: str | os.PathLike) -> VideoProbe:
         h, w = r.shape
         fps = float(r.fps) if r.fps else None
         return VideoProbe(path=os.fspath(path), format=r.format, n_frames=int(r.n_frames), fps=fps,
-                          width=int(w), height=int(h), dtype=str(np.dtype(r.dtype)))
+                          width=int(w), height=int(h), dtype=str(np.dtype(r.dtype)), rate=r.rate)
 
 
 def is_video_path(path: str | os.PathLike) -> bool:

@@ -1,0 +1,703 @@
+"""Video-force synchronisation measured from the data: the start of the slide.
+
+Why this event
+--------------
+Both recordings see the finger start to slide: the video as x(t) leaving its rest, the
+force sensor as F_T rising from nothing to friction. Between the two lies the skin's
+pre-sliding (partial slip: the tangential force builds up over the first fraction of a
+millimetre the finger moves, Mindlin-Cattaneo), whose law is not known. It is taken as a
+function of displacement only, the same for every trial of a finger::
+
+    F_T(s) / F_N(s) = a_i G(d_i(s + tau_i))
+
+``s`` the force clock as the manifest states it, ``d_i`` the finger's displacement from
+its rest on the video clock, ``G`` the finger's pre-sliding law (free: a piecewise-linear
+function of d, fitted), ``a_i`` the trial's friction level and ``tau_i`` what must be
+added to the force clock to put it on the video clock (the correction to
+``force.t0_s``). Because the finger accelerates, ``d_i(s)`` differs in shape from trial to
+trial, so one ``G`` pins every ``tau_i``: a wrong offset shows as a trial whose rise does
+not fall on its finger's curve.
+
+Measured on the virtual study with realism on (2 subjects x 6 surfaces x 3 speeds,
+``docs/selfcheck.md``): the trials' offsets relative to their subject's other trials come
+out within 0.2 ms RMS (0.05 ms with the true x(t)); a common offset of all of a finger's
+trials is seen only through the differences between accelerations, weakly (within about
+2 ms). The features of the relief are not used: how a relief shapes the force is what the
+study measures, and an assumed shape biases the offset by up to 0.8 mm of travel (20 ms
+at 40 mm/s) on the same study.
+
+The ratio of the clock rates is not fitted here: over the 0.1 s of the start it is not
+determined. The force clock is read against the mains instead (:mod:`.clock`), the video
+clock against its frames' time stamps (:func:`fingerfriction.video.readers.frame_rate`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+__all__ = ["OnsetData", "OffsetEstimate", "onset_data", "estimate_offsets", "MOTION_MM", "PRIOR_D_MM"]
+
+#: Displacement in mm that marks the start of motion in the video (well above the noise of
+#: x(t), well below the pre-sliding distance of any finger).
+MOTION_MM = 0.5
+#: Window around the start of motion, in s of video time: before, after.
+WINDOW_S = (0.05, 0.06)
+#: Margin in s of force data kept beyond the window on each side (offsets up to this are
+#: measured).
+MARGIN_S = 0.1
+#: Rate of the force data used, Hz.
+RATE_HZ = 2000.0
+#: Knots of G in mm of displacement: dense where skin pre-slides.
+KNOTS_MM = np.array(
+    [
+        -0.05,
+        0.0,
+        0.01,
+        0.02,
+        0.03,
+        0.04,
+        0.05,
+        0.06,
+        0.08,
+        0.10,
+        0.12,
+        0.15,
+        0.2,
+        0.3,
+        0.45,
+        0.65,
+        0.9,
+        1.2,
+        1.6,
+        2.0,
+        3.0,
+        4.5,
+        6.5,
+        9.0,
+    ]
+)
+#: Displacement range in mm within which a finger's friction reaches half its level, the
+#: prior of a trial with no other trial of its finger to compare with: its offset's
+#: standard error spans it.
+PRIOR_D_MM = (0.02, 0.5)
+#: Fewest trials of a finger for the relative estimate.
+MIN_TRIALS = 3
+
+
+@dataclass(frozen=True)
+class OnsetData:
+    """The start of one trial's slide in both recordings (what :func:`estimate_offsets` needs).
+
+    Attributes
+    ----------
+    trial_id, group : str
+        The trial and its finger (subject): trials of a group share the pre-sliding law.
+    t_video : (m,) ndarray
+        Video frame times in s (the manifest's clock), frames with a finger position.
+    d_video : (m,) ndarray
+        The finger's displacement from its rest in mm along its sliding direction.
+    t_motion : float
+        Video time in s at which the displacement passes :data:`MOTION_MM`.
+    s0, ds : float
+        Force clock time in s of ``ratio[0]``, and the sample spacing in s.
+    ratio : (k,) ndarray
+        F_T / F_N, signed by the sliding direction; NaN where the finger does not press.
+    frame_period : float
+        Video frame period in s.
+    """
+
+    trial_id: str
+    group: str
+    t_video: np.ndarray
+    d_video: np.ndarray
+    t_motion: float
+    s0: float
+    ds: float
+    ratio: np.ndarray
+    frame_period: float
+
+    @property
+    def s(self) -> np.ndarray:
+        return self.s0 + self.ds * np.arange(self.ratio.size)
+
+    def shifted(self, offset_s: float, rate: float = 1.0) -> OnsetData:
+        """The same data with the force clock moved by ``offset_s`` (and scaled by ``rate``
+        about ``s0``): what a corrected ``force.t0_s`` (``fs_hz``) gives."""
+        return OnsetData(
+            self.trial_id,
+            self.group,
+            self.t_video,
+            self.d_video,
+            self.t_motion,
+            self.s0 + offset_s,
+            self.ds * rate,
+            self.ratio,
+            self.frame_period,
+        )
+
+    def to_dict(self) -> dict:
+        return {
+            "trial_id": self.trial_id,
+            "group": self.group,
+            "t_motion": self.t_motion,
+            "t_video": [round(float(v), 7) for v in self.t_video],
+            "d_video": [round(float(v), 5) for v in self.d_video],
+            "s0": self.s0,
+            "ds": self.ds,
+            "frame_period": self.frame_period,
+            "ratio": [None if not np.isfinite(v) else round(float(v), 5) for v in self.ratio],
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> OnsetData:
+        return cls(
+            str(d["trial_id"]),
+            str(d["group"]),
+            np.asarray(d["t_video"], float),
+            np.asarray(d["d_video"], float),
+            float(d["t_motion"]),
+            float(d["s0"]),
+            float(d["ds"]),
+            np.array([np.nan if v is None else v for v in d["ratio"]], float),
+            float(d["frame_period"]),
+        )
+
+
+def onset_data(
+    trial_id: str, group: str, t_frames, x_frames, f_n, f_t, fs_hz: float, t0_s: float
+) -> OnsetData | str:
+    """Extract the start of a trial's slide from its x(t) and its forces.
+
+    Parameters
+    ----------
+    trial_id, group : str
+    t_frames, x_frames : (n_frames,) array_like
+        Frame times (s, the manifest's video clock) and finger positions (mm, NaN unknown).
+    f_n, f_t : (n,) array_like
+        Normal and tangential force in N on the force clock (after the sensor's steps).
+    fs_hz, t0_s : float
+        The force clock as the manifest states it: sample ``k`` at ``t0_s + k / fs_hz``.
+
+    Returns
+    -------
+    OnsetData, or a str saying why the start cannot be seen (the video starts with the
+    finger already sliding, the finger never presses...).
+    """
+    t = np.asarray(t_frames, float)
+    x = np.asarray(x_frames, float)
+    ok = np.isfinite(x)
+    if ok.sum() < 20:
+        return "fewer than 20 frames with a finger position"
+    tv, xv = t[ok], x[ok]
+    direction = 1.0 if xv[-1] >= xv[0] else -1.0
+    rest = direction * (xv - xv[0])
+    moved = np.flatnonzero(rest > MOTION_MM)
+    if moved.size == 0:
+        return f"the finger never moves {MOTION_MM:g} mm from its first position"
+    k_motion = int(moved[0])
+    t_motion = float(tv[k_motion])
+    before = tv < t_motion - 0.03
+    if before.sum() < 5:
+        return (
+            "the video has no rest of the finger before it slides (fewer than 5 tracked frames "
+            "30 ms before it moves): the start of the slide is not seen"
+        )
+    x_rest = float(np.median(xv[before][-min(int(before.sum()), 20) :]))
+    d = direction * (xv - x_rest)
+    lo, hi = t_motion - WINDOW_S[0] - MARGIN_S, t_motion + WINDOW_S[1] + MARGIN_S
+    keep = (tv >= lo - 0.05) & (tv <= hi + 0.05)
+    fn = np.asarray(f_n, float)
+    ft = np.asarray(f_t, float)
+    step = max(int(round(fs_hz / RATE_HZ)), 1)
+    n = (fn.size // step) * step
+    if n < 2 * step:
+        return "the force record is too short"
+    fn_b = fn[:n].reshape(-1, step).mean(axis=1)
+    ft_b = ft[:n].reshape(-1, step).mean(axis=1)
+    ds = step / fs_hz
+    s = t0_s + (np.arange(fn_b.size) + 0.5 * (step - 1) / step) * ds
+    level = float(np.nanpercentile(fn_b, 95))
+    if not level > 0:
+        return "the finger never presses (F_N never positive)"
+    pressing = _longest_run(fn_b > 0.1 * level)  # the press, not a drift that crosses the level
+    ratio = np.where(pressing, direction * ft_b / np.where(pressing, fn_b, 1.0), np.nan)
+    sel = (s >= lo) & (s <= hi)
+    if sel.sum() < 20:
+        return "the force record does not cover the start of the slide (check force.t0_s and fs_hz)"
+    i0 = int(np.flatnonzero(sel)[0])
+    period = float(np.median(np.diff(t))) if t.size > 1 else math.nan
+    return OnsetData(
+        trial_id, str(group), tv[keep], d[keep], t_motion, float(s[i0]), ds, ratio[sel].astype(float), period
+    )
+
+
+def _longest_run(mask: np.ndarray) -> np.ndarray:
+    """``mask`` with only its longest run of True kept."""
+    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    out = np.zeros(mask.shape, bool)
+    if starts.size:
+        k = int(np.argmax(ends - starts))
+        out[starts[k] : ends[k]] = True
+    return out
+
+
+@dataclass(frozen=True)
+class OffsetEstimate:
+    """The measured video-force offset of one trial.
+
+    Attributes
+    ----------
+    trial_id : str
+    offset_s : float
+        What to add to the force clock (``force.t0_s``) to put it on the video clock, s.
+    se_s : float
+        Its standard error, s.
+    relative_s : float
+        The part that differs from the trial's finger's other trials, s (``offset_s`` minus
+        ``common_s``).
+    common_s, common_se_s : float
+        The offset shared by the finger's trials and its standard error, s (NaN when not
+        measured).
+    method : str
+        ``'relative'`` (against the other trials of the finger), ``'prior'`` (one trial
+        alone: the pre-sliding distance's prior range sets the error) or ``'none'``.
+    n_reference : int
+        Trials of the finger the estimate rests on.
+    message : str
+        What was done, or why nothing could be.
+    """
+
+    trial_id: str
+    offset_s: float
+    se_s: float
+    relative_s: float = math.nan
+    common_s: float = math.nan
+    common_se_s: float = math.nan
+    method: str = "relative"
+    n_reference: int = 0
+    message: str = ""
+
+    @property
+    def measured(self) -> bool:
+        return math.isfinite(self.offset_s)
+
+    def to_dict(self) -> dict:
+        def ms(v):
+            return None if not math.isfinite(v) else round(1e3 * float(v), 4)
+
+        return {
+            "offset_ms": ms(self.offset_s),
+            "se_ms": ms(self.se_s),
+            "relative_ms": ms(self.relative_s),
+            "common_ms": ms(self.common_s),
+            "common_se_ms": ms(self.common_se_s),
+            "method": self.method,
+            "n_reference": self.n_reference,
+            "message": self.message,
+        }
+
+
+# --------------------------------------------------------------------------------------
+# the model: a_i G(d_i(s + tau_i)), G piecewise linear on KNOTS_MM
+
+
+def _hat(d: np.ndarray) -> np.ndarray:
+    """Piecewise-linear basis on :data:`KNOTS_MM` (values clipped to the knots' range)."""
+    k = KNOTS_MM
+    d = np.clip(d, k[0], k[-1])
+    j = np.clip(np.searchsorted(k, d) - 1, 0, k.size - 2)
+    w = (d - k[j]) / (k[j + 1] - k[j])
+    B = np.zeros((d.size, k.size))
+    rows = np.arange(d.size)
+    B[rows, j] = 1.0 - w
+    B[rows, j + 1] = w
+    return B
+
+
+def _design(o: OnsetData, tau: float):
+    """(basis, ratio) over the window in video time for offset ``tau``."""
+    T = o.s + tau
+    sel = (T >= o.t_motion - WINDOW_S[0]) & (T <= o.t_motion + WINDOW_S[1]) & np.isfinite(o.ratio)
+    if sel.sum() < 10:
+        return None, None
+    d = np.interp(T[sel], o.t_video, o.d_video)
+    return _hat(d), o.ratio[sel]
+
+
+def _fit_g(data: list[OnsetData], taus) -> np.ndarray | None:
+    """G (knot values) and the trials' levels a_i by alternating least squares."""
+    designs = [_design(o, t) for o, t in zip(data, taus, strict=True)]
+    designs = [(B, r) for B, r in designs if B is not None]
+    if not designs:
+        return None
+    a = np.ones(len(designs))
+    g = None
+    grams = [(B.T @ B, B.T @ r) for B, r in designs]
+    ridge = 1e-9 * np.eye(KNOTS_MM.size)  # knots no sample reaches stay at 0
+    for _ in range(4):
+        # normal equations of sum_i |r_i - a_i B_i g|^2 (a 24 x 24 system)
+        M = sum(ai * ai * BB for ai, (BB, _) in zip(a, grams, strict=True)) + ridge
+        v = sum(ai * Br for ai, (_, Br) in zip(a, grams, strict=True))
+        g = np.linalg.solve(M, v)
+        for i, (B, r) in enumerate(designs):
+            p = B @ g
+            pp = float(p @ p)
+            a[i] = float(p @ r) / pp if pp > 0 else 1.0
+        m = float(np.mean(a))
+        if m > 0:
+            a /= m
+    return g
+
+
+def _rss(o: OnsetData, g: np.ndarray, tau: float) -> float:
+    """The trial's misfit to ``a G`` at offset ``tau`` (its level ``a`` fitted), relative to
+    its own power over the window: a window that misses the rise cannot fit by ``a = 0``."""
+    B, r = _design(o, tau)
+    if B is None:
+        return math.inf
+    p = B @ g
+    pp = float(p @ p)
+    rr = float(r @ r)
+    if not (pp > 0 and rr > 0):
+        return math.inf
+    a = max(float(p @ r) / pp, 0.0)
+    e = r - a * p
+    return float(e @ e) / rr
+
+
+def _best_tau(o: OnsetData, g: np.ndarray, centre: float = 0.0, span: float = 0.012) -> float:
+    """The offset minimising the trial's misfit to G: a 1 ms grid over ``centre +- span``,
+    then 0.1 ms steps around its best point, then a parabola."""
+    coarse = centre + np.arange(-span, span + 1e-9, 1e-3)
+    r = np.array([_rss(o, g, t) for t in coarse])
+    if not np.isfinite(r).any():
+        return math.nan
+    c = float(coarse[int(np.nanargmin(r))])
+    fine = c + np.arange(-1.5e-3, 1.5e-3 + 1e-9, 1e-4)
+    r = np.array([_rss(o, g, t) for t in fine])
+    k = int(np.argmin(r))
+    tau = float(fine[k])
+    if 0 < k < fine.size - 1 and np.isfinite(r[k - 1 : k + 2]).all():
+        y0, y1, y2 = r[k - 1 : k + 2]
+        den = y0 - 2 * y1 + y2
+        if den > 0:
+            tau += 0.5 * (y0 - y2) / den * 1e-4
+    return tau
+
+
+def _half_rise_offset(o: OnsetData, d_half: float) -> float:
+    """Offset that puts the force's half rise (F_T / F_N reaching half its level) where the
+    finger has moved ``d_half`` mm."""
+    r = o.ratio
+    fin = np.isfinite(r)
+    if fin.sum() < 10:
+        return math.nan
+    level = float(np.nanpercentile(r, 75))
+    if not level > 0:
+        return math.nan
+    above = np.flatnonzero(fin & (r > 0.5 * level))
+    if above.size == 0:
+        return math.nan
+    s_half = float(o.s[above[0]])
+    early = o.t_video <= o.t_motion
+    if early.sum() < 2:
+        return math.nan
+    dv, tv = o.d_video[early], o.t_video[early]
+    order = np.argsort(dv)
+    t_half = float(np.interp(d_half, dv[order], tv[order]))
+    return t_half - s_half
+
+
+def _prior_estimate(o: OnsetData) -> OffsetEstimate:
+    lo = _half_rise_offset(o, PRIOR_D_MM[0])
+    hi = _half_rise_offset(o, PRIOR_D_MM[1])
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return OffsetEstimate(
+            o.trial_id,
+            math.nan,
+            math.nan,
+            method="none",
+            message="the force's rise at the start of the slide was not found",
+        )
+    mid = _half_rise_offset(o, math.sqrt(PRIOR_D_MM[0] * PRIOR_D_MM[1]))
+    se = abs(hi - lo) / 4.0
+    return OffsetEstimate(
+        o.trial_id,
+        mid,
+        se,
+        method="prior",
+        n_reference=1,
+        message=f"one trial of its finger: its force's half rise placed {1e3 * mid:+.1f} ms "
+        f"from the manifest's clock, within the pre-sliding distance's range "
+        f"{PRIOR_D_MM[0]:g}-{PRIOR_D_MM[1]:g} mm (+-{1e3 * 2 * se:.1f} ms)",
+    )
+
+
+#: Fastest over slowest trial of a finger needed to measure the offset its trials share:
+#: trials at one speed accelerate alike, and a shift common to all of them then looks like
+#: another pre-sliding law.
+MIN_SPEED_SPREAD = 1.3
+
+
+def _total_misfit(data: list[OnsetData], rel: np.ndarray, c: float) -> float:
+    taus = rel + c
+    g = _fit_g(data, taus)
+    if g is None:
+        return math.inf
+    return float(sum(_rss(o, g, t) for o, t in zip(data, taus, strict=True)))
+
+
+def _min_common(data: list[OnsetData], rel: np.ndarray, lo: float, hi: float, step: float) -> float:
+    """The common shift in [lo, hi] minimising the total misfit: a grid, then a bounded
+    search around its best point."""
+    grid = np.arange(lo, hi + 1e-12, step)
+    v = np.array([_total_misfit(data, rel, c) for c in grid])
+    if not np.isfinite(v).any():
+        return math.nan
+    k = int(np.nanargmin(v))
+    if k in (0, grid.size - 1):
+        return math.nan  # no minimum inside the range
+    res = minimize_scalar(
+        lambda c: _total_misfit(data, rel, c),
+        bounds=(grid[k - 1], grid[k + 1]),
+        method="bounded",
+        options={"xatol": 2e-5},
+    )
+    return float(res.x)
+
+
+def _common_offset(data: list[OnsetData], rel: np.ndarray) -> tuple[float, float]:
+    """The offset shared by a finger's trials (added to their relative offsets ``rel``) and
+    its standard error, by the jackknife over trials; (NaN, NaN) when it cannot be seen: the
+    trials' speeds are too alike (:data:`MIN_SPEED_SPREAD`), or the misfit has no minimum
+    within +-10 ms."""
+    speeds = np.array([_speed(o) for o in data])
+    speeds = speeds[np.isfinite(speeds) & (speeds > 0)]
+    if speeds.size < MIN_TRIALS or speeds.max() / speeds.min() < MIN_SPEED_SPREAD:
+        return math.nan, math.nan
+    c = _min_common(data, rel, -0.01, 0.01, 1e-3)
+    if not math.isfinite(c):
+        return math.nan, math.nan
+    n = len(data)
+    jack = []
+    for k in range(n):
+        others = [o for j, o in enumerate(data) if j != k]
+        ck = _min_common(others, np.delete(rel, k), c - 0.004, c + 0.004, 1e-3)
+        if math.isfinite(ck):
+            jack.append(ck)
+    if len(jack) < n - 1:
+        return c, math.inf
+    jack = np.array(jack)
+    se = math.sqrt((len(jack) - 1) / len(jack) * float(np.sum((jack - jack.mean()) ** 2)))
+    return c, se
+
+
+def estimate_offsets(
+    data, *, mode: str = "check", reference=None, se_floor_s: float = 1e-4, common_floor_s: float = 1e-3
+) -> dict[str, OffsetEstimate]:
+    """Offsets of every trial: each finger's trials against each other.
+
+    Parameters
+    ----------
+    data : iterable of OnsetData
+    mode : {'check', 'auto'}
+        ``'check'``: the manifest's clocks are the hypothesis. Each finger's pre-sliding
+        law is fitted on its reference trials at offset 0 (robustly: a trial far from the
+        others is left out and the law fitted again), and each trial's offset is measured
+        against the law fitted without it. ``'auto'``: nothing is assumed: every trial's
+        offset starts from its half rise and is refined jointly with the law.
+    reference : set of str, optional
+        Trials the law may be fitted on (default all): the others are only measured.
+    se_floor_s : float
+        Smallest standard error of a relative offset, s.
+    common_floor_s : float
+        Smallest standard error of the common offset, s (the common part is seen only
+        through the differences between the trials' accelerations; the floor is what the
+        virtual study needs, ``docs/selfcheck.md``).
+
+    Returns
+    -------
+    dict
+        Trial id -> :class:`OffsetEstimate`. ``offset_s = relative_s + common_s`` in
+        ``'auto'``; in ``'check'`` ``offset_s`` is the relative offset (the reference
+        trials' manifest clocks being the hypothesis) and the common offset is reported
+        beside it.
+    """
+    if mode not in ("check", "auto"):
+        raise ValueError(f"mode must be 'check' or 'auto', got {mode!r}")
+    groups: dict[str, list[OnsetData]] = {}
+    for o in data:
+        groups.setdefault(o.group, []).append(o)
+    out: dict[str, OffsetEstimate] = {}
+    for items in groups.values():
+        ref = [o for o in items if reference is None or o.trial_id in reference]
+        if len(ref) < MIN_TRIALS:
+            for o in items:
+                est = _prior_estimate(o)
+                out[o.trial_id] = OffsetEstimate(
+                    o.trial_id,
+                    est.offset_s,
+                    est.se_s,
+                    est.offset_s,
+                    math.nan,
+                    math.nan,
+                    est.method,
+                    len(ref),
+                    est.message + f" (the relative estimate needs {MIN_TRIALS} trials of the finger; "
+                    f"{len(ref)} here)",
+                )
+            continue
+        if mode == "check":
+            out.update(_check_group(items, ref, se_floor_s, common_floor_s))
+        else:
+            out.update(_auto_group(items, se_floor_s, common_floor_s))
+    return out
+
+
+def _loo_offsets(items, ref, taus_ref, *, centres=None, span: float = 0.012) -> dict[str, float]:
+    """Each trial's offset against the law fitted on the reference trials (without itself),
+    searched within ``span`` of ``centres`` (default: each trial's half rise at the
+    prior's central pre-sliding distance)."""
+    ids = [o.trial_id for o in ref]
+    g_all = _fit_g(ref, taus_ref)
+    res = {}
+    for o in items:
+        if o.trial_id in ids and len(ref) > MIN_TRIALS - 1:
+            k = ids.index(o.trial_id)
+            others = [r for j, r in enumerate(ref) if j != k]
+            g = _fit_g(others, [t for j, t in enumerate(taus_ref) if j != k])
+        else:
+            g = g_all
+        start = (
+            _half_rise_offset(o, math.sqrt(PRIOR_D_MM[0] * PRIOR_D_MM[1]))
+            if centres is None
+            else centres[items.index(o)]
+        )
+        if g is None or not math.isfinite(start):
+            res[o.trial_id] = math.nan
+            continue
+        res[o.trial_id] = _best_tau(o, g, centre=start, span=span)
+    return res
+
+
+def _check_group(items, ref, se_floor_s: float, common_floor_s: float) -> dict[str, OffsetEstimate]:
+    taus = _loo_offsets(items, ref, [0.0] * len(ref))
+    ref_t = np.array([taus[o.trial_id] for o in ref])
+    ok = np.isfinite(ref_t)
+    med = float(np.median(ref_t[ok])) if ok.any() else 0.0
+    mad = float(np.median(np.abs(ref_t[ok] - med))) * 1.4826 if ok.any() else math.inf
+    # a reference trial far from the others is measured, not trusted: fit again without it
+    keep = [
+        o
+        for o, t in zip(ref, ref_t, strict=True)
+        if np.isfinite(t) and abs(t - med) <= max(5.0 * mad, 2.0 * o.frame_period)
+    ]
+    if MIN_TRIALS <= len(keep) < len(ref):
+        ref = keep
+        taus = _loo_offsets(items, ref, [0.0] * len(ref))
+        ref_t = np.array([taus[o.trial_id] for o in ref])
+        ok = np.isfinite(ref_t)
+        med = float(np.median(ref_t[ok]))
+        mad = float(np.median(np.abs(ref_t[ok] - med))) * 1.4826
+    se = max(mad, se_floor_s)
+    common, common_se = _common_offset(ref, np.zeros(len(ref)))
+    if math.isfinite(common_se):
+        common_se = max(common_se, common_floor_s)
+    out = {}
+    for o in items:
+        t = taus[o.trial_id]
+        out[o.trial_id] = OffsetEstimate(
+            o.trial_id,
+            t,
+            se if math.isfinite(t) else math.nan,
+            t,
+            common,
+            common_se,
+            "relative",
+            len(ref),
+            f"against the pre-sliding law of {len(ref)} trials of finger {o.group!r}",
+        )
+    return out
+
+
+def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, OffsetEstimate]:
+    """``mode='auto'``: when the manifest's clocks agree among themselves (the trials'
+    offsets against each other's law are tight), the trials that disagree are put back on
+    the consensus (``mode='check'``'s estimates). Otherwise every trial starts from its
+    half rise at the prior's central pre-sliding distance and the trials are aligned on
+    each other; what their starts cannot tell apart (a common shift, and a shift growing
+    as speed^-1/4: a smooth start accelerates as t^3, along which a time shift and a
+    change of the law look alike) stays at the prior, whose range sets the error."""
+    checked = _check_group(items, items, se_floor_s, common_floor_s)
+    offs = np.array([checked[o.trial_id].offset_s for o in items])
+    fin = np.isfinite(offs)
+    period = float(np.median([o.frame_period for o in items]))
+    tight = fin.sum() >= MIN_TRIALS and np.mean(np.abs(offs[fin]) <= 2 * period) >= 0.7
+    if tight:
+        return {
+            k: replace(
+                e,
+                message=e.message + "; the manifest's clocks agree among themselves: the others "
+                "are put on their consensus",
+            )
+            for k, e in checked.items()
+        }
+    mid = math.sqrt(PRIOR_D_MM[0] * PRIOR_D_MM[1])
+    out = {}
+    usable, start, prior_se = [], [], []
+    for o in items:
+        est = _prior_estimate(o)
+        if not est.measured:
+            out[o.trial_id] = est
+            continue
+        usable.append(o)
+        start.append(_half_rise_offset(o, mid))
+        prior_se.append(est.se_s)
+    if len(usable) < MIN_TRIALS:
+        for o in usable:
+            out[o.trial_id] = _prior_estimate(o)
+        return out
+    start = np.array(start)
+    speeds = np.array([_speed(o) for o in usable])
+    drift = np.column_stack([np.ones(len(usable)), speeds**-0.25])
+    taus = start.copy()
+    for _ in range(3):
+        new = np.array(list(_loo_offsets(usable, usable, taus, centres=taus, span=0.005).values()))
+        new = np.where(np.isfinite(new), new, taus)
+        # keep what the starts cannot tell apart at the prior: remove the drift along
+        # 1 and speed^-1/4 from the prior starts
+        ok = np.isfinite(speeds)
+        if ok.sum() >= 3:
+            coef, *_ = np.linalg.lstsq(drift[ok], (new - start)[ok], rcond=None)
+            new = new - np.where(ok, drift @ coef, 0.0)
+        taus = new
+    resid = taus - start
+    se_rel = max(float(np.median(np.abs(resid - np.median(resid)))) * 1.4826, se_floor_s)
+    for o, t, pse in zip(usable, taus, prior_se, strict=True):
+        out[o.trial_id] = OffsetEstimate(
+            o.trial_id,
+            float(t),
+            math.hypot(se_rel, pse),
+            float(t - np.median(taus)),
+            float(np.median(taus)),
+            float(np.median(prior_se)),
+            "joint",
+            len(usable),
+            f"the manifest's clocks disagree among themselves: {len(usable)} trials of finger {o.group!r} "
+            f"aligned on each other from their half rise at {mid:.2g} mm of pre-sliding "
+            f"(range {PRIOR_D_MM[0]:g}-{PRIOR_D_MM[1]:g} mm)",
+        )
+    return out
+
+
+def _speed(o: OnsetData) -> float:
+    """The finger's speed in mm/s over the window's end (from the video)."""
+    sel = (o.t_video >= o.t_motion) & (o.t_video <= o.t_motion + WINDOW_S[1])
+    if sel.sum() < 3:
+        return math.nan
+    return float(np.polyfit(o.t_video[sel], o.d_video[sel], 1)[0])
