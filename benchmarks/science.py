@@ -1,8 +1,10 @@
-"""The fit's science (issue 12): every acceptance figure from one run.
+"""The fit's science: every figure of the load-consistent variant on the default world, from
+one run.
 
-A. **Default model on the seed-0 virtual study** (``fingerfriction simulate --out full
-   --seed 0``, ``analyze``): ``fingerfriction.study.fit`` with both variants and the
-   leave-one-surface-out validation. Prints mu per subject with its 95 % CI beside the
+A. **Default model on the seed-0 virtual study** (``fingerfriction simulate --seed 0``,
+   ``analyze``): ``fingerfriction.study.fit`` with every variant, the leave-one-surface-out
+   validation and ``--model auto``'s choice (on this world, the load-sharing one, the
+   load-consistent variant must be chosen). Prints mu per subject with its 95 % CI beside the
    truth (the mean of the trials' simulated ``mu``), the count of failed or unphysical
    trial fits, Table 1 of both variants with bootstrap CIs, leave-one-surface-out rho
    per held-out surface for both, and the CPU time of each variant's fit.
@@ -18,12 +20,12 @@ E. **Synthetic Eq. (4) in absolute form** (``fingerfriction.testing``, 10 % nois
    and F_N, known mu, p0, p1; 4 seeds): recovery of every parameter, with each trial's
    p1 error against its own standard error.
 
-Run: ``.venv/bin/python benchmarks/science.py --results RESULTS --study STUDY
-[--realism-results R2 --realism-study S2]``. The studies are made with
-``fingerfriction simulate --out full --seed 0`` (and ``--realism``), then
-``fingerfriction analyze full --out full-results`` (about 15 min each on two cores);
-the benchmark itself takes a few minutes. It writes only under a temporary folder (the
-fit's outputs go to a copy of each results folder).
+Run: ``.venv/bin/python benchmarks/science.py`` (on a fresh clone: the two studies,
+``simulate --seed 0`` and ``--seed 0 --realism``, are simulated and analysed into
+``benchmarks/out/studies/paper-seed0`` and ``realism-seed0``, about 15 min each on two
+cores, and reused later), or ``--results RESULTS --study STUDY [--realism-results R2
+--realism-study S2]``. The benchmark itself takes a few minutes. The fit's outputs go to a
+copy of each results folder under a temporary folder.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from __future__ import annotations
 import argparse
 import math
 import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -39,6 +42,8 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _studies import analysed_study, simulated_study  # noqa: E402
 from fingerfriction.fit import LoadFitOptions, fit_load_subject
 from fingerfriction.fit.load import _LoadDesign, _search_designs
 from fingerfriction.model import FrictionModel
@@ -118,10 +123,11 @@ def loso_side_by_side(loso: pd.DataFrame, floor: float) -> dict:
 
 
 def unphysical(summary, model: str) -> tuple[int, dict]:
-    """Trial fits of ``model`` that failed or are unphysical, and the error flags by code."""
+    """Trial fits of ``model`` that failed or are unphysical, and the error flags by code
+    (the variant used: its flags; the others: their notes)."""
     codes: dict = {}
     trials = set()
-    for f in summary.flags:
+    for f in (*summary.flags, *summary.notes):
         if f.model == model and f.level == "error":
             codes[f.code] = codes.get(f.code, 0) + 1
             if f.trial:
@@ -133,8 +139,10 @@ def run_fit(results: Path, tmp: Path, name: str, **kw):
     work = copy_results(results, tmp, name)
     c0, w0 = time.process_time(), time.perf_counter()
     summary = fit_study(work, progress=False, **kw)
-    print(f"  fit with both variants and leave-one-surface-out: {time.process_time() - c0:.1f} s CPU, "
+    print(f"  fit with every variant and leave-one-surface-out: {time.process_time() - c0:.1f} s CPU, "
           f"{time.perf_counter() - w0:.1f} s wall")
+    print(f"  --model auto chose: {summary.model}{' (MODEL REJECTED)' if summary.rejected else ''}; "
+          f"{summary.selection.reason}")
     return work, summary
 
 
@@ -145,14 +153,18 @@ def part_a(results: Path, study: Path, tmp: Path) -> tuple[bool, object, Path]:
     print("\nA. Default (load-consistent) model on the seed-0 study")
     truth, _ = truth_mu(study)
     work, s = run_fit(results, tmp, "a")
-    ok = print_mu(s, truth, 0.01)
+    good = s.model == "load" and not s.rejected
+    print(f"  the load-sharing world's own variant chosen by --model auto: {verdict(good)}")
+    ok = good
+    ok &= print_mu(s, truth, 0.01)
     n_bad, codes = unphysical(s, "load")
     good = n_bad == 0
     ok &= good
     print(f"  trial fits failed or unphysical: {n_bad} of {s.n_trials} (error flags {codes or 'none'}): "
           f"{verdict(good)}")
     warn = sorted({f.code for f in s.flags if f.model == "load" and f.level == "warning"})
-    print(f"  load-model warnings: {warn}")
+    info = sorted({f.code for f in s.flags if f.model == "load" and f.level == "info"})
+    print(f"  load-model warnings: {warn}; information: {info}")
     t1 = table1_side_by_side(s.table1, 0.75)
     good = t1["load"][1] == t1["load"][2]
     ok &= good
@@ -209,9 +221,10 @@ def part_c(s) -> None:
     print(f"  trial fits failed or unphysical: {n_bad} of {s.n_trials} (error flags {codes})")
     t = s.table1[(s.table1.model == "paper") & (s.table1.scale == "2 mm") & (s.table1["shape"] == "Bump")]
     print("  Bump 2 mm rho: " + ", ".join(f"{r.subject} {r.rho:.2f}" for r in t.itertuples()))
-    subj = sorted({f.subject for f in s.flags if f.model == "paper" and f.subject})
+    notes = [*s.flags, *s.notes]
+    subj = sorted({f.subject for f in notes if f.model == "paper" and f.subject})
     for sub in subj:
-        fl = sorted({f.code for f in s.flags if f.model == "paper" and f.subject == sub and not f.trial})
+        fl = sorted({f.code for f in notes if f.model == "paper" and f.subject == sub and not f.trial})
         print(f"  subject {sub}: subject-level flags {fl}")
 
 
@@ -277,12 +290,23 @@ def part_e() -> bool:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--results", type=Path, required=True, help="analysed seed-0 study")
-    ap.add_argument("--study", type=Path, required=True, help="the simulated seed-0 study (truth/)")
-    ap.add_argument("--realism-results", type=Path, help="analysed seed-0 --realism study")
+    ap.add_argument("--results", type=Path, help="analysed seed-0 study (default: simulated and analysed "
+                                                 "into benchmarks/out/studies/paper-seed0)")
+    ap.add_argument("--study", type=Path, help="the simulated seed-0 study (truth/)")
+    ap.add_argument("--realism-results", type=Path, help="analysed seed-0 --realism study (default: "
+                                                         "benchmarks/out/studies/realism-seed0)")
     ap.add_argument("--realism-study", type=Path)
     ap.add_argument("--skip-joint", action="store_true", help="skip part B (a few minutes)")
+    ap.add_argument("--skip-realism", action="store_true", help="skip part D (simulating its study)")
     args = ap.parse_args()
+    if args.study is None:
+        args.study = simulated_study("paper-seed0", "--seed", "0")
+    if args.results is None:
+        args.results = analysed_study(args.study)
+    if not args.skip_realism and args.realism_study is None:
+        args.realism_study = simulated_study("realism-seed0", "--seed", "0", "--realism")
+    if args.realism_study is not None and args.realism_results is None:
+        args.realism_results = analysed_study(args.realism_study)
     ok = True
     with tempfile.TemporaryDirectory(prefix="ff-science-") as tmp:
         tmp = Path(tmp)
