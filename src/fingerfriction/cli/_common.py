@@ -61,12 +61,15 @@ def finish(all_ok: bool) -> None:
         raise typer.Exit(EXIT_SOME_FAILED)
 
 
-def read_fingers(path: str | None = None, items: list[str] | None = None):
-    """``--finger FILE`` (a finger) or ``--finger SUBJECT=FILE`` items (a dict), one-line errors."""
+def read_fingers(path: str | None = None, items: list[str] | None = None, model: str = "halfspace"):
+    """``--finger FILE`` (a finger) or ``--finger SUBJECT=FILE`` items (a dict), one-line errors;
+    ``model='fe'`` reads FE finger files."""
     from ..mechanics import finger_file  # small, but only when --finger is given
 
     try:
-        return finger_file.read_subject_fingers(items) if path is None else finger_file.read_finger_file(path)
+        if path is None:
+            return finger_file.read_subject_fingers(items, model=model)
+        return finger_file.read_finger_file(path, model=model)
     except ValueError as exc:
         fail(str(exc))
 

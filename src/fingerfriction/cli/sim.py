@@ -95,6 +95,10 @@ def simulate_cmd(
         typer.Option("--finger-seed", help="Draw the other subjects' fingers around the calibrated ones "
                      "(radius, modulus, flat length +-25 %) with this seed.", callback=SEED),
     ] = None,
+    finger_model: Annotated[str, typer.Option(
+        "--finger-model", help="halfspace (default: the --contact-model) or fe: the layered finite-element "
+                               "finger (FE finger files with --finger; tables cached on disk).",
+    )] = "halfspace",
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
@@ -111,8 +115,14 @@ def simulate_cmd(
                 **_design(surfaces, subjects, speeds)}
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
+    if finger_model not in ("halfspace", "fe"):
+        fail(f"--finger-model must be halfspace or fe, got {finger_model!r}")
+    if finger_model == "fe":
+        if contact_model not in ("mechanics-bem", "fe"):
+            fail(f"--finger-model fe is its own contact model; drop --contact-model {contact_model}")
+        kw["contact_model"] = "fe"
     if finger:
-        kw["fingers"] = read_fingers(items=finger)
+        kw["fingers"] = read_fingers(items=finger, model="fe" if finger_model == "fe" else "halfspace")
     if finger_seed is not None:
         kw["finger_seed"] = finger_seed
     try:

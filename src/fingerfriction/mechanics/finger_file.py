@@ -12,6 +12,12 @@ Two forms are accepted:
       {"format": "fingerfriction-finger", "version": 1,
        "finger": {<FingerParams fields>},
        "calibration": {...}}          # optional provenance, never read back as parameters
+
+An FE finger (:class:`~fingerfriction.mechanics.fe.FEFingerParams`, the layered
+finite-element finger of ``simulate --finger-model fe``) is the same file with
+``"model": "fe"``, bare (``{"model": "fe", "tissue_modulus": 0.02, ...}``) or wrapped
+(``"model": "fe"`` beside ``"format"``); :func:`read_finger_file` reads the model it is asked
+for (``model="halfspace"`` by default) and says so in one line when the file holds the other.
 """
 
 from __future__ import annotations
@@ -21,10 +27,25 @@ from pathlib import Path
 
 from .._atomic import atomic_write_json
 from .._check import parse_json
+from .fe.params import FEFingerParams
 from .finger import FingerParams
 
 __all__ = ["FINGER_FORMAT", "FINGER_MODELS", "FINGER_RANGES", "register_finger_model", "read_finger_file",
-           "write_finger_file", "finger_from_mapping", "read_subject_fingers"]
+           "write_finger_file", "finger_from_mapping", "read_subject_fingers", "fe_finger_from_mapping",
+           "finger_model"]
+
+#: The finger models a file can hold: the half-space finger (``model`` absent or
+#: ``'mechanics-bem'``, truth files' provider name) and the FE finger (``'fe'``).
+MODELS = {"halfspace": FingerParams, "fe": FEFingerParams}
+
+
+def finger_model(d) -> str:
+    """``'fe'`` or ``'halfspace'``: the model of a decoded finger mapping."""
+    if isinstance(d, FEFingerParams):
+        return "fe"
+    if isinstance(d, dict) and d.get("model") == "fe":
+        return "fe"
+    return "halfspace"
 
 FINGER_FORMAT = "fingerfriction-finger"
 _VERSION = 1
@@ -74,6 +95,20 @@ def _check_ranges(finger: FingerParams, where: str) -> None:
                              f"more than a fingertip ({2 * FINGER_RANGES['radius'][1]:g} mm)")
 
 
+def _unwrap(d: dict, where: str, fields: str) -> dict:
+    """The finger's fields of a bare or wrapped mapping (format and version checked)."""
+    if "format" not in d:
+        return d
+    if d["format"] != FINGER_FORMAT:
+        raise ValueError(f"{where}: format is {d['format']!r}, expected {FINGER_FORMAT!r}")
+    if d.get("version") != _VERSION:
+        raise ValueError(f"{where}: finger file version {d.get('version')!r} is not supported "
+                         f"(this version reads {_VERSION})")
+    if not isinstance(d.get("finger"), dict):
+        raise ValueError(f"{where}: the field 'finger' must be an object of {fields} fields")
+    return d["finger"]
+
+
 def finger_from_mapping(d, where: str = "finger") -> FingerParams:
     """A :class:`FingerParams` from a bare or wrapped finger mapping (see the module notes).
 
@@ -93,16 +128,10 @@ def finger_from_mapping(d, where: str = "finger") -> FingerParams:
         return d
     if not isinstance(d, dict):
         raise ValueError(f"{where}: a finger must be a JSON object, got {type(d).__name__}")
-    if "format" in d:
-        if d["format"] != FINGER_FORMAT:
-            raise ValueError(f"{where}: format is {d['format']!r}, expected {FINGER_FORMAT!r}")
-        if d.get("version") != _VERSION:
-            raise ValueError(f"{where}: finger file version {d.get('version')!r} is not supported "
-                             f"(this version reads {_VERSION})")
-        if not isinstance(d.get("finger"), dict):
-            raise ValueError(f"{where}: the field 'finger' must be an object of FingerParams fields")
-        d = d["finger"]
-    d = dict(d)
+    if finger_model(d) == "fe":
+        raise ValueError(f"{where}: holds an FE finger (model 'fe'); this needs a half-space finger "
+                         "(the finger files of calibrate-finger)")
+    d = dict(_unwrap(d, where, "FingerParams"))
     model = d.pop("model", None)  # truth/study.json's finger entries carry the provider's name ...
     if model is not None and model not in FINGER_MODELS:
         raise ValueError(f"{where}: model {str(model)[:60]!r} is not a known finger model; known: "
@@ -122,8 +151,31 @@ def finger_from_mapping(d, where: str = "finger") -> FingerParams:
     return finger
 
 
-def read_finger_file(path: str | os.PathLike) -> FingerParams:
-    """Read a finger JSON file (either form of the module notes).
+def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
+    """An :class:`FEFingerParams` from a bare or wrapped FE finger mapping (``"model": "fe"``).
+
+    Raises
+    ------
+    ValueError
+        One line naming ``where`` and the field at fault.
+    """
+    if isinstance(d, FEFingerParams):
+        return d
+    if not isinstance(d, dict):
+        raise ValueError(f"{where}: a finger must be a JSON object, got {type(d).__name__}")
+    if d.get("model") != "fe":
+        raise ValueError(f"{where}: not an FE finger (expected \"model\": \"fe\", got "
+                         f"{d.get('model', 'none')!r}); the FE finger model needs FE finger files")
+    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items() if k not in ("model", "mesh")}
+    try:
+        return FEFingerParams.from_dict(d)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+def read_finger_file(path: str | os.PathLike, model: str = "halfspace"):
+    """Read a finger JSON file (either form of the module notes) of the given ``model``
+    (``'halfspace'``: a :class:`FingerParams`; ``'fe'``: an :class:`FEFingerParams`).
 
     Raises
     ------
@@ -136,8 +188,9 @@ def read_finger_file(path: str | os.PathLike) -> FingerParams:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise ValueError(f"cannot read finger file {str(p)!r}: {exc.strerror or exc}") from None
-    d = parse_json(text, f"finger file {str(p)!r}")
-    return finger_from_mapping(d, where=f"finger file {str(p)!r}")
+    where = f"finger file {str(p)!r}"
+    d = parse_json(text, where)
+    return fe_finger_from_mapping(d, where) if model == "fe" else finger_from_mapping(d, where)
 
 
 def write_finger_file(path: str | os.PathLike, finger: FingerParams, *,
@@ -148,7 +201,7 @@ def write_finger_file(path: str | os.PathLike, finger: FingerParams, *,
     ----------
     path : path-like
         Target file.
-    finger : FingerParams
+    finger : FingerParams or FEFingerParams
     calibration : dict, optional
         JSON-serialisable provenance (kept in the file, ignored by :func:`read_finger_file`).
 
@@ -156,9 +209,11 @@ def write_finger_file(path: str | os.PathLike, finger: FingerParams, *,
     -------
     Path
     """
-    if not isinstance(finger, FingerParams):
-        raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
+    if not isinstance(finger, (FingerParams, FEFingerParams)):
+        raise TypeError(f"finger must be a FingerParams or an FEFingerParams, got {type(finger).__name__}")
     doc = {"format": FINGER_FORMAT, "version": _VERSION, "finger": finger.to_dict()}
+    if isinstance(finger, FEFingerParams):
+        doc = {"format": FINGER_FORMAT, "version": _VERSION, "model": "fe", "finger": finger.to_dict()}
     if calibration is not None:
         doc["calibration"] = calibration
     p = Path(path)
@@ -166,7 +221,7 @@ def write_finger_file(path: str | os.PathLike, finger: FingerParams, *,
     return p
 
 
-def read_subject_fingers(items, option: str = "--finger") -> dict[str, FingerParams] | None:
+def read_subject_fingers(items, option: str = "--finger", model: str = "halfspace") -> dict | None:
     """``['SUBJECT=FILE', ...]`` (a command line's repeated option) -> {subject: finger}.
 
     Returns None for no items; raises ``ValueError`` naming ``option`` and the item, or the
@@ -179,5 +234,5 @@ def read_subject_fingers(items, option: str = "--finger") -> dict[str, FingerPar
         label, sep, path = str(item).partition("=")
         if not sep or not label.strip() or not path.strip():
             raise ValueError(f"{option}: expected SUBJECT=FILE (e.g. 1=finger1.json), got {item!r}")
-        out[label.strip()] = read_finger_file(path.strip())
+        out[label.strip()] = read_finger_file(path.strip(), model=model)
     return out
