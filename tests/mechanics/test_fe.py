@@ -237,7 +237,7 @@ def test_fe_finger_files_round_trip_and_one_line_errors(tmp_path):
     (tmp_path / "bare.json").write_text('{"model": "fe", "tissue_modulus": 0.03}')
     assert read_finger_file(tmp_path / "bare.json", model="fe").tissue_modulus == 0.03
     bad = {
-        "notjson.json": ("{model: fe", "is not JSON"),
+        "notjson.json": ("{model: fe", "not valid JSON"),
         "unknown.json": ('{"model": "fe", "skin_colour": 1}', r"unknown field\(s\) \['skin_colour'\]"),
         "value.json": ('{"model": "fe", "skin_thickness": -1}', "skin_thickness must be a finite positive"),
         "geometry.json": ('{"model": "fe", "pulp_thickness": 0.5}', "must be below pulp_thickness"),
