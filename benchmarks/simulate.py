@@ -12,7 +12,12 @@ Prints, measured in this run:
 * the two lossless video formats on the same rendered frames (bytes/frame, ms/frame),
   and the cost of sensor read noise in bytes/frame;
 * the extrapolated full 180-trial study: frames (from the planned kinematics of all 180
-  trials), CPU time, and wall time on 2 workers (CPU time / 2, assuming two free cores).
+  trials), CPU time, and wall time on 2 workers (CPU time / 2, assuming two free cores);
+* the worlds and chains (issue 20): the same three trials simulated in every world with the
+  realistic chain and in today's default path (load-sharing world, ideal chain), rounds
+  interleaved and the fastest of each kept, CPU per trial and the ratio to the default path
+  (accepted: at most 1.2); and the share of a contact table spent on the worlds' extra
+  integrals.
 """
 
 from __future__ import annotations
@@ -125,9 +130,47 @@ def main() -> None:
         print(f"  on 2 workers ~{cpu_full / 2:.0f} s ({cpu_full / 2 / 60:.1f} min) if both cores are free; "
               f"disk ~{disk / 1e9:.2f} GB")
         print(f"ratio (CPU per frame / reference): {cpf / ref:.3f}")
+        _worlds(table, surf, root)
     finally:
         if not args.keep:
             shutil.rmtree(root, ignore_errors=True)
+
+
+def _worlds(table, surf, root: Path, rounds: int = 2) -> None:
+    """CPU per trial of every world with the realistic chain against today's default path."""
+    from fingerfriction.sim import WORLD_NAMES, SimOptions
+    from fingerfriction.sim.contact import _extra_integrals
+    from fingerfriction.sim.writer import plan_trial, simulate_trial
+
+    paths = [("load-sharing", "ideal")] + [(w, "realistic") for w in WORLD_NAMES]
+    best: dict = {}
+    for r in range(rounds):
+        for w, c in paths:
+            opts = SimOptions(reps=1, subjects=("1",), surfaces=("bump-4mm",), world=w, chain=c)
+            out = root / f"worlds-{w}-{c}-{r}"
+            for spec in opts.trial_specs():
+                plan = plan_trial(spec, opts)
+                t0 = time.process_time()
+                simulate_trial(plan, opts, table, None, out)
+                cpu = time.process_time() - t0
+                key = (w, c, spec.id)
+                best[key] = min(best.get(key, np.inf), cpu)
+    print(f"\nworlds (bump-4mm, subject 1, 3 speeds; CPU per trial, fastest of {rounds} interleaved rounds):")
+    base = np.mean([v for (w, c, _), v in best.items() if (w, c) == paths[0]])
+    for w, c in paths:
+        m = np.mean([v for (ww, cc, _), v in best.items() if (ww, cc) == (w, c)])
+        tag = "  (today's default path)" if (w, c) == paths[0] else ""
+        print(f"  {w:18s} {c:9s} {m:6.2f} s   ratio {m / base:5.3f}{tag}")
+    xi = table.xi
+    X = table.positions[:, None] + xi[None, :]
+    sl = np.asarray(surf.dhdx(X), float)
+    cs = 1.0 / np.sqrt(1.0 + sl * sl)
+    weights = np.stack([np.ones_like(sl), sl * cs, cs, sl * sl * cs, sl * cs])
+    t0 = time.process_time()
+    _extra_integrals(xi, table.y_f[0].astype(float), table.p[0].astype(float), np.asarray(surf.h(X), float),
+                     weights, 0.069)
+    print(f"  extra integrals of one load of the contact table: CPU {time.process_time() - t0:.2f} s "
+          f"(x {table.loads.size} loads, 12 tables per study)")
 
 
 if __name__ == "__main__":

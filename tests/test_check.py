@@ -37,6 +37,11 @@ def _write(root, manifest):
     (root / "manifest.json").write_text(json.dumps(manifest, indent=1))
 
 
+def _results(study):
+    """A results folder beside the study (never inside it)."""
+    return study.with_name(study.name + "-results")
+
+
 def test_a_minimal_manifest_leaves_the_rest_to_the_files(tmp_path):
     """No surfaces block, no repetition, no calibration, no frame or sample counts: the
     built-in surface name, the defaults and the files answer."""
@@ -79,25 +84,25 @@ def test_check_lists_five_mistakes_in_three_trials_at_once(tmp_path):
     assert "5 problem(s): 0 of 3 trials are fine, 3 have problems" in text
     # the manifest mistakes alone make analyze refuse to start, listing them all
     with pytest.raises(StudyCheckError) as ei:
-        plan_analysis(tmp_path, tmp_path / "results")
+        plan_analysis(tmp_path, _results(tmp_path))
     assert len(ei.value.problems) == 3
-    r = runner.invoke(app, ["analyze", str(tmp_path), "--out", str(tmp_path / "results")])
+    r = runner.invoke(app, ["analyze", str(tmp_path), "--out", str(_results(tmp_path))])
     assert r.exit_code == 2 and "3 problem(s) in the manifest; nothing was run" in " ".join(r.output.split())
-    assert "trials[1].surface" in r.output and not (tmp_path / "results").exists()
+    assert "trials[1].surface" in r.output and not (_results(tmp_path)).exists()
 
 
 def test_analyze_fails_a_trial_whose_recording_does_not_match_and_records_why(tmp_path):
     m = _small_study(tmp_path, n=1)
     m["trials"][0]["video"]["n_frames"] = 600
     _write(tmp_path, m)
-    res = analyze(tmp_path, tmp_path / "results", progress=False)
+    res = analyze(tmp_path, _results(tmp_path), progress=False)
     assert (res.n_computed, res.n_failed) == (0, 1)
     reason = res.failures[0][1]
     assert reason.startswith("check: raw/t0.cine: trials[0].video.n_frames: the manifest says 600, "
                              "the file has 6")
-    status = json.loads((tmp_path / "results" / "trials" / "t0" / "status.json").read_text())
+    status = json.loads((_results(tmp_path) / "trials" / "t0" / "status.json").read_text())
     assert status["status"] == "failed" and status["reason"] == reason
-    plan = plan_analysis(tmp_path, tmp_path / "results")
+    plan = plan_analysis(tmp_path, _results(tmp_path))
     assert [(p.trial_id, p.action, p.reason) for p in plan.trials] == [("t0", "compute", "failed before")]
 
 

@@ -23,7 +23,8 @@ def test_analyze_missing_study_is_one_line_error(tmp_path):
 
 def test_analyze_bad_window_is_one_line_error(tmp_path):
     r = runner.invoke(app, ["analyze", str(tmp_path), "--out", str(tmp_path / "out"), "--window-mm", "-3"])
-    assert r.exit_code == 2 and "window_mm" in r.output and "Traceback" not in r.output
+    assert r.exit_code == 2 and "--window-mm must be in [1, 100] mm" in r.output
+    assert "Traceback" not in r.output
 
 
 def test_fit_and_report_on_a_results_folder(tmp_path):

@@ -144,16 +144,16 @@ def test_init_command_refusals_and_skip_bad(lab):
     assert code == 2 and "raw/S2_bump-2mm_40mms_1.cine" in out
     assert "1 of 3 trials have problems (listed above); fix them, or give --skip-bad to write the 2 " in out
     assert not (lab / "manifest.json").exists()
-    code, out = run("--skip-bad", "--dry-run")
-    assert code == 0 and "would hold 2 trials (1 with problems left out); nothing was written" in out
+    code, out = run("--skip-bad", "--dry-run")  # a trial left out: status 1
+    assert code == 1 and "would hold 2 trials (1 with problems left out); nothing was written" in out
     assert not (lab / "manifest.json").exists()
     code, out = run("--skip-bad")
-    assert code == 0 and "manifest.json: 2 trials (1 with problems left out)" in out, out
+    assert code == 1 and "manifest.json: 2 trials (1 with problems left out)" in out, out
     assert len(json.loads((lab / "manifest.json").read_text())["trials"]) == 2
     code, out = run("--skip-bad")
     assert code == 2 and "manifest.json exists; give --overwrite to replace it" in out
     code, out = run("--skip-bad", "--overwrite")
-    assert code == 0
+    assert code == 1
     r = runner.invoke(app, ["init", str(lab), "--video", "raw/{subject}_{surface}_{speed}.avi",
                             "--forces", F])
     assert r.exit_code == 2 and "different fields" in " ".join(r.output.split())

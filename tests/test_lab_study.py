@@ -132,7 +132,16 @@ def test_edits_recompute_only_what_changed(analysed, tmp_path):
     assert f"{m['trials'][5]['id']}: compute (manifest entry changed: calibration.surface_height_mm)" in out
 
     (mine / "manifest.json").write_text(json.dumps(json.loads((study / "manifest.json").read_text())))
-    os.utime(mine / m["trials"][2]["force"]["path"], ns=(1, 1))  # touched: a new modification time
+    edited_file = mine / m["trials"][2]["force"]["path"]  # edited in place, its times kept
+    st, data = edited_file.stat(), edited_file.read_bytes()
+    edited_file.unlink()  # (a hard link shared with the lab folder: a new file, not an edit of both)
+    if edited_file.suffix == ".csv":  # the last digit of the file, one more (or less)
+        i = max(k for k in range(len(data)) if data[k:k + 1].isdigit())
+        data = data[:i] + (b"8" if data[i:i + 1] == b"9" else bytes([data[i] + 1])) + data[i + 1:]
+    else:  # TDMS: the lowest bit of the last sample (of the unused trigger channel)
+        data = data[:-8] + bytes([data[-8] ^ 1]) + data[-7:]
+    edited_file.write_bytes(data)
+    os.utime(edited_file, ns=(st.st_atime_ns, st.st_mtime_ns))
     code, out = _run("analyze", mine, "--out", results, "--dry-run", "--window-mm", 24)
     assert code == 0 and "would compute 8 and skip 0 of 8 trials" in out, out
     assert out.count("parameters changed: forces.window_mm") == 8

@@ -23,7 +23,7 @@ LAYERS = [
     ("study data", ["study", "study.manifest", "study.store"]),
     ("experiment and prediction", ["sim", "predict", "testing"]),
     ("one trial", ["study.params", "study.trial"]),
-    ("pipeline", ["study.analyze", "study.fitting", "study.selfcheck", "render"]),
+    ("pipeline", ["study.plan", "study.analyze", "study.fitting", "study.selfcheck", "render"]),
     ("report", ["report"]),
     ("demo", ["demo"]),
     ("entry points and deprecated aliases", ["cli", "pipeline", "results", "synthetic"]),

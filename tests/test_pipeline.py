@@ -324,15 +324,24 @@ def test_interrupted_run_resumes_without_loss_or_recomputation(tiny_study, tmp_p
     again = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM)
     assert again.n_computed == 0 and again.n_skipped == len(ids) and again.scheduler == "none"
     assert not store.is_finished(ids[0], "digest of other parameters")
-    # an input file that changed since (size or modification time) is analysed again
+    # an input file touched (a new modification time, the same bytes) is not a change; one
+    # edited in place, its modification time kept, is analysed again (the content decides)
     t0 = json.loads((tiny_study / "manifest.json").read_text())["trials"][0]
     force_file = tiny_study / t0["force"]["path"]
-    st = force_file.stat()
+    st, original = force_file.stat(), force_file.read_bytes()
     try:
         os.utime(force_file, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+        touched = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM)
+        assert touched.n_computed == 0 and touched.n_skipped == len(ids)
+        with np.load(force_file) as z:
+            arrays = {k: z[k].copy() for k in z.files}
+        arrays["F1"][100] += 1e-6
+        np.savez(force_file, **arrays)
+        os.utime(force_file, ns=(st.st_atime_ns, st.st_mtime_ns))
         seen = []
         changed = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM, callback=seen.append)
     finally:
+        force_file.write_bytes(original)
         os.utime(force_file, ns=(st.st_atime_ns, st.st_mtime_ns))
     assert changed.n_computed == 1 and changed.n_skipped == len(ids) - 1
     assert [o.trial_id for o in seen if o.status == "ok"] == [t0["id"]]

@@ -158,4 +158,4 @@ def test_cli_render(tmp_path):
     assert (tmp_path / "t.csv").exists() and (tmp_path / "cmd.wav.json").exists()
     bad = CliRunner().invoke(app, ["render", "--surface", SPEC, "--subject", "1", "--params", str(pfile),
                                    "--speed", "0", "--out", str(wav), "--step", "0.1"])
-    assert bad.exit_code == 2 and "speed must be a positive number" in bad.output
+    assert bad.exit_code == 2 and "--speed must be in [0.1, 10000] mm/s" in bad.output

@@ -17,7 +17,7 @@ import math
 import warnings
 from collections.abc import Iterable
 
-__all__ = ["positive", "interval", "check_fs", "check_freq", "check_option"]
+__all__ = ["positive", "interval", "check_fs", "check_freq", "check_option", "parse_json", "MAX_JSON_DEPTH"]
 
 
 def positive(name: str, value, unit: str, *, what: str = "number") -> float:
@@ -136,3 +136,42 @@ def check_option(name: str, value, allowed: Iterable) -> object:
     if value not in allowed:
         raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
     return value
+
+
+#: The deepest nesting accepted in a JSON file the package reads (a manifest is 4 deep).
+MAX_JSON_DEPTH = 64
+#: The largest JSON file the package reads, in bytes (a manifest of 100 000 trials is ~60 MB).
+MAX_JSON_BYTES = 256 * 2**20
+
+
+def parse_json(text: str | bytes, what: str):
+    """JSON text parsed, or a one-line ValueError naming ``what`` (a file).
+
+    Beyond :func:`json.loads`' own errors: text over :data:`MAX_JSON_BYTES`, nesting deeper
+    than :data:`MAX_JSON_DEPTH` (Python's parser would raise RecursionError), an integer
+    of thousands of digits (Python refuses to convert it) are all refused with a message.
+    """
+    import json  # small; kept beside its one use
+
+    if len(text) > MAX_JSON_BYTES:
+        raise ValueError(f"{what}: {len(text)} bytes, more than the {MAX_JSON_BYTES} a JSON file may have")
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{what}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") \
+            from None
+    except RecursionError:
+        raise ValueError(f"{what}: nested too deeply (more than {MAX_JSON_DEPTH} levels are not read)") \
+            from None
+    except ValueError as exc:  # e.g. "Exceeds the limit (4300 digits) for integer string conversion"
+        raise ValueError(f"{what}: not valid JSON ({' '.join(str(exc).split())})") from None
+    stack = [(obj, 1)]
+    while stack:  # the nesting of what was read: code that walks it recursively stays safe
+        node, depth = stack.pop()
+        if depth > MAX_JSON_DEPTH:
+            raise ValueError(f"{what}: nested more than {MAX_JSON_DEPTH} levels deep")
+        if isinstance(node, dict):
+            stack.extend((v, depth + 1) for v in node.values() if isinstance(v, (dict, list)))
+        elif isinstance(node, list):
+            stack.extend((v, depth + 1) for v in node if isinstance(v, (dict, list)))
+    return obj

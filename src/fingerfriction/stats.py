@@ -169,8 +169,8 @@ def correlation_table(fits, *, alpha: float = 0.01, n_boot: int | None = 1000, l
     pandas.DataFrame
         Long format, one row per condition, columns ``subject, scale, shape, rho, rho_lo,
         rho_hi, p, significant, n_trials, n_samples`` (a trial fit with fewer than 3
-        compared samples, a failed one, is left out; a condition without any: NaN); subjects in sorted order then "Both
-        subjects", scales and shapes in the paper's order.
+        compared samples, a failed one, is left out; a condition without any: NaN); subjects
+        in sorted order then "Both subjects", scales and shapes in the paper's order.
     """
     trial_fits = _flatten(fits)
     groups: dict[tuple[str, str, str], list] = {}

@@ -40,6 +40,20 @@ __all__ = [
 Shape = Literal["bump", "step-up", "step-down"]
 _SHAPES = ("bump", "step-up", "step-down")
 
+#: Physical ranges of a relief under a fingertip (checked for every surface made, from a
+#: spec, a manifest, a CSV profile): a feature 0.05 mm (two pixels of the paper's camera)
+#: to 50 mm wide (twice the 26 mm window the forces are analysed on), up to 10 mm high,
+#: centred within 50 mm of the origin, slopes below 80 degrees (the finger cannot follow a
+#: steeper wall); a sampled profile spans at most 200 mm in at most 1e6 samples, heights
+#: within +-20 mm.
+WIDTH_RANGE_MM = (0.05, 50.0)
+MAX_HEIGHT_MM = 10.0
+MAX_CENTER_MM = 50.0
+MAX_SLOPE_RAD = math.radians(80.0)
+MAX_PROFILE_SPAN_MM = 200.0
+MAX_PROFILE_POINTS = 1_000_000
+MAX_PROFILE_HEIGHT_MM = 20.0
+
 
 class Surface:
     """Base class of a relief profile ``h(x)`` in mm.
@@ -115,6 +129,21 @@ class RaisedCosine(Surface):
         c = float(self.center)
         if not math.isfinite(c):
             raise ValueError(f"center must be a finite position in mm, got {self.center!r}")
+        lo, hi = WIDTH_RANGE_MM
+        if not lo <= w <= hi:
+            raise ValueError(f"width W = {w:g} mm is outside the physical range [{lo:g}, {hi:g}] mm of a "
+                             "relief feature under a fingertip (WIDTH_RANGE_MM)")
+        if h > MAX_HEIGHT_MM:
+            raise ValueError(f"height H = {h:g} mm is above the {MAX_HEIGHT_MM:g} mm a relief feature under "
+                             "a fingertip may have (MAX_HEIGHT_MM)")
+        if abs(c) > MAX_CENTER_MM:
+            raise ValueError(f"center C = {c:g} mm is more than {MAX_CENTER_MM:g} mm from the origin "
+                             "(MAX_CENTER_MM)")
+        slope = math.atan((math.pi if self.shape == "bump" else math.pi / 2) * h / w)
+        if slope > MAX_SLOPE_RAD:
+            raise ValueError(f"a {self.shape} of W = {w:g} mm and H = {h:g} mm rises at "
+                             f"{math.degrees(slope):.1f} degrees, steeper than the "
+                             f"{math.degrees(MAX_SLOPE_RAD):.0f} degrees a finger can follow (MAX_SLOPE_RAD)")
         object.__setattr__(self, "width", w)
         object.__setattr__(self, "height", h)
         object.__setattr__(self, "center", c)
@@ -234,6 +263,14 @@ class SampledProfile(Surface):
                 f"profile x must be strictly increasing; x[{i}]={float(x[i])!r} "
                 f"is followed by x[{i + 1}]={float(x[i + 1])!r}"
             )
+        if x.size > MAX_PROFILE_POINTS:
+            raise ValueError(f"a sampled profile may have at most {MAX_PROFILE_POINTS} points, got {x.size}")
+        span, h_max, x_max = x[-1] - x[0], np.abs(h).max(), np.abs(x).max()
+        if span > MAX_PROFILE_SPAN_MM or x_max > MAX_PROFILE_SPAN_MM or h_max > MAX_PROFILE_HEIGHT_MM:
+            lim, hlim = MAX_PROFILE_SPAN_MM, MAX_PROFILE_HEIGHT_MM
+            raise ValueError(f"a profile may span {lim:g} mm within +-{lim:g} mm, heights within +-{hlim:g} "
+                             f"mm; got a span of {span:g}, |x| up to {x_max:g}, |h| up to {h_max:g} "
+                             "(positions and heights in mm?)")
         lam = float(self.smoothing)
         if not math.isfinite(lam) or lam < 0:
             raise ValueError(f"smoothing must be >= 0, got {self.smoothing!r}")
@@ -356,12 +393,16 @@ def get_surface(name: str) -> RaisedCosine:
     return RaisedCosine(shape, float(width.removesuffix("mm")), name=name)  # type: ignore[arg-type]
 
 
-def surface_from_spec(spec) -> Surface:
+def surface_from_spec(spec, *, files: bool = True) -> Surface:
     """A surface from a name, a parametric spec string, a CSV path, or a dict.
 
     Accepted forms: a paper surface name (``'bump-4mm'``); a parametric raised-cosine
     feature ``'bump:W=3,H=0.5'`` (shape, width and optional height in mm); a path to a
-    two-column CSV profile; a dict as written by ``Surface.to_dict``.
+    two-column CSV profile; a dict as written by ``Surface.to_dict``. Every surface is
+    checked against the physical ranges above (:data:`WIDTH_RANGE_MM`...).
+
+    ``files=False``: a string is a name or a spec, never a file (a study's manifest
+    names no file outside the study through a surface).
     """
     if isinstance(spec, Surface):
         return spec
@@ -383,7 +424,7 @@ def surface_from_spec(spec) -> Surface:
     s = os.fspath(spec)
     if s in SURFACE_NAMES:
         return get_surface(s)
-    if ":" in s and not os.path.exists(s):
+    if ":" in s and not (files and os.path.exists(s)):
         shape, _, params = s.partition(":")
         kv: dict[str, float] = {}
         for part in params.split(","):
@@ -400,7 +441,7 @@ def surface_from_spec(spec) -> Surface:
         if "W" not in kv:
             raise ValueError(f"surface spec {s!r} needs a width W=<mm>")
         return RaisedCosine(shape.strip(), kv["W"], kv.get("H"), kv.get("C", 0.0))  # type: ignore[arg-type]
-    if s.lower().endswith(".csv") or os.path.exists(s):
+    if files and (s.lower().endswith(".csv") or os.path.exists(s)):
         return load_profile_csv(s)
     raise ValueError(
         f"unknown surface {s!r}; give one of {', '.join(SURFACE_NAMES)}, "

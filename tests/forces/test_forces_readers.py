@@ -210,7 +210,8 @@ def test_tdms_rate_in_file_contradicts_manifest(tmp_path, channels):
 def test_tdms_ambiguous_channel_name(tmp_path, channels):
     p = tmp_path / "forces.tdms"
     _write_tdms(p, *channels, second_group=True)
-    with pytest.raises(ForceFileError, match=r"2 channel named 'Dev1_ai0'.*'group/channel'"):
+    with pytest.raises(ForceFileError, match=r"channel name 'Dev1_ai0' \(channel F1\) is ambiguous.*"
+                       r"2 channels answer to it, in groups \['Other', 'Piezo'\]; give 'group/channel'"):
         read_force_file(p, fs_hz=FS, channels={"F1": "Dev1_ai0", "F2": "Dev1_ai1"})
     rec = read_force_file(p, fs_hz=FS, channels={"F1": "Piezo/Dev1_ai0", "F2": "Dev1_ai1"})
     np.testing.assert_array_equal(rec.f1, channels[0])

@@ -226,3 +226,30 @@ def test_bad_mesh_and_load():
         s.solve(_flat, 0.0, load=-0.3)
     with pytest.raises(TypeError, match="finger must be an FEFingerParams"):
         FEContactSolver(FingerParams(radius=8, modulus=0.1, width=10))
+
+
+def test_fe_finger_files_round_trip_and_one_line_errors(tmp_path):
+    from fingerfriction.mechanics.finger_file import read_finger_file, write_finger_file
+
+    f = dataclasses.replace(LITERATURE_FINGER, skin_modulus=0.3, name="mine")
+    p = write_finger_file(tmp_path / "fe.json", f, calibration={"by": "hand"})
+    assert read_finger_file(p, model="fe") == f
+    (tmp_path / "bare.json").write_text('{"model": "fe", "tissue_modulus": 0.03}')
+    assert read_finger_file(tmp_path / "bare.json", model="fe").tissue_modulus == 0.03
+    bad = {
+        "notjson.json": ("{model: fe", "not valid JSON"),
+        "unknown.json": ('{"model": "fe", "skin_colour": 1}', r"unknown field\(s\) \['skin_colour'\]"),
+        "value.json": ('{"model": "fe", "skin_thickness": -1}', "skin_thickness must be a finite positive"),
+        "geometry.json": ('{"model": "fe", "pulp_thickness": 0.5}', "must be below pulp_thickness"),
+        "halfspace.json": ('{"radius": 8, "modulus": 0.1, "width": 10}', "not an FE finger"),
+        "version.json": ('{"format": "fingerfriction-finger", "version": 9, "model": "fe", "finger": {}}',
+                         "version 9 is not supported"),
+    }
+    for name, (text, match) in bad.items():
+        (tmp_path / name).write_text(text)
+        with pytest.raises(ValueError, match=match) as e:
+            read_finger_file(tmp_path / name, model="fe")
+        assert "\n" not in str(e.value) and name in str(e.value)
+    # an FE file where a half-space finger is needed
+    with pytest.raises(ValueError, match="holds an FE finger"):
+        read_finger_file(p)

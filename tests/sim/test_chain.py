@@ -117,7 +117,7 @@ def test_motor_noise_grows_with_speed():
     k = KinematicsParams()
     ch = RealisticChain()
     slow, fast = (speed_scaled_kinematics(k, v, ch) for v in (40.0, 120.0))
-    assert fast.force_sd / slow.force_sd == pytest.approx(math.sqrt(3.0))
+    assert fast.force_sd / slow.force_sd == pytest.approx(3.0)  # proportional to speed
     assert fast.speed_sd > k.speed_sd > slow.speed_sd
 
 
@@ -155,3 +155,23 @@ def test_normal_force_follows_the_relief_through_the_control_loop():
     later = i_top + int(FS / (2 * np.pi * 3.0))  # one time constant later
     assert (f_n[later] - 0.3) / (f_n[i_top] - 0.3) == pytest.approx(math.exp(-1), rel=0.05)
     np.testing.assert_allclose(f_n[x < -2.0], 0.3)  # flat ground before the step: no change
+
+
+def test_the_labs_calibration_leaves_only_its_error_of_the_crosstalk():
+    quiet = SensorParams(drift_offset_n=0, drift_rate_n_per_s=0, mains_n=(0, 0, 0), noise_n=0)
+    n = 500
+    fn, ft = np.full(n, 0.3), np.full(n, 0.165)
+    M = np.array([[1.0, -0.033], [0.033, 1.0]])
+    exact = ChainDraws(np.zeros((2, 2)), M, np.zeros((2, n)), calibration=M)
+    f1, f2 = apply_sensor(fn, ft, np.random.default_rng(0), quiet, chain=exact)
+    fn2, ft2 = from_channels(f1, f2)
+    assert np.max(np.abs(ft2 / fn2 - 0.55)) < 1e-3  # only the quantisation is left
+    raw = ChainDraws(np.zeros((2, 2)), M, np.zeros((2, n)))
+    fn3, ft3 = from_channels(*apply_sensor(fn, ft, np.random.default_rng(0), quiet, chain=raw))
+    assert np.mean(ft3 / fn3) == pytest.approx((0.55 - 0.033) / (1 + 0.55 * 0.033), rel=1e-3)  # -7.7 %
+    d = draw_device(3, RealisticChain())
+    for i, j in ((0, 1), (1, 0)):
+        assert abs(d["calibration"][i][j] / d["crosstalk"][i][j] - 1) <= 0.3  # 10 % error, clipped at 3 SD
+    assert "calibration" not in draw_device(3, RealisticChain(crosstalk_calibration=None))
+    # the option does not change the device's other draws
+    assert draw_device(3, RealisticChain(crosstalk_calibration=None))["crosstalk"] == d["crosstalk"]

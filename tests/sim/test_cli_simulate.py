@@ -21,7 +21,7 @@ def test_option_mistakes_are_one_line_errors(tmp_path):
     out = tmp_path / "o"
     for args, msg in [
         (["--surfaces", "bumpy"], "unknown surface 'bumpy'"),
-        (["--speeds", "40,-3"], "positive speed"),
+        (["--speeds", "40,-3"], "--speeds must be in [1, 1000] mm/s, got -3"),
         (["--speeds", "fast"], "not a number"),
         (["--subjects", "7"], "unknown subject"),
         (["--reps", "0"], "reps must be"),

@@ -84,7 +84,7 @@ def test_finger_file_round_trip_and_errors(tmp_path):
     (tmp_path / "bare.json").write_text(f.to_json())
     assert read_finger_file(tmp_path / "bare.json") == f
     (tmp_path / "bad.json").write_text("{radius: 3")
-    with pytest.raises(ValueError, match=r"finger file '.*bad.json' is not JSON"):
+    with pytest.raises(ValueError, match=r"finger file '.*bad.json': not valid JSON"):
         read_finger_file(tmp_path / "bad.json")
     (tmp_path / "neg.json").write_text(json.dumps({"radius": 20, "modulus": -1, "width": 10}))
     with pytest.raises(ValueError, match=r"neg.json'.*modulus must be a finite positive"):
@@ -117,7 +117,7 @@ def test_cli_finger_options(tmp_path):
         (["--finger", "1"], "expected SUBJECT=FILE"),
         (["--finger", f"1={tmp_path / 'nope.json'}"], "cannot read finger file"),
         (["--finger", f"5={tmp_path / 'f1.json'}"], "subject '5' is not simulated"),
-        (["--finger-seed", "-2"], "finger_seed must be"),
+        (["--finger-seed", "-2"], "--finger-seed must be in [0, "),
     ]:
         r = CliRunner().invoke(app, ["simulate", "--out", str(out), *args])
         assert r.exit_code == 2, (args, r.output)

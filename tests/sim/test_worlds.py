@@ -107,11 +107,12 @@ def test_constant_pressure_draws_p1_per_trial(tables):
 def test_interlocking_pushes_back_on_rising_ground_and_gives_little_on_falling(tables):
     """Mirror geometries: the step up at x and the step down at -x put the same pressure on
     slopes of opposite sign; the deformation force is (1 + psi_up) times the elastic push
-    there, and (1 - psi_down) of the forward push here."""
+    there, and down_return of the forward push here."""
     up = QUIET.trial_forces(tables["step-up-4mm"], _motion([-1.0]), "1", np.random.default_rng(0))
     down = QUIET.trial_forces(tables["step-down-4mm"], _motion([1.0]), "1", np.random.default_rng(0))
     assert up.f_def[0] > 0 > down.f_def[0]
-    assert up.f_def[0] / -down.f_def[0] == pytest.approx((1 + QUIET.psi_up) / (1 - QUIET.psi_down), rel=1e-6)
+    ratio = (1 + QUIET.psi_up) / QUIET.down_return
+    assert up.f_def[0] / -down.f_def[0] == pytest.approx(ratio, rel=1e-6)
     # the interfacial part is the Coulomb shear alone: nearly mu F_N on both
     assert up.f_int[0] == pytest.approx(down.f_int[0], rel=1e-9)
     assert up.f_int[0] == pytest.approx(0.55 * 0.3, rel=0.05)
@@ -148,8 +149,8 @@ def test_world_names_and_errors():
         SimOptions(chain="perfect")
     with pytest.raises(ValueError, match="p1_sd must be <= 0.3"):
         ConstantPressure(p1_sd=0.5)
-    with pytest.raises(ValueError, match="psi_down must be in"):
-        Interlocking(psi_down=1.5)
+    with pytest.raises(ValueError, match="down_return must be in"):
+        Interlocking(down_return=1.5)
 
 
 def test_options_round_trip_with_world_and_chain():

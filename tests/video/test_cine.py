@@ -76,3 +76,58 @@ def test_bad_cine_files_name_the_file(tmp_path):
     p.write_bytes(bytes(raw))
     with pytest.raises(ValueError, match="only uncompressed gray"):
         open_video(p)
+
+
+# --- real files written by Phantom cameras (tests/data/README.md) --------------------------
+
+REAL = __import__("pathlib").Path(__file__).resolve().parents[1] / "data" / "cine"
+
+
+def _all_frames(path):
+    with open_video(path) as r:
+        return r, np.concatenate([c.copy() for _, c in r.iter_chunks(64)])
+
+
+def _as_function(src: np.ndarray, dst: np.ndarray) -> dict:
+    """{value in src: value in dst}, asserting each src value maps to one dst value."""
+    out: dict = {}
+    for a, b in zip(src.ravel().tolist(), dst.ravel().tolist(), strict=True):
+        assert out.setdefault(a, b) == b, f"pixel value {a} exported as both {out[a]} and {b}"
+    return out
+
+
+@pytest.mark.parametrize("name,bits", [("8bpp", 8), ("12bpp", 12)])
+def test_phantom_files_pixel_for_pixel_with_phantoms_tiff_export(name, bits):
+    """Frame 0 against Phantom Camera Control's own TIFF export of it: the export is a
+    16-bit image after PCC's black offset, so every pixel of a given value in our frame
+    must be exported as one and the same value (rows in the same order: the file is stored
+    bottom-up), increasing with it; at 8 bit the export is exactly ``max(v - 5, 0) * 256``."""
+    import tifffile
+
+    r, frames = _all_frames(REAL / f"{name}.cine")
+    assert frames.shape == (202, 16, 128) and r.fps == 10_000.0 and not r.truncated
+    assert r.dtype == (np.uint8 if bits == 8 else np.uint16) and r.header.real_bpp == bits
+    export = tifffile.imread(REAL / f"{name}.tif").astype(np.int64)
+    ours = frames[0].astype(np.int64)
+    lut = _as_function(ours, export)
+    values = sorted(lut)
+    assert np.all(np.diff([lut[v] for v in values]) >= 0) and len(values) > 20
+    if bits == 8:
+        np.testing.assert_array_equal(export, np.maximum(ours - 5, 0) * 256)
+    with pytest.raises(AssertionError):  # a reader that flipped the rows would not agree
+        _as_function(ours[::-1], export)
+
+
+def test_phantom_8_and_12_bit_recordings_of_one_scene_agree():
+    """The 8- and 12-bit files hold the same 202 frames: the 8-bit pixels are the 12-bit
+    ones without their 4 low bits, in every pixel of every frame."""
+    _, f8 = _all_frames(REAL / "8bpp.cine")
+    _, f12 = _all_frames(REAL / "12bpp.cine")
+    np.testing.assert_array_equal(f8.astype(np.int64), f12.astype(np.int64) >> 4)
+
+
+def test_packed_10_bit_phantom_file_is_refused_with_a_clear_message():
+    with pytest.raises(ValueError, match=r"packed_10.cine: not a readable Phantom cine file: "
+                                         r"biCompression=256 \(packed 10/12-bit pixels\); .*"
+                                         r"save the cine unpacked"):
+        open_video(REAL / "packed_10.cine")

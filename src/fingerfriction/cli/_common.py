@@ -14,18 +14,62 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+#: Exit statuses, the same for every command (README, "Exit status"): 0 when everything
+#: asked for is done and every trial is ok; 1 when some trials failed (or their inputs
+#: are missing: results kept) while the rest was done, its output written and a summary
+#: printed; 2 for a usage or input error (a bad option, an unreadable study, a results
+#: folder in use...): nothing, or nothing more, was done.
+EXIT_OK, EXIT_SOME_FAILED, EXIT_ERROR = 0, 1, 2
+
+
 def fail(message: str) -> None:
-    """Print a one-line error and exit with status 2."""
-    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
-    raise typer.Exit(2)
+    """Print a one-line error and exit with status 2 (:data:`EXIT_ERROR`)."""
+    text = " ".join(str(message).split())
+    err_console.print(f"[bold red]error:[/] {escape(text)}", highlight=False, soft_wrap=True)
+    raise typer.Exit(EXIT_ERROR)
 
 
-def read_fingers(path: str | None = None, items: list[str] | None = None):
-    """``--finger FILE`` (a finger) or ``--finger SUBJECT=FILE`` items (a dict), one-line errors."""
+def bounded(lo: float, hi: float, unit: str = ""):
+    """A typer option callback that keeps the option's value (when given) in ``[lo, hi]``:
+    every size, step and count a user gives has a bound, and a value outside it is a
+    one-line error naming the option (exit status 2). NaN is outside every range."""
+    def check(param: typer.CallbackParam, value):
+        if value is None:
+            return value
+        values = value if isinstance(value, (list, tuple)) else [value]
+        for v in values:
+            if not lo <= v <= hi:
+                name = param.opts[0] if param.opts else param.name
+                fail(f"{name} must be in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}, got {v!r}")
+        return value
+
+    check.bounds = (lo, hi, unit)
+    return check
+
+
+#: Bounds shared by several commands.
+SEED = bounded(0, 2**32 - 1)
+WORKERS = bounded(1, 256, "workers")
+STEP_MM = bounded(0.001, 1.0, "mm")
+LOAD_N = bounded(0.001, 10.0, "N")
+SUBJECT = bounded(1, 99)
+
+
+def finish(all_ok: bool) -> None:
+    """End a command that ran: exit status 0 if ``all_ok``, else 1 (:data:`EXIT_SOME_FAILED`)."""
+    if not all_ok:
+        raise typer.Exit(EXIT_SOME_FAILED)
+
+
+def read_fingers(path: str | None = None, items: list[str] | None = None, model: str = "halfspace"):
+    """``--finger FILE`` (a finger) or ``--finger SUBJECT=FILE`` items (a dict), one-line errors;
+    ``model='fe'`` reads FE finger files."""
     from ..mechanics import finger_file  # small, but only when --finger is given
 
     try:
-        return finger_file.read_subject_fingers(items) if path is None else finger_file.read_finger_file(path)
+        if path is None:
+            return finger_file.read_subject_fingers(items, model=model)
+        return finger_file.read_finger_file(path, model=model)
     except ValueError as exc:
         fail(str(exc))
 

@@ -14,16 +14,18 @@ from rich.table import Table
 
 from .._outputs import check_output_dir, output_dir, output_file
 from ..surfaces import surface_from_spec
-from ._common import console, csv_list, fail, read_fingers
+from ._common import LOAD_N, SEED, STEP_MM, SUBJECT, bounded, console, csv_list, fail, finish, read_fingers
 
 
 def predict_contact(
     surface: str = typer.Option(
         ..., "--surface", help="Paper surface name (bump-4mm ...), spec 'bump:W=3,H=0.5' or x,h CSV (mm)."
     ),
-    subject: int = typer.Option(1, "--subject", help="Calibrated finger of subject 1 or 2."),
-    load: float = typer.Option(0.3, "--load", help="Normal force in N."),
-    step: float = typer.Option(0.01, "--step", help="Finger position step in mm over the 26 mm window."),
+    subject: int = typer.Option(1, "--subject", help="Calibrated finger of subject 1 or 2.",
+                                callback=SUBJECT),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N.", callback=LOAD_N),
+    step: float = typer.Option(0.01, "--step", help="Finger position step in mm over the 26 mm window.",
+                               callback=STEP_MM),
     kind: str = typer.Option(
         "geometric", "--kind", help="Contact definition: geometric (gap <= 70 um) or mechanical."
     ),
@@ -88,13 +90,14 @@ PREDICTION_FILES = {"forces.csv", "regions.csv", "occupancy.csv", "blind_spots.c
 
 def predict_cmd(
     surface: str = typer.Option(..., "--surface", help="Name (bump-4mm), spec (bump:W=3,H=0.5) or CSV."),
-    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger)."),
+    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2 (calibrated forward-model finger).",
+                                callback=SUBJECT),
     params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
     model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
     out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files "
                             "(created if missing)."),
-    load: float = typer.Option(0.3, "--load", help="Normal force in N."),
-    step: float = typer.Option(0.01, "--step", help="Finger step in mm."),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N.", callback=LOAD_N),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm.", callback=STEP_MM),
     contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
     finger_path: str = typer.Option(
@@ -131,18 +134,23 @@ def predict_cmd(
 
 def render_cmd(
     surface: str = typer.Option(..., "--surface", help="Paper surface name, spec or CSV profile."),
-    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2."),
+    subject: int = typer.Option(..., "--subject", help="Subject 1 or 2.", callback=SUBJECT),
     out: str = typer.Option(..., "--out", help="Command signal file: .wav (float32) or .csv."),
     params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
     model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
-    speed: float = typer.Option(80.0, "--speed", help="Sliding speed in mm/s."),
-    rate: float = typer.Option(2000.0, "--rate", help="Display update rate in Hz."),
-    normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N."),
-    load: float = typer.Option(0.3, "--load", help="Normal force in N of the prediction."),
-    mu_min: float = typer.Option(0.0, "--mu-min", help="Lowest mu the display can produce."),
-    mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce."),
+    speed: float = typer.Option(80.0, "--speed", help="Sliding speed in mm/s.",
+                                callback=bounded(0.1, 10_000.0, "mm/s")),
+    rate: float = typer.Option(2000.0, "--rate", help="Display update rate in Hz.",
+                               callback=bounded(1.0, 1e6, "Hz")),
+    normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N.",
+                                       callback=LOAD_N),
+    load: float = typer.Option(0.3, "--load", help="Normal force in N of the prediction.", callback=LOAD_N),
+    mu_min: float = typer.Option(0.0, "--mu-min", help="Lowest mu the display can produce.",
+                                 callback=bounded(0.0, 100.0)),
+    mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce.",
+                                 callback=bounded(0.0, 100.0)),
     table: str = typer.Option(None, "--table", help="Also write the table CSV (x_mm, F_T_N, mu_cmd)."),
-    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction.", callback=STEP_MM),
     finger_path: str = typer.Option(
         None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
     ),
@@ -176,7 +184,8 @@ def render_cmd(
 def validate_cmd(
     results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
     out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
-    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps."),
+    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps.",
+                               callback=STEP_MM),
     finger: Annotated[
         list[str] | None,
         typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger); repeat."),
@@ -213,6 +222,7 @@ def validate_cmd(
                   f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}",
                   *([f"{r.rho_out_of_sample_calibrated_finger:.2f}"] if cal else []))
     console.print(t)
+    finish(not (held and held.errors))  # a held-out surface without its calibrated finger: status 1
 
 
 def calibrate_finger_cmd(
@@ -221,10 +231,11 @@ def calibrate_finger_cmd(
     out: str = typer.Option(None, "--out", help="Finger JSON to write (default finger-s<SUBJECT>.json)."),
     initial: str = typer.Option(None, "--initial", help="Starting finger JSON (default: the subject's "
                                 "default finger, or subject 1's)."),
-    load: float = typer.Option(None, "--load", help="Assume this constant normal force in N (studies "
+    load: float = typer.Option(None, "--load",
+                               callback=LOAD_N, help="Assume this constant normal force in N (studies "
                                "without an absolute F_N; the modulus is then relative to it)."),
     surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap uncertainties."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap uncertainties.", callback=SEED),
 ) -> None:
     """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
     and write it as a finger JSON that predict, predict-contact, validate and render accept."""

@@ -11,7 +11,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from .._console import console_log, summary_line
 from ._common import (
     QUIET,
+    SEED,
     VERBOSE,
+    bounded,
     echo,
     err_console,
     fail,
@@ -47,14 +49,18 @@ def _design(surfaces, subjects, speeds) -> dict:
                 sp.append(float(v))
             except ValueError:
                 fail(f"--speeds: {v!r} is not a number (mm/s)")
+            if not 1.0 <= sp[-1] <= 1000.0:  # a slower slide lasts minutes of 1 kHz video
+                fail(f"--speeds must be in [1, 1000] mm/s, got {v}")
         kw["speeds"] = tuple(sp)
     return kw
 
 
 def simulate_cmd(
     out: Annotated[str, typer.Option("--out", help="Output study folder (new, empty, or same study).")],
-    reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).")] = 5,
-    seed: Annotated[int, typer.Option("--seed", help="Study seed: same seed, byte-identical study.")] = 0,
+    reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).",
+                                      callback=bounded(1, 100))] = 5,
+    seed: Annotated[int, typer.Option("--seed", help="Study seed: same seed, byte-identical study.",
+                                      callback=SEED)] = 0,
     surfaces: Annotated[
         list[str] | None, typer.Option("--surfaces", help="Surfaces, e.g. bump-2mm,step-up-4mm (default: 6).")
     ] = None,
@@ -64,7 +70,8 @@ def simulate_cmd(
     speeds: Annotated[
         list[str] | None, typer.Option("--speeds", help="Nominal speeds in mm/s (default 40,80,120).")
     ] = None,
-    workers: Annotated[int, typer.Option("--workers", help="Worker processes (0: all cores).")] = 0,
+    workers: Annotated[int, typer.Option("--workers", help="Worker processes (0: all cores).",
+                                         callback=bounded(0, 256, "workers"))] = 0,
     video_format: Annotated[str, typer.Option("--video-format", help="ffv1-mkv or tiff.")] = "ffv1-mkv",
     contact_model: Annotated[
         str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
@@ -86,8 +93,12 @@ def simulate_cmd(
     finger_seed: Annotated[
         int | None,
         typer.Option("--finger-seed", help="Draw the other subjects' fingers around the calibrated ones "
-                     "(radius, modulus, flat length +-25 %) with this seed."),
+                     "(radius, modulus, flat length +-25 %) with this seed.", callback=SEED),
     ] = None,
+    finger_model: Annotated[str, typer.Option(
+        "--finger-model", help="halfspace (default: the --contact-model) or fe: the layered finite-element "
+                               "finger (FE finger files with --finger; tables cached on disk).",
+    )] = "halfspace",
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
@@ -104,8 +115,14 @@ def simulate_cmd(
                 **_design(surfaces, subjects, speeds)}
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
+    if finger_model not in ("halfspace", "fe"):
+        fail(f"--finger-model must be halfspace or fe, got {finger_model!r}")
+    if finger_model == "fe":
+        if contact_model not in ("mechanics-bem", "fe"):
+            fail(f"--finger-model fe is its own contact model; drop --contact-model {contact_model}")
+        kw["contact_model"] = "fe"
     if finger:
-        kw["fingers"] = read_fingers(items=finger)
+        kw["fingers"] = read_fingers(items=finger, model="fe" if finger_model == "fe" else "halfspace")
     if finger_seed is not None:
         kw["finger_seed"] = finger_seed
     try:

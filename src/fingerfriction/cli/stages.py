@@ -8,19 +8,24 @@ import typer
 from rich.markup import escape
 
 from .._outputs import output_file
-from ._common import console, fail
+from ._common import bounded, console, fail
 
 
 def overlay_cmd(
     study: str = typer.Argument(..., help="Study folder (or its manifest.json)."),
     trial: str = typer.Argument(..., help="Trial id, as in the manifest."),
     out: str = typer.Option(None, "--out", help="Output .mp4 or .gif (default: <trial>-overlay.mp4)."),
-    start: int = typer.Option(0, "--start", help="First frame."),
-    stop: int = typer.Option(None, "--stop", help="Stop before this frame (default: the last)."),
-    step: int = typer.Option(1, "--step", help="Draw every STEP-th frame."),
-    fps: float = typer.Option(30.0, "--fps", help="Playback frame rate of the output (Hz)."),
-    level: float = typer.Option(None, "--level", help="Threshold gray level (default: Otsu)."),
-    scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop."),
+    start: int = typer.Option(0, "--start", help="First frame.", callback=bounded(0, 10_000_000, "frames")),
+    stop: int = typer.Option(None, "--stop", help="Stop before this frame (default: the last).",
+                             callback=bounded(1, 10_000_000, "frames")),
+    step: int = typer.Option(1, "--step", help="Draw every STEP-th frame.",
+                             callback=bounded(1, 1_000_000, "frames")),
+    fps: float = typer.Option(30.0, "--fps", help="Playback frame rate of the output (Hz).",
+                              callback=bounded(0.1, 1000.0, "Hz")),
+    level: float = typer.Option(None, "--level", help="Threshold gray level (default: Otsu).",
+                                callback=bounded(0.0, 65535.0)),
+    scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop.",
+                                callback=bounded(0.05, 4.0)),
 ) -> None:
     """Write a video of a trial's frames with the traced contours and contact regions drawn."""
     from ..study.params import video_options  # heavy (video stage); imported when the command runs
@@ -48,8 +53,10 @@ def forces_cmd(
     positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
     from_video: bool = typer.Option(False, "--from-video", help="x(t) and contact regions from the video"),
     from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
-    highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none"),
-    notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches"),
+    highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none",
+                                      callback=bounded(0.0, 1000.0, "Hz")),
+    notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches",
+                                  callback=bounded(0.1, 1000.0)),
     estimate_highpass: bool = typer.Option(
         False, "--estimate-highpass", help="fit the sensor cut-off on the rests (--highpass-hz: the prior)"
     ),

@@ -18,12 +18,16 @@ from .._console import console_log, one_line, summary_line, with_ci
 from .._outputs import output_dir
 from ._common import (
     QUIET,
+    SEED,
     VERBOSE,
+    WORKERS,
+    bounded,
     console,
     csv_list,
     echo,
     err_console,
     fail,
+    finish,
     grouped_failures,
     plural,
     print_problems,
@@ -69,14 +73,15 @@ def init_cmd(
         "--force-t0-s", metavar="[FORMAT:]SECONDS", help="Clock offset: time in s of force sample 0 "
         "(default 0).")] = None,
     fps: Annotated[float | None, typer.Option(
-        "--fps", metavar="HZ", help="Video frame rate in Hz for files that do not state it (TIFF); checked "
-                                    "against those that do.")] = None,
+        "--fps", metavar="HZ", callback=bounded(0.001, 1e7, "Hz"),
+        help="Video frame rate in Hz for files that do not state it (TIFF); checked against those that do.")
+    ] = None,
     video_t0_s: Annotated[float, typer.Option(
-        "--video-t0-s", metavar="SECONDS", help="Clock offset: time in s of video frame 0 (default 0).")
-    ] = 0.0,
+        "--video-t0-s", metavar="SECONDS", callback=bounded(-1e6, 1e6, "s"),
+        help="Clock offset: time in s of video frame 0 (default 0).")] = 0.0,
     calibration_frame: Annotated[int, typer.Option(
-        "--calibration-frame", metavar="INDEX", min=0, help="The finger-free frame used for calibration.")
-    ] = 0,
+        "--calibration-frame", metavar="INDEX", callback=bounded(0, 10_000_000),
+        help="The finger-free frame used for calibration.")] = 0,
     surface_height_mm: Annotated[list[str] | None, typer.Option(
         "--surface-height-mm", metavar="[SURFACE=]MM", help="Feature height H in mm that calibrates the "
         "image scale (default: the surface's own).")] = None,
@@ -121,10 +126,11 @@ def init_cmd(
     n_bad = len(res.trials) - res.n_ok
     left = f" ({n_bad} with problems left out)" if n_bad else ""
     if dry_run:
-        console.print(f"dry run: {path} would hold {res.n_ok} trials{left}; nothing was written",
+        console.print(f"dry run: {escape(str(path))} would hold {res.n_ok} trials{left}; nothing was written",
                       highlight=False)
     else:
-        console.print(f"[green]wrote[/] {path}: {res.n_ok} trials{left}", highlight=False)
+        console.print(f"[green]wrote[/] {escape(str(path))}: {res.n_ok} trials{left}", highlight=False)
+    finish(n_bad == 0)
 
 
 def _print_init_table(res) -> None:
@@ -185,10 +191,12 @@ def analyze_cmd(
     out: str = typer.Option(..., "--out", "-o", help="Results folder (created; resumed if it exists)."),
     scheduler: str = typer.Option(None, "--scheduler", help="Address of a running Dask scheduler, "
                                   "e.g. tcp://10.0.0.5:8786 (default: a local cluster on all cores)."),
-    workers: int = typer.Option(None, "--workers", "-j", min=1, help="Local workers (default: all cores)."),
+    workers: int = typer.Option(None, "--workers", "-j", help="Local workers (default: all cores).",
+                                callback=WORKERS),
     force: bool = typer.Option(False, "--force", help="Recompute trials that are already finished."),
     window_mm: float = typer.Option(None, "--window-mm", help="Force position window in mm, centred on the "
-                                    "feature (default: the paper's 26 mm)."),
+                                    "feature (default: the paper's 26 mm).",
+                                    callback=bounded(1.0, 100.0, "mm")),
     position: str = typer.Option("hybrid", "--position", help="x(t) estimator: hybrid (chord midpoint, "
                                  "else an outline edge; default) or cf-centroid (the paper's C_f centroid) "
                                  "or chord."),
@@ -198,6 +206,10 @@ def analyze_cmd(
     dry_run: bool = typer.Option(False, "--dry-run", help="List the trials that would be computed and why "
                                  "(new, input changed, manifest entry changed, parameters changed); run "
                                  "and write nothing."),
+    quick_resume: bool = typer.Option(False, "--quick-resume", help="Trust an input whose size, times and "
+                                      "inode are those recorded instead of hashing its content (faster on "
+                                      "large studies; misses edits on file systems without status-change "
+                                      "times)."),
     sync: str = typer.Option("check", "--sync", help="Video-force clock offset: check (measure it from the "
                              "start of each slide and fail a trial whose manifest offset is off; default), "
                              "auto (use the measured offset) or manifest (trust the manifest)."),
@@ -227,11 +239,11 @@ def analyze_cmd(
         params = AnalysisParams(**opts)
         verbosity = verbosity_of(verbose, quiet)
         if dry_run:
-            plan = plan_analysis(study, out, params=params, force=force)
+            plan = plan_analysis(study, out, params=params, force=force, quick_resume=quick_resume)
         else:
             with console_log(verbosity, echo) as log:
                 res = analyze(study, out, scheduler=scheduler, n_workers=workers, force=force,
-                              progress=show_progress(verbosity), params=params)
+                              progress=show_progress(verbosity), params=params, quick_resume=quick_resume)
     except StudyCheckError as exc:
         print_problems(exc.problems)
         fail(f"{len(exc.problems)} problem(s) in the manifest; nothing was run")
@@ -244,11 +256,17 @@ def analyze_cmd(
                       "trials; nothing was run or written", highlight=False)
         return
     grouped_failures(res.failures, "analysis", verbosity)
+    if res.input_missing and verbosity >= 0:
+        tid, why = res.input_missing[0]
+        warn(f"{plural(len(res.input_missing), 'trial')} with input files missing or unreadable: their last "
+             f"results are kept, marked 'input missing' (e.g. {tid}: {one_line(why, 120)})")
+    missing = [f"{len(res.input_missing)} input missing (last results kept)"] if res.input_missing else []
     print_summary(summary_line(
-        "analyze", [f"{res.n_computed} computed", f"{res.n_skipped} already done",
+        "analyze", [f"{res.n_computed} computed", f"{res.n_skipped} already done", *missing,
                     f"{res.n_failed} failed of {plural(res.n_trials, 'trial')}",
                     f"{res.scheduler} scheduler, {res.n_workers} workers", _sync_fact(res.sync)],
         elapsed_s=res.elapsed_s, output=str(res.results), log=log))
+    finish(res.success)
 
 
 def _sync_fact(sync: dict) -> str:
@@ -274,11 +292,15 @@ def fit_cmd(
                                            "a variant to use: load, pressure, interlock or paper; every "
                                            "variant is fitted and compared."),
     method: str = typer.Option("lstsq", help="Paper model's p0, p1 fit: lstsq or nelder-mead (the paper's)."),
-    mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid."),
-    mu_max: float = typer.Option(0.90, help="Largest mu of the paper model's grid."),
-    mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid."),
-    median: int = typer.Option(11, help="Median filter window on the models, samples (odd; 1 = off)."),
-    seed: int = typer.Option(0, help="Seed of the bootstrap confidence intervals."),
+    mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid.",
+                                 callback=bounded(0.0, 5.0)),
+    mu_max: float = typer.Option(0.90, help="Largest mu of the paper model's grid.",
+                                 callback=bounded(0.0, 5.0)),
+    mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid (at most 10001 values).",
+                                  callback=bounded(1e-4, 1.0)),
+    median: int = typer.Option(11, help="Median filter window on the models, samples (odd; 1 = off).",
+                               callback=bounded(1, 1001, "samples")),
+    seed: int = typer.Option(0, help="Seed of the bootstrap confidence intervals.", callback=SEED),
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
@@ -291,7 +313,7 @@ def fit_cmd(
     verbosity = verbosity_of(verbose, quiet)
     t0 = time.perf_counter()
     try:
-        with console_log(verbosity, echo) as log:
+        with console_log(verbosity, echo) as log, _holding(results, "fit"):
             res = fit(results, model=model, mu_grid=(mu_min, mu_max, mu_step), method=method,
                       median_kernel=median, progress=show_progress(verbosity), seed=seed)
     except (ValueError, OSError) as exc:
@@ -303,8 +325,19 @@ def fit_cmd(
     _print_rejection(res.selection.reason if res.rejected else "", verbosity)
     print_summary(summary_line("fit", _fit_facts(res), elapsed_s=time.perf_counter() - t0,
                           output=str(store.fit_dir), log=log))
-    if res.rejected:
-        raise typer.Exit(1)
+    finish(res.n_failed == 0 and not res.rejected)
+
+
+def _holding(results: str, command: str):
+    """The results folder held for one command (``analyze`` holds it too): a second command
+    writing it meanwhile is refused, naming the first. A folder that is not a results folder
+    is left to the command to refuse (nothing is created in it)."""
+    from contextlib import nullcontext  # small; kept beside its one use
+
+    from ..study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
+
+    store = ResultsStore(results)
+    return store.lock(command) if store.run_path.is_file() else nullcontext()
 
 
 def _mu_text(res) -> str:
@@ -449,7 +482,7 @@ def _print_tables(rep) -> None:
 
 def report_cmd(
     results: str = typer.Argument(..., help="Results folder (after analyze; fit for Fig. 6/S3, Table 1)."),
-    sample: int = typer.Option(6, "--sample", min=0,
+    sample: int = typer.Option(6, "--sample", callback=bounded(0, 100_000, "trials"),
                                help="Trial pages for every flagged trial and this many of the others."),
     all_trials: bool = typer.Option(False, "--all-trials", help="A page for every trial."),
     animations: bool = typer.Option(True, "--animations/--no-animations",
@@ -464,7 +497,7 @@ def report_cmd(
     verbosity = verbosity_of(verbose, quiet)
     t0 = time.perf_counter()
     try:
-        with console_log(verbosity, echo) as log:
+        with console_log(verbosity, echo) as log, _holding(results, "report"):
             rep = make_report(results, progress=show_progress(verbosity),
                               sample=None if all_trials else sample, animations=animations)
     except (ValueError, OSError) as exc:
@@ -484,15 +517,19 @@ def report_cmd(
                    plural(len(rep.pages), "trial page"),
                    f"flags: {flagged}" if flagged else "nothing flagged", f"{len(rep.files)} files"],
         elapsed_s=time.perf_counter() - t0, output=str(rep.html), log=log))
+    missing = any(f["code"] == "input-missing" for f in rep.flags)
+    finish(rep.n_failed == 0 and not rep.stale_fit and not missing)
 
 
 def demo(
     out: str = typer.Option("fingerfriction-demo", "--out", "-o",
                             help="Folder for the simulated study and its results (resumed if it exists)."),
     full: bool = typer.Option(False, "--full", help="The paper's 180 trials (default: 36, 1 per condition)."),
-    reps: int = typer.Option(None, "--reps", min=1, help="Repetitions per condition (overrides --full)."),
-    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the virtual experiment."),
-    workers: int = typer.Option(None, "--workers", "-j", min=1, help="Worker processes (default: all)."),
+    reps: int = typer.Option(None, "--reps", help="Repetitions per condition (overrides --full).",
+                             callback=bounded(1, 100)),
+    seed: int = typer.Option(0, "--seed", help="Seed of the virtual experiment.", callback=SEED),
+    workers: int = typer.Option(None, "--workers", "-j", help="Worker processes (default: all).",
+                                callback=WORKERS),
     subjects: str = typer.Option(None, hidden=True, help="Comma-separated subjects (a smaller design)."),
     surfaces: str = typer.Option(None, hidden=True, help="Comma-separated surfaces (a smaller design)."),
     speeds: str = typer.Option(None, hidden=True, help="Comma-separated speeds in mm/s (a smaller design)."),
@@ -516,6 +553,8 @@ def demo(
             except ValueError:
                 raise ValueError(f"--speeds must be numbers (mm/s) separated by commas, got {speeds!r}") \
                     from None
+            if not all(1.0 <= v <= 1000.0 for v in design["speeds"]):
+                raise ValueError(f"--speeds must be in [1, 1000] mm/s, got {speeds}")
         output_dir(out, owns={"study", "results"}, what="demo folder (study/, results/)")
         with console_log(verbosity, echo) as log:
             res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers,
@@ -537,5 +576,4 @@ def demo(
                  f"{' REJECTED' if f.rejected else ''}: mu {_mu_text(f)})",
                  f"report {t['report']:.0f} s ({plural(len(res.report.pages), 'trial page')})"],
         elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
-    if f.rejected:
-        raise typer.Exit(1)
+    finish(a.success and f.n_failed == 0 and not f.rejected)

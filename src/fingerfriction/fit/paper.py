@@ -229,8 +229,16 @@ def mu_grid(start: float = 0.30, stop: float = 0.90, step: float = 0.01) -> np.n
             f"mu grid needs 0 <= start <= stop <= 5 and step > 0, got start={start!r}, "
             f"stop={stop!r}, step={step!r}"
         )
-    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    count = (stop - start) / step + 1e-9
+    if not count < MAX_MU_GRID:  # each value is a fit of every trial: time and memory grow with it
+        raise ValueError(f"mu grid [{start:g}, {stop:g}] by {step:g} has {count:.3g} values, more than the "
+                         f"{MAX_MU_GRID} allowed (MAX_MU_GRID); take a larger step")
+    n = int(math.floor(count)) + 1
     return np.round(start + step * np.arange(n), 12)
+
+
+#: The most values of a ``mu`` grid (:func:`mu_grid`): 0 to 5 by 0.0005.
+MAX_MU_GRID = 10_001
 
 
 # ------------------------------------------------------------------------ per-trial design

@@ -541,6 +541,21 @@ def _rests_text(base, post) -> str:
     return f"{which}; {post[1]}"
 
 
+def _post_rest_near_prior(raw: ForceSignals, params: ForceProcessingParams, tried: list):
+    """The rest after the lift-off detected on ``raw`` compensated at the prior cut-off and,
+    with ``post_baseline='auto'``, at 0.9, 1.1, 0.8, 1.2, 0.7, 1.3 times it (a wrong cut-off
+    leaves a decaying error that can delay or hide the rest); the prior's flags go to
+    ``tried``. ``(mask, description)`` or None."""
+    prior = params.sensor_highpass_hz
+    post = _post_baseline_mask(raw.compensate_highpass(prior), params, tried)
+    if post is None and params.post_baseline == "auto":
+        for s in (0.9, 1.1, 0.8, 1.2, 0.7, 1.3):
+            post = _post_baseline_mask(raw.compensate_highpass(s * prior), params, [])
+            if post is not None:
+                break
+    return post
+
+
 def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingParams, flags: list):
     """Compensate the high-pass at the cut-off estimated on the rests (:func:`estimate_highpass`).
 
@@ -560,12 +575,7 @@ def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingPara
     """
     prior = params.sensor_highpass_hz
     tried: list[Flag] = []
-    post = _post_baseline_mask(raw.compensate_highpass(prior), params, tried)
-    if post is None and params.post_baseline == "auto":
-        for s in (0.9, 1.1, 0.8, 1.2, 0.7, 1.3):
-            post = _post_baseline_mask(raw.compensate_highpass(s * prior), params, [])
-            if post is not None:
-                break
+    post = _post_rest_near_prior(raw, params, tried)
     if post is None:
         flags.extend(tried)
         flags.append(
@@ -648,14 +658,9 @@ def _response_compensation(raw: ForceSignals, base, params: ForceProcessingParam
     """
     prior = params.sensor_highpass_hz
     tried: list = []
-    post = _post_baseline_mask(raw.compensate_highpass(prior), params, tried)
+    post = _post_rest_near_prior(raw, params, tried)
     if post is None and params.post_baseline == "auto":
-        for s in (0.9, 1.1, 0.8, 1.2, 0.7, 1.3):
-            post = _post_baseline_mask(raw.compensate_highpass(s * prior), params, [])
-            if post is not None:
-                break
-        if post is None:
-            post = _rough_post_rest(raw.compensate_highpass(prior), params)
+        post = _rough_post_rest(raw.compensate_highpass(prior), params)
     if post is None:
         flags.extend(tried)
         flags.append(Flag("highpass-estimate", "highpass_model='second-order' but there is no usable rest "

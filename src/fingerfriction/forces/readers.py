@@ -47,10 +47,14 @@ from pathlib import Path
 import numpy as np
 
 from .._check import check_fs
+from ._base import MAX_SAMPLES, ForceFileError, _as_channel, _not_index, _too_long
+from .containers import hdf5_outside_data, read_hdf5, read_mat, read_tdms
 from .delimited import CsvLayout, CsvLayoutError, csv_layout
 from .units import FORCE_UNITS, channel_scale
 
 __all__ = [
+    "MAX_SAMPLES",
+    "hdf5_outside_data",
     "FORCE_FORMATS",
     "FORCE_UNITS",
     "ForceFileError",
@@ -88,10 +92,6 @@ DEFAULT_CHANNELS = {"F1": "F1", "F2": "F2"}
 #: A time column may differ from ``fs_hz`` by this relative amount (a CSV written with a
 #: few decimals rounds its times); a rate the file states in its metadata must agree to 1e-6.
 TIME_COLUMN_RTOL = 1e-3
-
-
-class ForceFileError(ValueError):
-    """A force file that cannot be read as the manifest describes it."""
 
 
 @dataclass(frozen=True)
@@ -220,20 +220,6 @@ def infer_force_format(path: str | os.PathLike) -> str:
 _infer_format = infer_force_format
 
 
-def _as_channel(values, *, name, path: Path) -> np.ndarray:
-    arr = np.asarray(values)
-    if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
-        raise ForceFileError(f"channel {name!r} in {str(path)!r} has dtype {arr.dtype}, expected numbers")
-    if np.iscomplexobj(arr):
-        raise ForceFileError(f"channel {name!r} in {str(path)!r} is complex, expected real numbers")
-    squeezed = np.squeeze(arr)
-    if squeezed.ndim != 1:
-        raise ForceFileError(
-            f"channel {name!r} in {str(path)!r} has shape {arr.shape}, expected one vector of samples"
-        )
-    return squeezed.astype(np.float64)
-
-
 def _check_name(key: str, v) -> str | int:
     if isinstance(v, bool) or not isinstance(v, (str, int)) or v == "" or (isinstance(v, int) and v < 0):
         raise ValueError(f"channels[{key!r}] must be a non-empty name or a column index >= 0, got {v!r}")
@@ -252,15 +238,6 @@ def _check_channels_arg(channels) -> dict:
             f" (missing {sorted(missing)})"
         )
     return {k: _check_name(k, channels[k]) for k in ("F1", "F2")}
-
-
-def _not_index(path: Path, fmt: str, wanted: dict) -> None:
-    for key, name in wanted.items():
-        if isinstance(name, int):
-            raise ForceFileError(
-                f"channel {key} is given as column index {name}, but {str(path)!r} is a {fmt} file "
-                "whose channels have names; give the name"
-            )
 
 
 def _csv_column(layout: CsvLayout, key: str, name, path: Path) -> int:
@@ -342,6 +319,12 @@ def _read_npz(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
                     raise ForceFileError(
                         f"no array {name!r} (channel {key}) in {str(path)!r}; arrays present: {names}"
                     )
+                # the size once decompressed, before decompressing (a small archive may
+                # inflate to any size)
+                member = f"{name}.npy" if f"{name}.npy" in z.zip.namelist() else name
+                size = z.zip.getinfo(member).file_size
+                if size > 8 * MAX_SAMPLES + (1 << 20):
+                    raise _too_long(path, name, key, size // 8)
                 try:
                     out[key] = _as_channel(z[name], name=name, path=path)
                 except ValueError as exc:
@@ -351,163 +334,20 @@ def _read_npz(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
                         f"array {name!r} in {str(path)!r} cannot be read without unpickling "
                         f"({exc}); store plain numeric arrays"
                     ) from None
-    except (OSError, EOFError) as exc:
-        raise ForceFileError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from None
-    except ValueError as exc:
-        if isinstance(exc, ForceFileError):
-            raise
-        raise ForceFileError(f"cannot read {str(path)!r} as an .npz archive: {exc}") from None
+    except ForceFileError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a damaged archive raises many types (BadZipFile...)
+        raise ForceFileError(f"cannot read {str(path)!r} as an .npz archive ({type(exc).__name__}: {exc})") \
+            from None
     return out, {"names": names}
-
-
-def _split_name(name: str) -> list[str]:
-    return [p for p in name.replace(".", "/").split("/") if p]
-
-
-def _mat_leaves(node, prefix: str = "") -> list[str]:
-    """Dotted paths of the numeric arrays in a loadmat(simplify_cells=True) dict."""
-    out: list[str] = []
-    for k, v in node.items():
-        if k.startswith("__"):
-            continue
-        path = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.extend(_mat_leaves(v, path + "."))
-        elif isinstance(v, np.ndarray | int | float) and np.asarray(v).dtype.kind in "fiub":
-            out.append(path)
-    return sorted(out)
-
-
-def _read_mat(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
-    import h5py  # only for HDF5 and MATLAB v7.3 files
-
-    _not_index(path, "mat", wanted)
-    if h5py.is_hdf5(path):  # MATLAB v7.3 files are HDF5 with a 512-byte user block
-        return _read_mat73(path, wanted)
-    import scipy.io  # only for MATLAB v5 files
-
-    try:
-        # simplify_cells turns structs into dicts; MATLAB objects (classdef) are not
-        # unpickled by scipy, they come back as opaque MatlabOpaque arrays we refuse.
-        data = scipy.io.loadmat(path, simplify_cells=True)
-    except NotImplementedError as exc:  # e.g. an HDF5 file that h5py did not recognise
-        raise ForceFileError(f"cannot read {str(path)!r} as a MATLAB file: {exc}") from None
-    except (OSError, ValueError, TypeError) as exc:
-        raise ForceFileError(f"cannot read {str(path)!r} as a MATLAB v5 file: {exc}") from None
-    names = _mat_leaves(data)
-    out = {}
-    for key, name in wanted.items():
-        node = data
-        for part in _split_name(name):
-            if not isinstance(node, dict) or part not in node:
-                raise ForceFileError(
-                    f"no variable {name!r} (channel {key}) in {str(path)!r}; numeric variables "
-                    f"(struct fields as 'a.b'): {names[:30]}"
-                )
-            node = node[part]
-        out[key] = _as_channel(node, name=name, path=path)
-    return out, {"names": names}
-
-
-def _read_mat73(path: Path, wanted: dict) -> tuple[dict, dict]:
-    import h5py  # only for HDF5 and MATLAB v7.3 files
-
-    out = {}
-    with h5py.File(path, "r") as f:
-        names = [n.replace("/", ".") for n in _dataset_names(f) if not n.startswith("#")]
-        for key, name in wanted.items():
-            obj = f.get("/".join(_split_name(name)))
-            if not isinstance(obj, h5py.Dataset):
-                raise ForceFileError(
-                    f"no variable {name!r} (channel {key}) in MATLAB v7.3 file {str(path)!r}; "
-                    f"variables (struct fields as 'a.b'): {names[:30]}"
-                )
-            cls = obj.attrs.get("MATLAB_class", b"double")
-            cls = cls.decode() if isinstance(cls, bytes) else str(cls)
-            if cls in ("cell", "struct", "char", "function_handle") or obj.dtype.kind not in "fiub":
-                raise ForceFileError(
-                    f"variable {name!r} in {str(path)!r} is a MATLAB {cls} (dtype {obj.dtype}); "
-                    "expected a numeric vector"
-                )
-            # MATLAB stores column-major, so an n x 1 column vector appears as (1, n) here;
-            # squeezing makes row and column vectors alike.
-            out[key] = _as_channel(obj[()], name=name, path=path)
-    return out, {"names": names}
-
-
-def _dataset_names(f) -> list[str]:
-    import h5py  # only for HDF5 and MATLAB v7.3 files
-
-    found: list[str] = []
-    f.visititems(lambda n, o: found.append(n) if isinstance(o, h5py.Dataset) else None)
-    return found
-
-
-def _read_hdf5(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
-    import h5py  # only for HDF5 and MATLAB v7.3 files
-
-    _not_index(path, "hdf5", wanted)
-    info: dict = {}
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise ForceFileError(f"cannot read {str(path)!r} as HDF5: {exc}") from None
-    with f:
-        info["names"] = _dataset_names(f)
-        out = {}
-        for key, name in wanted.items():
-            obj = f.get(name)
-            if not isinstance(obj, h5py.Dataset):
-                raise ForceFileError(
-                    f"no dataset {name!r} (channel {key}) in {str(path)!r}; datasets: {info['names'][:30]}"
-                )
-            out[key] = _as_channel(obj[()], name=name, path=path)
-            for attr in ("fs_hz", "sampling_rate_hz"):
-                if attr in obj.attrs and key != "time":
-                    info.setdefault("fs_hz", float(np.asarray(obj.attrs[attr])))
-    return out, info
-
-
-def _read_tdms(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
-    from nptdms import TdmsFile  # only for TDMS files
-
-    _not_index(path, "tdms", wanted)
-    try:
-        # metadata only when no channel is wanted (probing the names)
-        tdms = TdmsFile.read(path) if wanted else TdmsFile.read_metadata(path)
-    except (OSError, ValueError, KeyError) as exc:
-        raise ForceFileError(f"cannot read {str(path)!r} as a TDMS file: {exc}") from None
-    all_channels = {f"{g.name}/{c.name}": c for g in tdms.groups() for c in g.channels()}
-    info: dict = {"names": sorted(all_channels)}
-    out = {}
-    for key, name in wanted.items():
-        if name in all_channels:
-            ch = all_channels[name]
-        else:
-            hits = [c for full, c in all_channels.items() if full.split("/", 1)[1] == name]
-            if len(hits) != 1:
-                how = "no" if not hits else f"{len(hits)}"
-                raise ForceFileError(
-                    f"{how} channel named {name!r} (channel {key}) in {str(path)!r}; "
-                    f"use 'group/channel', one of {sorted(all_channels)}"
-                )
-            ch = hits[0]
-        out[key] = _as_channel(ch[:], name=name, path=path)
-        inc = ch.properties.get("wf_increment")
-        if key != "time" and inc is not None and float(inc) > 0:
-            info.setdefault("fs_hz", 1.0 / float(inc))
-        start = ch.properties.get("wf_start_offset")
-        if key == "F1" and start is not None and math.isfinite(float(start)):
-            info["time0_s"] = float(start)  # the waveform's time of sample 0, in s
-    return out, info
 
 
 _READERS = {
     "npz": _read_npz,
     "csv": _read_csv,
-    "mat": _read_mat,
-    "tdms": _read_tdms,
-    "hdf5": _read_hdf5,
+    "mat": read_mat,
+    "tdms": read_tdms,
+    "hdf5": read_hdf5,
 }
 
 
@@ -611,8 +451,10 @@ def probe_force_file(
     p = Path(path)
     fmt = infer_force_format(p) if format is None else str(format).lower()
     if channels is None:
-        names = list_channels(p, format=fmt, delimiter=delimiter)
-        short = {n.rsplit("/", 1)[-1] for n in names}
+        _, listed = _read(p, fmt, {}, delimiter)
+        names = list(listed.get("names", []))
+        # the bare names a lookup answers to (TDMS: each channel's own name, whatever its group)
+        short = set(listed.get("leaves") or {n.rsplit("/", 1)[-1] for n in names})
         chans = dict(DEFAULT_CHANNELS) if {"F1", "F2"} <= (set(names) | short) else {}
     else:
         chans = _check_channels_arg(channels)

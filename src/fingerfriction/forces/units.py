@@ -31,12 +31,17 @@ def _scale_arg(value, name: str) -> dict:
     out = {}
     for k, v in items.items():
         if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-            raise ValueError(f"{name} for {k} must be a number, got {v!r}")
+            raise ValueError(f"{name} for {k} must be a number, got {str(v)[:40]!r}")
+        if isinstance(v, int) and abs(v) > 1e9:  # before float(): an integer of 400 digits has none
+            raise ValueError(f"{name} for {k} must be within 1e-9 and 1e9 in magnitude, got a number of "
+                             f"{len(str(abs(v)))} digits")
         v = float(v)
         if not math.isfinite(v) or v == 0:
             raise ValueError(
                 f"{name} for {k} must be finite and non-zero (negative flips the channel), got {v!r}"
             )
+        if not 1e-9 <= abs(v) <= 1e9:  # beyond any amplifier; products would overflow
+            raise ValueError(f"{name} for {k} must be within 1e-9 and 1e9 in magnitude, got {v!r}")
         out[k] = v
     return out
 

@@ -43,6 +43,9 @@ def default_positions(
         a, b = surface.feature_extent
         c = 0.5 * (a + b)
     m = int(round(window / step))
+    if m > 1_000_000:  # one contact solve per position: a bound on time and memory
+        raise ValueError(f"a {window:g} mm window at steps of {step:g} mm is {m + 1} positions, more than "
+                         "1000001; take a larger step")
     return c - window / 2 + step * np.arange(m + 1)
 
 

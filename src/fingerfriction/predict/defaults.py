@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 
+from .._check import parse_json
 from ..fit.variants import get
 from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
@@ -191,12 +192,10 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
         else:
             raise ValueError(f"{path}: a folder without fit/fit.json; run 'fingerfriction fit' first")
     try:
-        with open(path, encoding="utf-8") as fh:
-            d = json.load(fh)
+        with open(path, "rb") as fh:
+            d = parse_json(fh.read(), str(path))  # bounded depth and size (issue 22)
     except OSError as exc:
         raise ValueError(f"{path}: cannot read parameters ({exc.strerror})") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(d, dict):
         raise ValueError(f"{path}: expected a JSON object, got {type(d).__name__}")
     if isinstance(d.get("mu"), dict):

@@ -359,8 +359,9 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
     """
     surface = surface_from_spec(surface_spec)
     check_profile(surface, max_slope_angle=max_slope_angle)
-    if not (isinstance(step, (int, float)) and math.isfinite(step) and 0 < step <= 1.0):
-        raise ValueError(f"step must be a finger step in mm in (0, 1], got {step!r}")
+    if not (isinstance(step, (int, float)) and math.isfinite(step) and 1e-3 <= step <= 1.0):
+        # 1 um: below it the sweep's positions (and memory) grow without physical gain
+        raise ValueError(f"step must be a finger step in mm in [0.001, 1], got {step!r}")
     if not (isinstance(load, (int, float)) and math.isfinite(load) and load > 0):
         raise ValueError(f"load must be a positive normal force in N, got {load!r}")
     label, default_finger = _resolve_finger(subject)

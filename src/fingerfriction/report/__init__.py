@@ -78,6 +78,8 @@ class ReportResult:
     notices : tuple of str
         What the top of the page says before anything else (e.g. the model is not
         fitted); the CLI prints them too.
+    stale_fit : str or None
+        Why the fit was left out: the trials were analysed again since it was made.
     model : str or None
         The model variant the fit used (None before the fit).
     rejection : str
@@ -99,6 +101,7 @@ class ReportResult:
     notices: tuple[str, ...] = ()
     flags: tuple[dict, ...] = ()
     pages: dict = field(default_factory=dict)
+    stale_fit: str | None = None
     model: str | None = None
     rejection: str = ""
     comparison: pd.DataFrame | None = None
@@ -344,7 +347,10 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
         files += list(pages.values())
         links = {tid: page_href(tid) for tid in pages}
         notices = []
-        if not has_fit:
+        if data.stale_fit:
+            notices.append(f"The fit is out of date and left out (Fig. 6, Fig. S3, Table 1): "
+                           f"{data.stale_fit}, and then this report again.")
+        elif not has_fit:
             notices.append(f"The model is not fitted: Fig. 6, Fig. S3 and Table 1 are left out; run "
                            f"`fingerfriction fit {data.root}` and then this report again.")
         page = _render_index(
@@ -359,12 +365,11 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
     sel = sel if isinstance(sel, dict) else {}
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
                         n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
-                        notices=tuple(notices), flags=tuple(flags), pages=pages,
+                        notices=tuple(notices), flags=tuple(flags), pages=pages, stale_fit=data.stale_fit,
                         model=(data.fit or {}).get("model") if has_fit else None,
                         rejection=sel.get("reason", "") if sel.get("rejected") else "",
                         comparison=pd.DataFrame(sel["comparison"]) if sel.get("comparison") else None,
                         notes=tuple(comparison_notes(data)) if has_fit else ())
-
 
 #: Titles of the ground-truth tables (simulated studies).
 _TRUTH_TITLES = {"mu": "Friction coefficient per subject",

@@ -113,6 +113,10 @@ class ReportData:
     fit_table1 : pandas.DataFrame or None
         ``fit/table1.csv`` (Table 1 of each model variant with bootstrap confidence
         intervals, written by ``fit``) if present.
+    stale_fit : str or None
+        Why ``fit/`` no longer describes the analysed trials (they were analysed again
+        since, :meth:`~fingerfriction.study.store.ResultsStore.fit_staleness`); the fit is
+        then left out (``fit`` None) and the report says so at its top.
     truth : dict or None
         ``truth/study.json`` of a simulated study, if the study folder is reachable.
     truth_dir : Path or None
@@ -130,6 +134,7 @@ class ReportData:
     notes: list[str] = field(default_factory=list)
     loso: pd.DataFrame | None = None
     fit_table1: pd.DataFrame | None = None
+    stale_fit: str | None = None
 
     @property
     def surface_names(self) -> list[str]:
@@ -187,6 +192,11 @@ def load_report_data(results) -> ReportData:
         raise ValueError(f"{str(store.root)!r}: no trial finished OK; nothing to report")
     fit = store.read_fit_record()
     fit_trials = loso = fit_table1 = None
+    stale_fit = store.fit_staleness(fit) if fit is not None else None
+    if stale_fit is not None:  # a fit of other data is not shown as this data's fit
+        fit = None
+        for t in trials:
+            t.model = None
     if fit is not None:
         fit_trials = store.read_fit_table()
         loso = store.read_loso()
@@ -202,4 +212,4 @@ def load_report_data(results) -> ReportData:
             truth_dir = None
     return ReportData(root=store.root, run=run, surfaces=surfaces, trials=trials, failed=failed, fit=fit,
                       fit_trials=fit_trials, truth=truth, truth_dir=truth_dir, notes=notes, loso=loso,
-                      fit_table1=fit_table1)
+                      fit_table1=fit_table1, stale_fit=stale_fit)

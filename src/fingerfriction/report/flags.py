@@ -75,6 +75,12 @@ def _gap_reasons(t: TrialData, first_row: int, n: int) -> str:
 
 def _trial_flags(t: TrialData) -> list[dict]:
     out = []
+    missing = t.status.get("input_missing") or {}
+    if missing:  # analyze kept the last results of a trial whose files are gone (issue 22)
+        out.append(_flag("warning", "input-missing",
+                         f"{missing.get('reason', 'input files missing')} (since "
+                         f"{missing.get('since', '?')}): these are the trial's last results, kept",
+                         trial=t.id, subject=t.subject))
     info = t.status.get("info") or {}
     for s in (info.get("forces") or {}).get("flags") or []:
         code, _, msg = str(s).partition(": ")

@@ -86,8 +86,8 @@ class RealisticChain:
     control_hz : float
         Bandwidth in Hz of the participant's force control (default 3).
     motor_noise_exponent : float
-        The normal-force and speed wander scale as ``(v / 80 mm/s)^exponent`` (default
-        0.5).
+        The normal-force and speed wander scale as ``(v / 80 mm/s)^exponent`` (default 1:
+        signal-dependent motor noise, its SD proportional to the movement commanded).
     cutoff_hz : (float, float)
         Range of the study's -3 dB high-pass cut-off in Hz (default 3-8).
     pole_ratio : (float, float)
@@ -98,6 +98,12 @@ class RealisticChain:
     crosstalk : (float, float)
         Range of the magnitude of each channel's pickup of the other (default 0.02-0.05;
         signs random).
+    crosstalk_calibration : float or None
+        The lab's calibration of the crosstalk: the acquisition applies the inverse of the
+        crosstalk matrix as the lab measured it, each off-diagonal term with this relative
+        error (default 0.1: 0.2-0.5 % of crosstalk reaches the files). None: the channels
+        are recorded uncalibrated (the flat-ground F_T / F_N then differs from mu by a few
+        per cent, a bias no analysis can remove).
     drift_settle_n_per_s : float
         SD in N/s of the initial rate ``A / tau`` of the thermal settling ``A (1 -
         exp(-t / tau))`` per channel (default 0.002, half the ideal chain's linear drift
@@ -116,11 +122,12 @@ class RealisticChain:
     coupling_n_per_mm: float = 0.05
     coupling_sd: float = 0.2
     control_hz: float = 3.0
-    motor_noise_exponent: float = 0.5
+    motor_noise_exponent: float = 1.0
     cutoff_hz: tuple = (3.0, 8.0)
     pole_ratio: tuple = (0.1, 0.5)
     cutoff_jitter: float = 0.03
     crosstalk: tuple = (0.02, 0.05)
+    crosstalk_calibration: float | None = 0.1
     drift_settle_n_per_s: float = 0.002
     drift_settle_s: tuple = (2.0, 20.0)
     drift_wander_n: float = 3e-5
@@ -132,6 +139,11 @@ class RealisticChain:
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
                 raise ValueError(f"RealisticChain.{k} must be a finite number >= 0, got {v!r}")
+        cal = self.crosstalk_calibration
+        if cal is not None and (isinstance(cal, bool) or not isinstance(cal, (int, float))
+                                or not math.isfinite(cal) or not 0 <= cal <= 1):
+            raise ValueError("RealisticChain.crosstalk_calibration must be None or a relative error in "
+                             f"[0, 1], got {cal!r}")
         if self.control_hz <= 0 or self.drift_wander_hz <= 0:
             raise ValueError("RealisticChain.control_hz and drift_wander_hz must be > 0 (Hz)")
         cut = _range("cutoff_hz", self.cutoff_hz)
@@ -193,7 +205,9 @@ def draw_device(seed: int, chain: RealisticChain) -> dict:
     -------
     dict
         ``cutoff_hz``, ``pole_ratio``, ``poles_hz`` ([f1, f2]), ``crosstalk`` (2 x 2
-        matrix ``M``: recorded channels ``M @ (F1, F2)``, ones on the diagonal).
+        matrix ``M``: the transducers' outputs are ``M @ (F1, F2)``, ones on the diagonal)
+        and, with ``crosstalk_calibration``, ``calibration`` (the lab's measurement of
+        ``M``; the files hold its inverse applied to the digitised channels).
     """
     rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(zlib.crc32(b"sensor-device"),)))
     fc = float(rng.uniform(*chain.cutoff_hz))
@@ -201,8 +215,14 @@ def draw_device(seed: int, chain: RealisticChain) -> dict:
     mags = rng.uniform(*chain.crosstalk, size=2)
     signs = np.where(rng.random(2) < 0.5, -1.0, 1.0)
     c12, c21 = (mags * signs).tolist()
-    return {"cutoff_hz": fc, "pole_ratio": r, "poles_hz": list(poles_of_cutoff(fc, r)),
-            "crosstalk": [[1.0, c12], [c21, 1.0]]}
+    # drawn whatever the option, so that the other draws do not depend on it
+    err = np.clip(rng.standard_normal(2), -3.0, 3.0)
+    out = {"cutoff_hz": fc, "pole_ratio": r, "poles_hz": list(poles_of_cutoff(fc, r)),
+           "crosstalk": [[1.0, c12], [c21, 1.0]]}
+    if chain.crosstalk_calibration is not None:
+        k = chain.crosstalk_calibration
+        out["calibration"] = [[1.0, c12 * (1 + k * err[0])], [c21 * (1 + k * err[1]), 1.0]]
+    return out
 
 
 @dataclass(frozen=True)
@@ -214,17 +234,22 @@ class ChainDraws:
     poles_hz : (2, 2) ndarray
         Per channel (F1, F2) the two high-pass poles in Hz.
     crosstalk : (2, 2) ndarray
-        ``M``: the channels recorded are ``M @ (F1, F2)``.
+        ``M``: the transducers' outputs are ``M @ (F1, F2)``.
     drift : (2, n) ndarray
         The drift added to each channel beyond the ideal chain's straight line, N.
+    calibration : (2, 2) ndarray or None
+        The lab's measurement of ``M``: the files hold its inverse applied to the
+        digitised channels (None: uncalibrated).
     """
 
     poles_hz: np.ndarray
     crosstalk: np.ndarray
     drift: np.ndarray
+    calibration: np.ndarray | None = None
 
     def truth(self, fs: float) -> dict:
-        return {"sensor_poles_hz": self.poles_hz, "sensor_crosstalk": self.crosstalk,
+        cal = {} if self.calibration is None else {"sensor_calibration": self.calibration}
+        return {**cal, "sensor_poles_hz": self.poles_hz, "sensor_crosstalk": self.crosstalk,
                 "sensor_cutoff_hz": np.array([cutoff_of_poles(p) for p in self.poles_hz]),
                 "sensor_extra_drift": self.drift.astype(np.float32)}
 
@@ -242,7 +267,9 @@ def draw_trial_chain(rng: np.random.Generator, n: int, fs: float, chain: Realist
         a = chain.drift_settle_n_per_s * tau * rng.standard_normal()
         w = smooth_noise(rng, n, fs, chain.drift_wander_hz) if n > 1 else np.zeros(n)
         drift[c] = a * (1.0 - np.exp(-t / tau)) + chain.drift_wander_n * w
-    return ChainDraws(poles, np.asarray(device["crosstalk"], float), drift)
+    cal = device.get("calibration")
+    return ChainDraws(poles, np.asarray(device["crosstalk"], float), drift,
+                      None if cal is None else np.asarray(cal, float))
 
 
 def speed_scaled_kinematics(params: KinematicsParams, speed_mm_s: float,

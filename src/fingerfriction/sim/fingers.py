@@ -24,10 +24,11 @@ import zlib
 import numpy as np
 
 from ..mechanics import FingerParams, get_subject
-from ..mechanics.finger_file import finger_from_mapping
+from ..mechanics.fe import FE_SUBJECTS, FEFingerParams
+from ..mechanics.finger_file import fe_finger_from_mapping, finger_from_mapping
 
-__all__ = ["DRAW_SPREAD", "DRAWN_FIELDS", "draw_finger", "draw_fingers", "check_finger_options",
-           "study_fingers"]
+__all__ = ["DRAW_SPREAD", "DRAWN_FIELDS", "FE_DRAWN_FIELDS", "draw_finger", "draw_fingers",
+           "draw_fe_finger", "check_finger_options", "study_fingers"]
 
 #: Relative half-range of a drawn parameter: uniform in ``[1 - s, 1 + s]`` times the default.
 DRAW_SPREAD = 0.25
@@ -56,15 +57,58 @@ def draw_finger(base: FingerParams, rng: np.random.Generator, *, spread: float =
     return dataclasses.replace(base, name=name or base.name, **kw)
 
 
-def draw_fingers(seed: int, subjects) -> dict[str, FingerParams]:
-    """Drawn fingers around the calibrated ones, one per subject label ('1' or '2')."""
+#: The parameters an FE draw varies (:func:`draw_fe_finger`): the outline, the two moduli,
+#: the skin's and the pulp's thicknesses.
+FE_DRAWN_FIELDS = ("radius", "semi_height", "tissue_modulus", "skin_modulus", "skin_thickness",
+                   "pulp_thickness")
+
+
+def draw_fe_finger(base: FEFingerParams, rng: np.random.Generator, *, spread: float = DRAW_SPREAD,
+                   name: str = "") -> FEFingerParams:
+    """A layered FE finger around ``base``: each of :data:`FE_DRAWN_FIELDS` times
+    ``U(1 - s, 1 + s)`` (the pulp thickness within ``s / 2``), the bone scaled with the
+    outline (its half-width with ``radius``, its half-height and the pulp with
+    ``semi_height``), so that every draw is a valid finger. ``s = 0.25`` spans the
+    literature ranges of docs/mechanics-fe.md."""
+    if not (isinstance(spread, (int, float)) and 0 < spread < 1):
+        raise ValueError(f"spread must be in (0, 1), got {spread!r}")
+    k = rng.uniform(1.0 - spread, 1.0 + spread, size=len(FE_DRAWN_FIELDS))
+    k[5] = 1.0 + 0.5 * (k[5] - 1.0)
+    f = dict(zip(FE_DRAWN_FIELDS, k.tolist(), strict=True))
+    return dataclasses.replace(
+        base, name=name or base.name, radius=base.radius * f["radius"],
+        semi_height=base.semi_height * f["semi_height"],
+        tissue_modulus=base.tissue_modulus * f["tissue_modulus"],
+        skin_modulus=base.skin_modulus * f["skin_modulus"],
+        skin_thickness=base.skin_thickness * f["skin_thickness"],
+        pulp_thickness=base.pulp_thickness * f["semi_height"] * f["pulp_thickness"],
+        bone_half_width=base.bone_half_width * f["radius"],
+        bone_half_height=base.bone_half_height * f["semi_height"])
+
+
+def draw_fingers(seed: int, subjects, model: str = "mechanics-bem") -> dict:
+    """Drawn fingers around the defaults, one per subject label ('1' or '2'): half-space
+    fingers around the calibrated ones, or (``model='fe'``) FE fingers around
+    :data:`~fingerfriction.mechanics.fe.FE_SUBJECTS`."""
     out = {}
     for s in subjects:
         label = str(s)
         ss = np.random.SeedSequence(int(seed), spawn_key=(zlib.crc32(label.encode()),))
         rng = np.random.default_rng(ss)
-        out[label] = draw_finger(_default(label), rng, name=f"subject {label} (drawn, finger seed {seed})")
+        name = f"subject {label} (drawn, finger seed {seed})"
+        if model == "fe":
+            out[label] = draw_fe_finger(_default_fe(label), rng, name=name)
+        else:
+            out[label] = draw_finger(_default(label), rng, name=name)
     return out
+
+
+def _default_fe(label: str) -> FEFingerParams:
+    try:
+        return FE_SUBJECTS[label]
+    except KeyError:
+        raise ValueError(f"no default FE finger to draw around for subject {label!r}; give --finger "
+                         f"{label}=FILE instead") from None
 
 
 def _default(label: str) -> FingerParams:
@@ -89,32 +133,36 @@ def check_finger_options(fingers, finger_seed, subjects, contact_model: str) -> 
     if not isinstance(fingers, dict):
         raise ValueError(f"fingers must be a mapping subject -> finger, got {type(fingers).__name__}")
     out = {}
+    read = fe_finger_from_mapping if contact_model == "fe" else finger_from_mapping
     for label, f in fingers.items():
         label = str(label)
         if label not in subjects:
             raise ValueError(f"fingers: subject {label!r} is not simulated (subjects: {', '.join(subjects)})")
-        out[label] = finger_from_mapping(f, where=f"finger of subject {label}").to_dict()
-    if (out or finger_seed is not None) and contact_model != "mechanics-bem":
-        raise ValueError(f"fingers and finger_seed need contact_model 'mechanics-bem', got {contact_model!r}")
+        d = read(f, where=f"finger of subject {label}").to_dict()
+        out[label] = {"model": "fe", **d} if contact_model == "fe" else d
+    if (out or finger_seed is not None) and contact_model not in ("mechanics-bem", "fe"):
+        raise ValueError(f"fingers and finger_seed need contact_model 'mechanics-bem' or 'fe', "
+                         f"got {contact_model!r}")
     return dict(sorted(out.items())), (None if finger_seed is None else int(finger_seed))
 
 
-def study_fingers(fingers: dict, finger_seed: int | None, subjects) -> dict[str, FingerParams] | None:
+def study_fingers(fingers: dict, finger_seed: int | None, subjects, model: str = "mechanics-bem"):
     """Subject label -> the finger it slides (None: the provider's defaults for all).
 
-    An explicit finger wins over the seed's draw for its subject.
+    An explicit finger wins over the seed's draw for its subject. ``model='fe'``: FE fingers.
     """
     if not fingers and finger_seed is None:
         return None
-    drawn = draw_fingers(finger_seed, subjects) if finger_seed is not None else {}
+    drawn = draw_fingers(finger_seed, subjects, model) if finger_seed is not None else {}
     out = {}
     for s in subjects:
         if s in fingers:
-            out[s] = FingerParams.from_dict(fingers[s])
+            out[s] = (fe_finger_from_mapping(fingers[s]) if model == "fe"
+                      else FingerParams.from_dict(fingers[s]))
         elif s in drawn:
             out[s] = drawn[s]
         else:
-            out[s] = _default(s)
+            out[s] = _default_fe(s) if model == "fe" else _default(s)
     return out
 
 

@@ -14,7 +14,7 @@ import numpy as np
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from .camera import CameraParams
 from .chain import CHAIN_NAMES, RealisticChain
-from .contact import MechanicsProvider, get_provider
+from .contact import get_provider
 from .fingers import check_finger_options, study_fingers
 from .kinematics import KinematicsParams
 from .physics import SUBJECT_FORCE_LAWS, RealismParams
@@ -46,10 +46,11 @@ class SimOptions:
         Study seed (>= 0).
     video_format : {'ffv1-mkv', 'tiff'}
     camera, sensor, kinematics : parameter dataclasses
-    contact_model : {'mechanics-bem', 'bridged-foundation'}
-        The contact provider (:mod:`fingerfriction.sim.contact`).
-    table_step : float
-        Finger-position step of the contact tables in mm.
+    contact_model : {'mechanics-bem', 'bridged-foundation', 'fe'}
+        The contact provider (:mod:`fingerfriction.sim.contact`; 'fe': the layered
+        finite-element finger, :mod:`fingerfriction.mechanics.fe`).
+    table_step : float, optional
+        Finger-position step of the contact tables in mm (default 0.02; 0.1 for 'fe').
     table_loads : tuple of float
         Normal loads of the contact tables in N.
     video_end_mm : float
@@ -87,7 +88,7 @@ class SimOptions:
     sensor: SensorParams = field(default_factory=SensorParams)
     kinematics: KinematicsParams = field(default_factory=KinematicsParams)
     contact_model: str = "mechanics-bem"
-    table_step: float = 0.02
+    table_step: float | None = None
     table_loads: tuple = (0.22, 0.3, 0.38)
     video_end_mm: float = 14.0
     realism: RealismParams | None = None
@@ -162,6 +163,8 @@ class SimOptions:
             raise ValueError(f"speeds has duplicates: {sp}")
         if self.video_format not in VIDEO_EXT:
             raise ValueError(f"video_format must be one of {', '.join(VIDEO_EXT)}, got {self.video_format!r}")
+        if self.table_step is None:  # 0.02 mm; the FE finger's tables (0.4 s a position): 0.1 mm
+            object.__setattr__(self, "table_step", 0.1 if self.contact_model == "fe" else 0.02)
         if not (self.table_step > 0 and math.isfinite(self.table_step)):
             raise ValueError(f"table_step must be a positive length in mm, got {self.table_step!r}")
         object.__setattr__(self, "subjects", subs)
@@ -176,8 +179,8 @@ class SimOptions:
 
     def provider(self, subjects=None):
         """The contact provider, with this study's fingers (:mod:`~fingerfriction.sim.fingers`)."""
-        fingers = study_fingers(self.fingers, self.finger_seed, subjects or self.subjects)
-        return get_provider(self.contact_model) if fingers is None else MechanicsProvider(fingers=fingers)
+        fingers = study_fingers(self.fingers, self.finger_seed, subjects or self.subjects, self.contact_model)
+        return get_provider(self.contact_model, fingers=fingers)
 
     def trial_specs(self) -> list[TrialSpec]:
         """The design in a fixed order: subject, surface, speed, repetition."""

@@ -133,7 +133,8 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
     chain : ChainDraws, optional
         A trial's realistic chain (:mod:`fingerfriction.sim.chain`): the channels are
         mixed by its crosstalk matrix, go through its second-order high-pass (instead of
-        the first-order ``params.highpass_hz``), and get its extra drift.
+        the first-order ``params.highpass_hz``), get its extra drift, and, after the
+        quantisation, the inverse of the lab's calibration matrix when it has one.
 
     Returns
     -------
@@ -169,4 +170,6 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
         lsb = P.lsb_n
         k = np.clip(np.rint(y / lsb), -(2 ** (P.bits - 1)), 2 ** (P.bits - 1) - 1)
         out.append(k * lsb)
+    if chain is not None and chain.calibration is not None:  # the lab's crosstalk calibration
+        out = list(np.linalg.solve(chain.calibration, np.vstack(out)))
     return out[0], out[1]

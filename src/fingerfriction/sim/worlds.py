@@ -271,39 +271,44 @@ class Interlocking:
 
         F_int = g(d) mu_t(t) int q cos a dx
         F_def = g(d) (1 + e(t)) [ (1 + psi_up(v)) int_{s>0} q sin a dx
-                                 + (1 - psi_down(v)) int_{s<0} q sin a dx ]
+                                 + r_down(v) int_{s<0} q sin a dx ]
 
     ``F_int`` is the horizontal part of the interfacial (Coulomb) shear; ``F_def`` the
     horizontal push of the normal stress on sloping ground, which the elastic contact
     gives symmetrically (back on rising ground, forward on falling ground) and the
     finger's viscoelastic tissue makes asymmetric: the leading side, compressed against
     rising ground, pushes harder (``psi_up``); on falling ground the skin lags behind the
-    receding surface and returns little (``psi_down`` of the elastic push is lost).
-    Both grow with the trial's speed ``v`` as ``(v / v_ref)^speed_exponent`` and are drawn
-    per trial (log-normal, ``psi_sd``); ``e(t)`` and the friction's own fluctuation are
-    smooth random processes (``fluct_hz``) whose size grows with speed; ``mu_t(t) = mu (1 +
-    transient exp(-(t - t_slide) / transient_s))`` is a static-to-sliding peak decaying
-    in *time*. ``docs/worlds.md`` gives the paper's statements each term reproduces.
+    receding surface and returns only a fraction ``r_down`` of the elastic forward push.
+    ``psi_up`` grows with the trial's speed ``v`` as ``(v / v_ref)^speed_exponent`` and
+    ``r_down`` falls as its inverse (the faster the slide, the less time the skin has to
+    follow); both are drawn per trial (log-normal, ``psi_sd``); ``e(t)`` is a smooth
+    random process (``fluct_hz``) whose size grows with speed: the interlocking at the
+    leading edge is the unsteady part, while the interfacial friction on talc-treated
+    aluminium is steady within a trial ("treated with a small amount of talc to reduce
+    stick-slip effects", Methods); ``mu_t(t) = mu (1 + transient exp(-(t -
+    t_slide) / transient_s))`` is a static-to-sliding peak decaying in *time*.
+    ``docs/worlds.md`` gives the paper's statements each term reproduces.
 
     Parameters
     ----------
     psi_up : float
         Relative increase of the push on rising ground at ``v_ref`` (>= 0).
-    psi_down : float
-        Fraction of the elastic forward push on falling ground lost at ``v_ref`` (0..1;
-        capped at 1 at higher speeds).
+    down_return : float
+        Fraction of the elastic forward push on falling ground returned at ``v_ref``
+        (0..1; default 0.1: "negligibly small" deformation forces on the Step Down
+        surfaces, Fig. S3).
     speed_exponent : float
         ``psi`` grows as ``(v / v_ref)^speed_exponent``.
     v_ref : float
         Reference speed in mm/s.
     psi_sd : float
-        Log-SD of the per-trial factor on ``psi_up`` and ``psi_down`` (skin hydration,
+        Log-SD of the per-trial factor on ``psi_up`` (its inverse on ``down_return``) (skin hydration,
         finger orientation).
     mu_sd : float
         Relative SD of the trial's friction coefficient (on top of the realism option's).
     fluct_sd : float
-        Relative SD, at ``v_ref``, of the within-trial fluctuation of the deformation force
-        (and a fifth of it for the friction coefficient); grows as ``sqrt(v / v_ref)``.
+        Relative SD, at ``v_ref``, of the within-trial fluctuation of the deformation force;
+        grows as ``sqrt(v / v_ref)``.
     fluct_hz : float
         Bandwidth of the within-trial fluctuations in Hz.
     transient : float
@@ -313,7 +318,7 @@ class Interlocking:
     """
 
     psi_up: float = 1.0
-    psi_down: float = 0.8
+    down_return: float = 0.1
     speed_exponent: float = 0.3
     v_ref: float = 80.0
     psi_sd: float = 0.25
@@ -326,11 +331,11 @@ class Interlocking:
     name = "interlocking"
 
     def __post_init__(self) -> None:
-        _check_fields(self, nonneg=("psi_up", "psi_down", "speed_exponent", "psi_sd", "mu_sd", "fluct_sd",
+        _check_fields(self, nonneg=("psi_up", "down_return", "speed_exponent", "psi_sd", "mu_sd", "fluct_sd",
                                     "transient"),
                       positive=("v_ref", "fluct_hz", "transient_s"))
-        if self.psi_down > 1:
-            raise ValueError(f"Interlocking.psi_down must be in [0, 1], got {self.psi_down!r}")
+        if self.down_return > 1:
+            raise ValueError(f"Interlocking.down_return must be in [0, 1], got {self.down_return!r}")
         if self.mu_sd > 0.3 or self.fluct_sd > 0.5:
             raise ValueError("Interlocking: mu_sd must be <= 0.3 and fluct_sd <= 0.5 (relative)")
 
@@ -339,9 +344,9 @@ class Interlocking:
                 "subjects": {s: {"mu": law.mu} for s, law in SUBJECT_FORCE_LAWS.items()}}
 
     def psi(self, speed_mm_s: float) -> tuple[float, float]:
-        """``(psi_up, psi_down)`` at a speed in mm/s, before the trial's draw."""
+        """``(psi_up, r_down)`` at a speed in mm/s, before the trial's draw."""
         k = (speed_mm_s / self.v_ref) ** self.speed_exponent
-        return self.psi_up * k, min(self.psi_down * k, 1.0)
+        return self.psi_up * k, min(self.down_return / k, 1.0)
 
     def trial_forces(self, table: ContactTable, motion: TrialMotion, subject: str,
                      rng: np.random.Generator, *, mu_scale: float = 1.0, load_exponent: float = 0.0,
@@ -352,20 +357,19 @@ class Interlocking:
         Returns
         -------
         WorldForces
-            ``truth``: ``mu_trial``, ``psi_up_trial``, ``psi_down_trial``.
+            ``truth``: ``mu_trial``, ``psi_up_trial``, ``down_return_trial``.
         """
         v = float(motion.mean_speed)
         mu = _mu(subject) * mu_scale * (1.0 + self.mu_sd * float(np.clip(rng.standard_normal(), -3.0, 3.0)))
         k_trial = _lognormal(rng, self.psi_sd)
         up, down = self.psi(v)
-        up, down = up * k_trial, min(down * k_trial, 1.0)
+        up, down = up * k_trial, min(down / k_trial, 1.0)
         n = motion.x.size
         amp = self.fluct_sd * math.sqrt(v / self.v_ref)
-        e_def = e_mu = np.zeros(n)
-        if n > 1 and amp > 0:  # smooth fluctuations on the force clock
+        e_def = np.zeros(n)
+        if n > 1 and amp > 0:  # a smooth fluctuation on the force clock
             fs = 1.0 / float(motion.t[1] - motion.t[0])
             e_def = np.maximum(amp * smooth_noise(rng, n, fs, self.fluct_hz), -0.9)
-            e_mu = amp / 5 * smooth_noise(rng, n, fs, self.fluct_hz)
 
         f_n = np.asarray(motion.f_n, float)
         I = table.interp_integrals(motion.x, np.maximum(f_n, 1e-9))
@@ -373,14 +377,14 @@ class Interlocking:
         i_n = I[:, 0]
         scale = np.where(motion.in_contact & (i_n > 0), f_n / np.where(i_n > 0, i_n, 1.0), 0.0)
         since = np.maximum(np.asarray(motion.t) - motion.t_slide_start, 0.0)
-        mu_t = mu * (1.0 + self.transient * np.exp(-since / self.transient_s)) * (1.0 + e_mu)
+        mu_t = mu * (1.0 + self.transient * np.exp(-since / self.transient_s))
         if load_exponent:
             mu_t = mu_t * (np.maximum(f_n, 1e-6) / f_ref_n) ** (-load_exponent)
         g = _start(motion)
         f_int = g * scale * mu_t * I[:, 2]
-        f_def = g * scale * (1.0 + e_def) * ((1.0 + up) * E["sin_up"] + (1.0 - down) * E["sin_down"])
+        f_def = g * scale * (1.0 + e_def) * ((1.0 + up) * E["sin_up"] + down * E["sin_down"])
         return WorldForces(f_int + f_def, f_int, f_def,
-                           {"mu_trial": mu, "psi_up_trial": up, "psi_down_trial": down})
+                           {"mu_trial": mu, "psi_up_trial": up, "down_return_trial": down})
 
 
 _WORLDS = {"load-sharing": LoadSharing, "constant-pressure": ConstantPressure, "interlocking": Interlocking}

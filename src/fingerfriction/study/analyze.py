@@ -29,11 +29,12 @@ from distributed import Client, LocalCluster, as_completed
 from .. import __version__
 from .._outputs import check_output_dir
 from .._progress import ProgressBar
-from .check import check_files, check_study
-from .manifest import Study, TrialRecord, resolve_path
+from .check import check_files
+from .manifest import Study, TrialRecord
 from .params import AnalysisParams
+from .plan import AnalysisPlan, StudyCheckError, TrialPlan, _check_out_apart, plan_analysis, trial_entry
 from .selfcheck import synchronise_study
-from .store import TRIAL_FORMAT, ResultsStore, now, params_digest, sha256_file
+from .store import ResultsStore, input_fingerprint, now, sha256_file, sha256_input
 from .trial import TrialInput, one_line, process_trial
 
 __all__ = ["TrialOutcome", "AnalyzeResult", "TrialPlan", "AnalysisPlan", "StudyCheckError", "plan_analysis",
@@ -57,8 +58,10 @@ _VERSIONED = (
 class TrialOutcome:
     """What happened to one trial in :func:`analyze` (passed to the callback).
 
-    ``status`` is ``'ok'``, ``'failed'`` or ``'skipped'``; ``reason`` is the one-line
-    reason of a failure (empty otherwise); ``elapsed_s`` the processing time in s.
+    ``status`` is ``'ok'``, ``'failed'``, ``'skipped'`` or ``'input missing'`` (its files are
+    missing or unreadable; its last results are kept, marked); ``reason`` is the one-line
+    reason of a failure or a missing input (empty otherwise); ``elapsed_s`` the processing
+    time in s.
     """
 
     trial_id: str
@@ -91,6 +94,9 @@ class AnalyzeResult:
         Number of workers that ran the trials.
     plan : tuple of TrialPlan
         What was decided for each trial before the run, and why.
+    input_missing : tuple of (str, str)
+        ``(trial_id, reason)`` of the trials whose input files are missing or unreadable:
+        their last good results are kept, marked ``input_missing`` in ``status.json``.
     sync : dict
         The synchronisation of this run's trials (:meth:`.selfcheck.SyncOutcome.record`):
         the mode and each trial's measured video-force offset; empty with
@@ -108,12 +114,15 @@ class AnalyzeResult:
     n_workers: int
     compute_s: float = 0.0
     plan: tuple = ()
+    input_missing: tuple = ()
     sync: dict = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
-        """True if every trial of the study is finished OK."""
-        return self.n_failed == 0 and self.n_computed + self.n_skipped == self.n_trials
+        """True if every trial of the study is finished OK from its present input files
+        (the command's exit status 0; 1 otherwise)."""
+        return (self.n_failed == 0 and not self.input_missing
+                and self.n_computed + self.n_skipped == self.n_trials)
 
 
 
@@ -127,8 +136,8 @@ def _run_trial(trial: TrialInput, params: dict) -> dict:
             rel = getattr(trial.record, key).path
             p = trial.path(rel, f"{key}.path")
             st = p.stat()
-            inputs[key] = {"path": rel, "sha256": sha256_file(p), "bytes": st.st_size,
-                           "mtime_ns": st.st_mtime_ns}
+            inputs[key] = {"path": rel, "sha256": sha256_input(p), "bytes": st.st_size,
+                           "mtime_ns": st.st_mtime_ns, "fingerprint": input_fingerprint(p)}
         res = process_trial(trial, AnalysisParams(**params))
         return {"ok": True, "frames": res.frames, "forces": res.forces, "info": res.info,
                 "inputs": inputs, "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
@@ -136,149 +145,6 @@ def _run_trial(trial: TrialInput, params: dict) -> dict:
         logger.debug("trial %s failed:\n%s", trial.id, traceback.format_exc())
         return {"ok": False, "reason": one_line(exc), "inputs": inputs,
                 "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
-
-
-# --------------------------------------------------------------------------------------
-# the plan: which trials to compute, and why (the resume key)
-# --------------------------------------------------------------------------------------
-
-
-class StudyCheckError(ValueError):
-    """The manifest has mistakes; ``problems`` lists every one (one line each)."""
-
-    def __init__(self, manifest: Path, problems):
-        self.problems = tuple(problems)
-        lines = "\n".join(f"  {p}" for p in self.problems)
-        super().__init__(f"{manifest}: {len(self.problems)} problem(s) in the manifest; nothing was run "
-                         f"(`fingerfriction check` lists them too):\n{lines}")
-
-
-@dataclass(frozen=True)
-class TrialPlan:
-    """What :func:`plan_analysis` decided for one trial.
-
-    ``action`` is ``'compute'`` or ``'skip'``; ``reason`` says why: ``'new'``, ``'failed
-    before'``, ``'input changed: video'``, ``'manifest entry changed: force.t0_s'``,
-    ``'parameters changed: forces.window_mm'``, ``'--force'``... or ``'unchanged'``.
-    """
-
-    trial_id: str
-    action: str
-    reason: str
-
-
-@dataclass(frozen=True)
-class AnalysisPlan:
-    """The trials of an :func:`analyze` run and what would be done to each."""
-
-    study: Study
-    trials: tuple
-    params: dict
-    params_sha256: str
-    index: dict
-
-    @property
-    def todo(self) -> list[str]:
-        return [p.trial_id for p in self.trials if p.action == "compute"]
-
-    @property
-    def skipped(self) -> list[str]:
-        return [p.trial_id for p in self.trials if p.action == "skip"]
-
-
-def trial_entry(study: Study, trial: TrialRecord) -> dict:
-    """A trial's manifest entry as the resume key sees it: its fields as written (those
-    left to the files absent) and its surface's spec."""
-    return {**trial.to_dict(), "surface_spec": dict(study.surfaces[trial.surface])}
-
-
-def _flat(d, prefix: str = "") -> dict:
-    out = {}
-    for k, v in (d or {}).items():
-        key = f"{prefix}{k}"
-        if isinstance(v, dict) and v:
-            out.update(_flat(v, key + "."))
-        else:
-            out[key] = v
-    return out
-
-
-def _changed(old: dict, new: dict, limit: int = 4) -> str:
-    a, b = _flat(old), _flat(new)
-    keys = sorted(k for k in set(a) | set(b) if a.get(k, _MISSING) != b.get(k, _MISSING))
-    more = f" (+{len(keys) - limit} more)" if len(keys) > limit else ""
-    return ", ".join(keys[:limit]) + more
-
-
-_MISSING = object()
-
-
-def _reasons(store: ResultsStore, study: Study, t: TrialRecord, pdict: dict, pdigest: str) -> list[str]:
-    """Why a trial must be computed (empty: it is finished and nothing it depends on changed)."""
-    status = store.status(t.id)
-    if status is None:
-        return ["new"]
-    if status.get("status") != "ok":
-        return ["failed before"]
-    d = store.trial_dir(t.id)
-    if not ((d / "frames.parquet").is_file() and (d / "forces.parquet").is_file()):
-        return ["results incomplete"]
-    if status.get("trial_format", 1) != TRIAL_FORMAT:
-        return ["results of an older format"]
-    out = []
-    if status.get("params_sha256") != pdigest:
-        what = _changed(status.get("parameters") or {}, pdict) if status.get("parameters") else ""
-        out.append(f"parameters changed: {what}" if what else "parameters changed")
-    entry = status.get("entry")
-    if entry is None:
-        out.append("manifest entry not recorded: results of an older version")
-    else:
-        what = _changed(entry, trial_entry(study, t))
-        if what:
-            out.append(f"manifest entry changed: {what}")
-    changed = _inputs_changed(Path(study.root), t, status)
-    if changed:
-        out.append(f"input changed: {', '.join(changed)}")
-    return out
-
-
-def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: AnalysisParams | None = None,
-                  force: bool = False, trials: Sequence[str] | None = None) -> AnalysisPlan:
-    """Which trials :func:`analyze` would compute, and why; nothing is run or written.
-
-    A trial is computed when it is new, failed before, or when anything it depends on
-    changed since it was computed: its input files (size or modification time), its
-    manifest entry (any field, its surface's spec included), or the resolved analysis
-    parameters. ``status.json`` keeps all three.
-
-    Raises
-    ------
-    StudyCheckError
-        The manifest has mistakes (all listed); see :func:`~fingerfriction.study.check.check_study`.
-    ValueError
-        A missing study folder, an unknown trial id, a bad option.
-    """
-    params = params or AnalysisParams()
-    pdict = params.resolved()  # every stage parameter spelled out: recorded, and decides resumption
-    pdigest = params_digest(pdict)
-    study_dir = Path(study)
-    if not study_dir.is_dir():
-        raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")
-    res = check_study(study_dir, files=False)
-    if res.problems:
-        raise StudyCheckError(res.manifest, res.problems)
-    st = res.study
-    selected = _select(st, trials)
-    # a results folder of its own, or a new or empty one: never mixed with other files
-    check_output_dir(out, marker="run.json", what="results folder")
-    store = ResultsStore(out)
-    plans = []
-    for t in selected:
-        store.trial_dir(t.id)  # validates the id before anything runs
-        why = ["--force"] if force else _reasons(store, st, t, pdict, pdigest)
-        plans.append(TrialPlan(t.id, "compute" if why else "skip", "; ".join(why) or "unchanged"))
-    return AnalysisPlan(study=st, trials=tuple(plans), params=pdict, params_sha256=pdigest,
-                        index=res.index or {})
 
 
 def _versions() -> dict:
@@ -291,21 +157,6 @@ def _versions() -> dict:
     if out.get("fingerfriction") is None:  # running from a source tree
         out["fingerfriction"] = __version__
     return out
-
-
-def _select(study: Study, selected: Sequence[str] | str | None) -> list[TrialRecord]:
-    """The trials to analyse, in the study's order (all by default)."""
-    trials = list(study.trials)
-    if not trials:
-        raise ValueError(f"study {str(study.root)!r} lists no trials")
-    if selected is None:
-        return trials
-    if isinstance(selected, str):
-        selected = [selected]
-    unknown = sorted(set(selected) - {t.id for t in trials})
-    if unknown:
-        raise ValueError(f"trials {unknown} are not in the study {str(study.root)!r}")
-    return [t for t in trials if t.id in set(selected)]
 
 
 def _base_record(study: Study, pdict: dict, pdigest: str) -> dict:
@@ -331,7 +182,7 @@ def _base_record(study: Study, pdict: dict, pdigest: str) -> dict:
 def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str | None = None,
             n_workers: int | None = None, force: bool = False, progress: bool = True,
             params: AnalysisParams | None = None, callback: Callable[[TrialOutcome], None] | None = None,
-            trials: Sequence[str] | None = None) -> AnalyzeResult:
+            trials: Sequence[str] | None = None, quick_resume: bool = False) -> AnalyzeResult:
     """Analyse every trial of a study in parallel on Dask; resumable.
 
     Parameters
@@ -361,6 +212,9 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
         recorded so far stays.
     trials : sequence of str, optional
         Analyse only these trial ids (default: every trial of the study).
+    quick_resume : bool
+        Trust the file system's fingerprint of an unchanged input instead of hashing it
+        (see :func:`plan_analysis`); default False: every input is compared by content.
 
     Returns
     -------
@@ -372,14 +226,47 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
         A missing or invalid study, a bad option.
     """
     params = params or AnalysisParams()
-    if n_workers is not None and (not isinstance(n_workers, int) or n_workers < 1):
-        raise ValueError(f"n_workers must be a positive integer, got {n_workers!r}")
+    if n_workers is not None and (not isinstance(n_workers, int) or not 1 <= n_workers <= MAX_WORKERS):
+        raise ValueError(f"n_workers must be an integer in [1, {MAX_WORKERS}], got {n_workers!r}")
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise ValueError(f"scheduler must be an address such as 'tcp://127.0.0.1:8786', got {scheduler!r}")
-    plan = plan_analysis(study, out, params=params, force=force, trials=trials)
+    study_dir, out = Path(study), Path(out)
+    if not study_dir.is_dir():
+        raise ValueError(f"study folder {str(study_dir)!r} does not exist or is not a folder")
+    _check_out_apart(study_dir, out)
+    check_output_dir(out, marker="run.json", what="results folder")
+    created = not out.exists()
+    store = ResultsStore(out)
+    try:
+        with store.lock("analyze"):  # one command at a time in a results folder
+            return _analyze_locked(study_dir, store, scheduler=scheduler, n_workers=n_workers, force=force,
+                                   progress=progress, params=params, callback=callback, trials=trials,
+                                   quick_resume=quick_resume)
+    except BaseException:
+        if created:  # a folder this call made and left empty (a study that could not be run)
+            (out / ".lock").unlink(missing_ok=True)
+            try:
+                out.rmdir()
+            except OSError:
+                pass
+        raise
+
+
+#: The most worker processes :func:`analyze` starts on this machine.
+MAX_WORKERS = 256
+
+
+def _analyze_locked(study_dir: Path, store: ResultsStore, *, scheduler, n_workers, force, progress, params,
+                    callback, trials, quick_resume) -> AnalyzeResult:
+    """:func:`analyze` once it holds the results folder."""
+    plan = plan_analysis(study_dir, store.root, params=params, force=force, trials=trials,
+                         quick_resume=quick_resume)
+    if plan.other_study is not None:  # --force on another study's results folder
+        gone = store.purge({t.id for t in plan.study.trials})
+        logger.warning("results folder %s held another study's results (%s): %d trial(s), fit and report "
+                       "removed (--force)", store.root, plan.other_study, len(gone))
     st, pdict, pdigest = plan.study, plan.params, plan.params_sha256
     todo_trials = [st.trial(p.trial_id) for p in plan.trials]
-    store = ResultsStore(out)
     raw = {"video": dict(params.video), "forces": dict(params.forces), "selfcheck": dict(params.selfcheck)}
     t_start = time.perf_counter()
     started = now()
@@ -392,21 +279,24 @@ def analyze(study: str | os.PathLike, out: str | os.PathLike, *, scheduler: str 
 
     entries = {t.id: trial_entry(st, t) for t in todo_trials}
     run = _Run(store, pdigest, callback, pdict, entries)
-    bar = ProgressBar(progress, len(todo_trials), "analyze")
+    n_all = len(todo_trials) + len(plan.invalid)
+    bar = ProgressBar(progress, n_all, "analyze")
     try:
+        run.invalid(plan.invalid, bar)
+        run.keep(plan.kept, plan.marked, bar)
         run.run_all(st, skipped, bad, todo, raw, scheduler, n_workers, bar)
         run.synchronise(st, params)
     finally:
         bar.close()
         elapsed = time.perf_counter() - t_start
-        this_run = run.summary(started, elapsed, force=force, n_skipped=len(skipped),
-                               n_trials=len(todo_trials))
-        _write_run_record(store, st, base_record, started, [*previous, this_run])
+        this_run = run.summary(started, elapsed, force=force, n_skipped=len(skipped), n_trials=n_all)
+        _write_run_record(store, st, base_record, started, [*previous, this_run], plan.invalid)
 
-    return AnalyzeResult(results=store.root, n_trials=len(todo_trials), n_computed=run.n_ok,
+    return AnalyzeResult(results=store.root, n_trials=n_all, n_computed=run.n_ok,
                          n_skipped=len(skipped), n_failed=run.n_fail, failures=tuple(run.failures),
                          elapsed_s=elapsed, scheduler=run.scheduler, n_workers=run.n_workers,
-                         compute_s=run.compute_s, plan=plan.trials, sync=run.sync)
+                         compute_s=run.compute_s, plan=plan.trials, input_missing=tuple(plan.kept),
+                         sync=run.sync)
 
 
 def _checked_todo(st: Study, plan: AnalysisPlan) -> tuple[list[TrialRecord], dict[str, list[str]]]:
@@ -424,9 +314,11 @@ def _checked_todo(st: Study, plan: AnalysisPlan) -> tuple[list[TrialRecord], dic
     return [checked[i] for i in plan.todo if i in checked], bad
 
 
-def _write_run_record(store: ResultsStore, st, base_record: dict, started: str, runs: list) -> None:
+def _write_run_record(store: ResultsStore, st, base_record: dict, started: str, runs: list,
+                      invalid: tuple = ()) -> None:
     """The run record at the end of a run (``runs[-1]``, complete or interrupted): every
-    trial's input statistics and status as the store now holds them."""
+    trial's input statistics and status as the store now holds them, and the entries that
+    could not be run (``invalid``: an id too long to name a folder...)."""
     inputs = {}
     trial_status = {}
     for tid in (t.id for t in st.trials):
@@ -434,9 +326,12 @@ def _write_run_record(store: ResultsStore, st, base_record: dict, started: str, 
         inputs[tid] = status.get("inputs", {})
         trial_status[tid] = {"status": status.get("status", "not run"),
                              "reason": status.get("reason", "")}
+        if status.get("input_missing"):
+            trial_status[tid]["input_missing"] = status["input_missing"]
     store.write_run({**base_record, "state": "interrupted" if runs[-1]["interrupted"] else "complete",
                      "started": started, "finished": runs[-1]["finished"], "runs": runs, "inputs": inputs,
-                     "trial_status": trial_status})
+                     "trial_status": trial_status,
+                     "invalid_entries": [{"trial": tid, "reason": why} for tid, why in invalid]})
 
 
 class _Run:
@@ -446,12 +341,35 @@ class _Run:
     def __init__(self, store: ResultsStore, pdigest: str, callback, params: dict, entries: dict):
         self.store, self.pdigest, self.callback = store, pdigest, callback
         self.params, self.entries = params, entries
-        self.n_ok = self.n_fail = 0
+        self.n_ok = self.n_fail = self.n_kept = 0
         self.failures: list[tuple[str, str]] = []
         self.ok_ids: list[str] = []
         self.sync: dict = {}
         self.scheduler, self.n_workers = "none", 0
         self.t_submit = self.t_done = None
+
+    def invalid(self, invalid: tuple, bar: ProgressBar) -> None:
+        """Entries that cannot be run (an id too long to name a folder): failed, the others go on."""
+        for tid, reason in invalid:
+            self.n_fail += 1
+            self.failures.append((tid, reason))
+            logger.warning("trial %s failed: %s", tid, reason)
+            bar.advance(f"{tid} FAILED")
+            if self.callback is not None:
+                self.callback(TrialOutcome(tid, "failed", reason))
+
+    def keep(self, kept: list, marked: list[str], bar: ProgressBar) -> None:
+        """Trials whose inputs are missing: their results kept, marked; the skipped ones
+        unmarked (their inputs are back, unchanged)."""
+        for tid, reason in kept:
+            self.store.mark_input_missing(tid, reason)
+            self.n_kept += 1
+            logger.warning("trial %s: %s; its last results are kept, marked 'input missing'", tid, reason)
+            bar.advance(f"{tid} (input missing)")
+            if self.callback is not None:
+                self.callback(TrialOutcome(tid, "input missing", reason))
+        for tid in marked:  # skipped: their inputs are back, unchanged
+            self.store.mark_input_missing(tid, None)
 
     def run_all(self, st: Study, skipped: list[str], bad: dict[str, list[str]], todo: list[TrialRecord],
                 raw: dict, scheduler: str | None, n_workers: int | None, bar: ProgressBar) -> None:
@@ -538,7 +456,8 @@ class _Run:
                 "compute_s": round(self.compute_s, 3),
                 "scheduler": self.scheduler, "n_workers": self.n_workers, "force": bool(force),
                 "computed": self.n_ok, "skipped": n_skipped, "failed": self.n_fail,
-                "interrupted": self.n_ok + self.n_fail + n_skipped < n_trials,
+                "input_missing": self.n_kept,
+                "interrupted": self.n_ok + self.n_fail + n_skipped + self.n_kept < n_trials,
                 **({"sync": self.sync} if self.sync else {})}
 
     def record(self, t: TrialRecord, res: dict, bar: ProgressBar) -> None:
@@ -549,8 +468,15 @@ class _Run:
                   "cpu_s": round(float(res.get("cpu_s", 0.0)), 4),
                   "finished": now(),
                   "labels": {k: getattr(t, k) for k in _LABELS}}
+        try:
+            if res["ok"]:
+                self.store.write_trial(t.id, res["frames"], res["forces"], {**status, "info": res["info"]})
+            else:
+                self.store.write_failure(t.id, res["reason"], status)
+        except OSError as exc:  # a full disk, a name too long for the file system: this trial only
+            res = {"ok": False, "reason": f"cannot write its results: {one_line(exc)}"}
+            logger.warning("trial %s: %s", t.id, res["reason"])
         if res["ok"]:
-            self.store.write_trial(t.id, res["frames"], res["forces"], {**status, "info": res["info"]})
             self.n_ok += 1
             self.ok_ids.append(t.id)
             for c in (res["info"].get("selfcheck") or {}).get("checks", []):
@@ -558,7 +484,6 @@ class _Run:
                     logger.warning(f"{c.get('code')} in trial %s: %s", t.id, c.get("message"))
             outcome = TrialOutcome(t.id, "ok", "", status["elapsed_s"])
         else:
-            self.store.write_failure(t.id, res["reason"], status)
             self.n_fail += 1
             self.failures.append((t.id, res["reason"]))
             logger.warning("trial %s failed: %s", t.id, res["reason"])
@@ -567,26 +492,6 @@ class _Run:
         bar.advance(t.id if res["ok"] else f"{t.id} FAILED")
         if self.callback is not None:
             self.callback(outcome)
-
-
-def _inputs_changed(study_dir: Path, trial: TrialRecord, status: dict) -> list[str]:
-    """The input files (``'video'``, ``'force'``) whose size or modification time differ
-    from those recorded when the trial was analysed (a cheap check: hashing every video
-    again would cost as much as reading it)."""
-    rec = status.get("inputs", {})
-    out = []
-    for key in ("video", "force"):
-        r = rec.get(key) or {}
-        rel = getattr(trial, key).path
-        try:
-            st = resolve_path(study_dir, rel, where=f"{key}.path").stat()
-        except (OSError, ValueError):
-            out.append(key)
-            continue
-        if r.get("path") != rel or st.st_size != r.get("bytes") or st.st_mtime_ns != r.get("mtime_ns"):
-            logger.info("trial %s: %s changed since it was analysed", trial.id, rel)
-            out.append(key)
-    return out
 
 
 def _input_stats(study: Study, trial: TrialRecord) -> dict:

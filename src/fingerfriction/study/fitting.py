@@ -186,6 +186,7 @@ def fit(
     store = ResultsStore(results)
     settings = _settings(mu_grid, method, median_kernel, seed)
     surfaces = store.surfaces()
+    analysis = store.analysis_digests()  # what is fitted, so that the report can tell it changed since
     meta = {t["id"]: t for t in store.analysed_trials()}
     if not meta:
         raise ValueError(f"{str(store.root)!r} has no successfully analysed trial to fit")
@@ -215,6 +216,7 @@ def fit(
     store.write_fit_csv("table1", table1_all)
     store.write_fit_csv("comparison", selection.comparison)
     record = _fit_record(model, used, selection, fits, cpu, settings, flags, notes, len(trials), failures)
+    record["analysis"] = {"trials": analysis}  # per trial: the digest of its stored tables
     record["loso"] = {"computed": loso is not None, "message": loso_message,
                       "csv": "loso.csv" if loso is not None else None}
     store.write_fit_record(record)

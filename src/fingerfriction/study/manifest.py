@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from .._atomic import atomic_write_bytes
+from .._check import parse_json
 from ..forces.readers import probe_force_file
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from ..video.readers import probe_video
@@ -45,7 +46,9 @@ from .records import (
     _problem,
     _str,
     _within,
+    is_long_id,
     resolve_path,
+    shown_id,
     validate_id,
 )
 
@@ -156,6 +159,9 @@ class TrialRecord:
                 parts.append((None, None, None))
             return None
         tid = c(validate_id, d.get("id"), where=f"{where}.id")
+        if tid is None and problems and is_long_id(d.get("id")):
+            # an id too long to name a results folder: that trial's error alone
+            problems[-1] = dataclasses.replace(problems[-1], trial=shown_id(d["id"]), kind="trial")
         c.trial = tid
         subject = d.get("subject")
         if isinstance(subject, int) and not isinstance(subject, bool):
@@ -195,7 +201,7 @@ def _surface_of_name(name: str) -> dict | None:
     they belong in ``surfaces``, relative to no folder in particular."""
     if name in SURFACE_NAMES or (":" in name and not name.lower().endswith(".csv")):
         try:
-            return surface_from_spec(name).to_dict()
+            return surface_from_spec(name, files=False).to_dict()
         except (ValueError, TypeError):
             return None
     return None
@@ -328,6 +334,11 @@ class Study:
 
 
 def _unknown_surface(name: str, surfaces: dict) -> str:
+    if ":" in name and not name.lower().endswith(".csv"):  # a spec: why it is refused
+        try:
+            surface_from_spec(name, files=False)
+        except (ValueError, TypeError) as exc:
+            return f"surface spec {name!r}: {' '.join(str(exc).split())}"
     known = f"; 'surfaces' defines {', '.join(surfaces)}" if surfaces else ""
     return (f"{name!r} is not in 'surfaces' and is not a built-in surface ({', '.join(SURFACE_NAMES)}) or a "
             f"spec like 'bump:W=3,H=0.5'{known}")
@@ -356,11 +367,9 @@ def read_manifest_json(path: str | os.PathLike) -> Any:
     except UnicodeDecodeError:
         raise ManifestError(f"{p}: manifest is not UTF-8 text") from None
     try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ManifestError(
-            f"{p}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
-        ) from None
+        return parse_json(text, str(p))  # bounded size and nesting (a deep one: RecursionError)
+    except ValueError as exc:
+        raise ManifestError(str(exc)) from None
 
 
 def load_manifest(path: str | os.PathLike, *, complete: bool = True) -> Study:

@@ -28,6 +28,10 @@ __all__ = [
     "VIDEO_SUFFIXES",
     "FORCE_FORMATS",
     "ManifestError",
+    "TrialIdTooLong",
+    "MAX_ID_LENGTH",
+    "shown_id",
+    "is_long_id",
     "Problem",
     "VideoInfo",
     "ForceInfo",
@@ -40,9 +44,31 @@ MANIFEST_NAME = "manifest.json"
 
 _ID_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
 
+#: The longest trial id: it names a folder (``trials/<id>/``) and files (``<id>.parquet``,
+#: ``<id>.html`` and their temporary names, about 30 characters more), within the 255
+#: bytes a file name may have on common file systems.
+MAX_ID_LENGTH = 128
+
 
 class ManifestError(ValueError):
     """A malformed manifest or an invalid study record; the message names file and field."""
+
+
+class TrialIdTooLong(ManifestError):
+    """A trial id longer than :data:`MAX_ID_LENGTH`: an error of that trial alone (``analyze``
+    runs the others and reports it failed)."""
+
+
+def is_long_id(value: Any) -> bool:
+    """Whether ``value`` is a trial id that is wrong only by being longer than
+    :data:`MAX_ID_LENGTH`."""
+    return (isinstance(value, str) and len(value) > MAX_ID_LENGTH and bool(_ID_RE.match(value))
+            and value not in (".", ".."))
+
+
+def shown_id(trial_id: str) -> str:
+    """A trial id as messages show it: a long one cut, with its length."""
+    return trial_id if len(trial_id) <= 60 else f"{trial_id[:40]}...({len(trial_id)} characters)"
 
 
 def _fail(where: str, msg: str) -> ManifestError:
@@ -52,17 +78,24 @@ def _fail(where: str, msg: str) -> ManifestError:
 def validate_id(trial_id: Any, *, where: str = "id") -> str:
     """Check a trial id: a non-empty string of letters, digits, ``-``, ``_`` and ``.``.
 
-    The id names a folder (``trials/<id>/``), so ``.`` and ``..`` alone are refused.
+    The id names a folder (``trials/<id>/``), so ``.`` and ``..`` alone are refused, and
+    it is at most :data:`MAX_ID_LENGTH` characters long.
 
     Raises
     ------
     ManifestError
-        Naming ``where``, the value and what is allowed.
+        Naming ``where``, the value and what is allowed; :class:`TrialIdTooLong` for a
+        long id.
     """
     if not isinstance(trial_id, str) or not _ID_RE.match(trial_id) or trial_id in (".", ".."):
+        shown = repr(shown_id(trial_id)) if isinstance(trial_id, str) else repr(trial_id)[:80]
         raise _fail(
-            where, f"trial id must be letters, digits, '-', '_' or '.' (not '.' or '..'), got {trial_id!r}"
+            where, f"trial id must be letters, digits, '-', '_' or '.' (not '.' or '..'), got {shown}"
         )
+    if len(trial_id) > MAX_ID_LENGTH:
+        raise TrialIdTooLong(f"{where}: trial id {shown_id(trial_id)!r} is longer than {MAX_ID_LENGTH} "
+                             "characters (MAX_ID_LENGTH): it names the trial's results folder and files; "
+                             "give a shorter id")
     return trial_id
 
 
@@ -106,6 +139,24 @@ def resolve_path(root: str | os.PathLike, relpath: str, *, where: str = "path") 
     return full
 
 
+#: Upper bounds of the manifest's numbers (field name -> (bound, unit)): each keeps memory
+#: and time reasonable, or is far beyond any recording (a finger slides at most a few
+#: hundred mm/s; the fastest cameras record about a million frames per second).
+LIMITS = {
+    "speed_mm_s": (10_000.0, "mm/s"),
+    "repetition": (1_000_000, ""),
+    "fps": (10_000_000.0, "Hz"),
+    "width": (65_536, "px"),
+    "height": (65_536, "px"),
+    "n_frames": (10_000_000, "frames"),
+    "calibration_frame": (10_000_000, ""),
+    "fs_hz": (10_000_000.0, "Hz"),
+    "n_samples": (50_000_000, "samples"),  # forces.readers.MAX_SAMPLES
+    "t0_s": (1_000_000.0, "s"),  # a bound on |t0_s|
+    "surface_height_mm": (10.0, "mm"),  # surfaces.MAX_HEIGHT_MM
+}
+
+
 def _num(d: dict, key: str, where: str, *, positive: bool = False, integer: bool = False,
          nonneg: bool = False, default: Any = ...) -> Any:
     if key not in d:
@@ -114,7 +165,12 @@ def _num(d: dict, key: str, where: str, *, positive: bool = False, integer: bool
         raise _fail(f"{where}.{key}", "missing required field")
     v = d[key]
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise _fail(f"{where}.{key}", f"must be a number, got {v!r}")
+        raise _fail(f"{where}.{key}", f"must be a number, got {str(v)[:40]!r}")
+    hi, unit = LIMITS.get(key, (1e12, ""))
+    # before any conversion: an integer of 400 digits has no float
+    if isinstance(v, int) and abs(v) > hi:
+        raise _fail(f"{where}.{key}", f"must be at most {hi:g}{' ' + unit if unit else ''}, got a number of "
+                                      f"{len(str(abs(v)))} digits")
     if integer and (not float(v).is_integer()):
         raise _fail(f"{where}.{key}", f"must be an integer, got {v!r}")
     if not math.isfinite(v):
@@ -123,6 +179,8 @@ def _num(d: dict, key: str, where: str, *, positive: bool = False, integer: bool
         raise _fail(f"{where}.{key}", f"must be positive, got {v!r}")
     if nonneg and v < 0:
         raise _fail(f"{where}.{key}", f"must be >= 0, got {v!r}")
+    if abs(v) > hi:
+        raise _fail(f"{where}.{key}", f"must be at most {hi:g}{' ' + unit if unit else ''}, got {v!r}")
     return int(v) if integer else float(v)
 
 
@@ -160,9 +218,11 @@ class Problem:
         What is wrong and what is allowed.
     trial : str or None
         The trial's id, when the problem belongs to one trial.
-    kind : {'manifest', 'file'}
+    kind : {'manifest', 'file', 'trial'}
         A mistake in the manifest's text, or a recording that does not match it (missing,
-        unreadable, other frame count...).
+        unreadable, other frame count...), or an entry that cannot be run on its own
+        (``'trial'``: an id too long to name its results; ``analyze`` fails that trial and
+        runs the others).
     """
 
     file: str

@@ -73,10 +73,15 @@ kept; NaN when the trial has no absolute level, see ``status.json`` ``info.force
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import json
 import logging
 import os
+import shutil
+import stat
+from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -85,10 +90,12 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write, atomic_write_bytes, atomic_write_json, atomic_write_text, jsonable
+from .._check import parse_json
 from .._outputs import write_table
 from ..fit import FitOptions, Trial, flat_segment_mask, mu_grid
 from ..regions import as_regions, regions_on_grid
 from ..surfaces import Surface, surface_from_spec
+from ..video.readers import tiff_frame_files
 from .manifest import validate_id
 
 __all__ = [
@@ -100,7 +107,10 @@ __all__ = [
     "atomic_write_json",
     "atomic_write_parquet",
     "sha256_file",
+    "sha256_input",
+    "input_fingerprint",
     "params_digest",
+    "ResultsInUseError",
     "now",
     "frames_table",
     "regions_from_table",
@@ -140,6 +150,48 @@ def sha256_file(path: str | os.PathLike, *, chunk: int = 1 << 20) -> str:
         while block := fh.read(chunk):
             h.update(block)
     return h.hexdigest()
+
+
+def sha256_input(path: str | os.PathLike) -> str:
+    """SHA-256 hex digest of a trial's input: a file's bytes, or for a folder of TIFF frames
+    (:func:`~fingerfriction.video.readers.tiff_frame_files`) the digest of its frames' names
+    and digests, in frame order (a renamed, added, removed or edited frame changes it).
+
+    Raises
+    ------
+    OSError
+        A missing or unreadable file or folder.
+    ValueError
+        A folder without TIFF frames, or whose frames link out of it; something that is
+        neither a regular file nor a folder.
+    """
+    if not os.path.isdir(path):
+        if os.path.exists(path) and not os.path.isfile(path):  # a FIFO or a device would block or never end
+            raise ValueError(f"{os.fspath(path)}: not a regular file")
+        return sha256_file(path)
+    h = hashlib.sha256(b"fingerfriction tiff folder v1\n")
+    for f in tiff_frame_files(path):
+        h.update(f"{os.path.basename(f)}\0{sha256_file(f)}\n".encode())
+    return h.hexdigest()
+
+
+def input_fingerprint(path: str | os.PathLike) -> str:
+    """What the file system says of a trial's input, without reading it: size, modification
+    and status-change times (ns) and inode, of the file or of every frame of a TIFF folder.
+    Any write changes the status-change time (``ctime``), which no user call can set back;
+    ``analyze --quick-resume`` trusts an unchanged fingerprint instead of hashing.
+
+    Raises
+    ------
+    OSError, ValueError
+        As :func:`sha256_input`.
+    """
+    files = tiff_frame_files(path) if os.path.isdir(path) else [path]
+    parts = []
+    for f in files:
+        st = os.stat(f)
+        parts.append(f"{os.path.basename(f)}:{st.st_size}:{st.st_mtime_ns}:{st.st_ctime_ns}:{st.st_ino}")
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
 def params_digest(params: dict) -> str:
@@ -248,6 +300,15 @@ def regions_from_table(df: pd.DataFrame) -> np.ndarray:
 # --------------------------------------------------------------------------------------
 
 
+#: The text of status records by (path, inode, size, modification time), each checked once
+#: (:meth:`ResultsStore.status`).
+_STATUS_CACHE: dict = {}
+
+
+class ResultsInUseError(ValueError):
+    """Another command holds the results folder (:meth:`ResultsStore.lock`)."""
+
+
 class ResultsStore:
     """A results folder (layout in the module docstring).
 
@@ -303,15 +364,34 @@ class ResultsStore:
 
     # per trial ------------------------------------------------------------------------
     def status(self, trial_id: str) -> dict | None:
-        """The trial's status record, or None if it has none (never run, or interrupted)."""
+        """The trial's status record, or None if it has none (never run, or interrupted).
+
+        A status read again while its file is the same (inode, size, modification time: it
+        is only ever replaced whole) is not read and checked again (``analyze`` reads each
+        several times): its text, checked once, is parsed again into a new dict."""
         p = self.trial_dir(trial_id) / "status.json"
-        if not p.is_file():
-            return None
         try:
-            return _read_json(p)
-        except ValueError as exc:
+            st = p.stat()
+        except OSError:
+            return None
+        if not stat.S_ISREG(st.st_mode):
+            return None
+        key = (str(p), st.st_ino, st.st_size, st.st_mtime_ns)
+        text = _STATUS_CACHE.get(key)
+        if text is not None:
+            return json.loads(text)
+        try:
+            text = p.read_text(encoding="utf-8")
+            obj = parse_json(text, f"cannot read {p}")
+            if not isinstance(obj, dict):
+                raise ValueError(f"{p}: expected a JSON object, got {type(obj).__name__}")
+        except (OSError, ValueError) as exc:  # (UnicodeDecodeError is a ValueError)
             logger.warning("ignoring unreadable status of trial %s: %s", trial_id, exc)
             return None
+        if len(_STATUS_CACHE) > 20_000:
+            _STATUS_CACHE.clear()
+        _STATUS_CACHE[key] = text
+        return obj
 
     def is_finished(self, trial_id: str, params_sha256: str) -> bool:
         """True if the trial finished OK with these analysis parameters."""
@@ -331,10 +411,16 @@ class ResultsStore:
         # Remove the old status first, so a crash between the writes below leaves the
         # trial unfinished rather than pointing at a mix of old and new tables.
         (d / "status.json").unlink(missing_ok=True)
-        atomic_write_parquet(d / "frames.parquet", frames)
-        atomic_write_parquet(d / "forces.parquet", forces)
-        atomic_write_json(d / "status.json",
-                          {"trial": trial_id, "status": "ok", "trial_format": TRIAL_FORMAT, **status})
+        tables = {}
+        for name, df in (("frames.parquet", frames), ("forces.parquet", forces)):
+            buf = io.BytesIO()
+            df.to_parquet(buf, engine="pyarrow", index=False)
+            data = buf.getvalue()
+            atomic_write(d / name, lambda tmp, data=data: tmp.write_bytes(data))
+            # what resume checks before it trusts the table again (verify_tables)
+            tables[name] = {"rows": len(df), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+        atomic_write_json(d / "status.json", {"trial": trial_id, "status": "ok", "trial_format": TRIAL_FORMAT,
+                                              **status, "tables": tables})
 
     def write_failure(self, trial_id: str, reason: str, status: dict) -> None:
         """Record a failed trial with its one-line reason; remove stale tables."""
@@ -347,6 +433,102 @@ class ResultsStore:
             d / "status.json", {"trial": trial_id, "status": "failed", "reason": one_line, **status}
         )
 
+    def verify_tables(self, trial_id: str, status: dict | None = None) -> str | None:
+        """Why a finished trial's stored tables cannot be trusted, or None when they are
+        intact: each must exist with the size and SHA-256 recorded when it was written
+        (``status.json`` ``tables``); for results written before those were recorded, it
+        must be a readable Parquet file (its footer) with the recorded row count where
+        there is one."""
+        import pyarrow.parquet as pq  # pyarrow is pandas' Parquet engine here
+
+        status = self.status(trial_id) if status is None else status
+        d = self.trial_dir(trial_id)
+        recorded = (status or {}).get("tables") or {}
+        for name in ("frames.parquet", "forces.parquet"):
+            p = d / name
+            rec = recorded.get(name) or {}
+            try:
+                size = p.stat().st_size
+                if rec.get("sha256"):
+                    if size != rec.get("bytes"):
+                        return f"{name} has {size} bytes, {rec.get('bytes')} were written"
+                    if sha256_file(p) != rec["sha256"]:
+                        return f"{name} changed since it was written (SHA-256)"
+                    continue
+                rows = pq.read_metadata(p).num_rows
+            except FileNotFoundError:
+                return f"{name} is missing"
+            except Exception as exc:  # noqa: BLE001 - a damaged Parquet file raises many types
+                return f"{name} cannot be read ({type(exc).__name__}: {' '.join(str(exc).split())[:120]})"
+            if rec.get("rows") is not None and rows != rec["rows"]:
+                return f"{name} has {rows} rows, {rec['rows']} were written"
+        return None
+
+    def mark_input_missing(self, trial_id: str, reason: str | None) -> None:
+        """Mark a finished trial whose input files are missing or unreadable (``reason``),
+        keeping its tables: ``status.json`` gains ``input_missing`` (what and since when);
+        ``reason=None`` removes the mark (the inputs are back, unchanged)."""
+        st = self.status(trial_id)
+        if st is None or st.get("status") != "ok":
+            return
+        if reason is None:
+            if "input_missing" not in st:
+                return
+            st.pop("input_missing")
+        else:
+            since = (st.get("input_missing") or {}).get("since") or now()
+            st["input_missing"] = {"reason": " ".join(str(reason).split()), "since": since}
+        atomic_write_json(self.trial_dir(trial_id) / "status.json", st)
+
+    @contextlib.contextmanager
+    def lock(self, command: str) -> Iterator[None]:
+        """Hold the results folder for one command (``RESULTS/.lock``, an exclusive
+        ``flock`` the system releases when the process ends, however it ends).
+
+        Raises
+        ------
+        ResultsInUseError
+            Another command holds it (the message names it, with its process id).
+        ValueError
+            The folder cannot be written (read-only, no permission).
+        """
+        import fcntl  # POSIX; the package's commands run on Linux and macOS
+
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.root / ".lock", os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as exc:
+            raise ValueError(f"results folder {str(self.root)!r} cannot be written ({exc.strerror or exc}); "
+                             "give a folder you can write with --out") from None
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 200, 0).decode("utf-8", "replace").strip() or "another command"
+                raise ResultsInUseError(
+                    f"results folder {str(self.root)!r} is in use by {holder}; wait for it to finish "
+                    "(two commands writing one results folder would mix their results)") from None
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"`fingerfriction {command}` (process {os.getpid()}, since {now()})".encode(), 0)
+            yield
+        finally:
+            os.close(fd)  # releases the lock
+
+    def purge(self, keep: set) -> list[str]:
+        """Remove what the package wrote for trials not in ``keep`` (``trials/<id>/``), and
+        ``fit/`` and ``report/``; returns the trial ids removed. For a results folder taken
+        over by another study (``analyze --force``)."""
+        gone = []
+        tdir = self.root / "trials"
+        if tdir.is_dir():
+            for p in sorted(tdir.iterdir()):
+                if p.is_dir() and not p.is_symlink() and p.name not in keep:
+                    shutil.rmtree(p)
+                    gone.append(p.name)
+        for sub in (self.fit_dir, self.report_dir):
+            if sub.is_dir() and not sub.is_symlink():
+                shutil.rmtree(sub)
+        return gone
     def update_status(self, trial_id: str, changes: dict) -> None:
         """Replace top-level fields of a trial's status record (atomically), e.g. what a
         study-level step measured of a finished trial; a trial without one is left alone."""
@@ -451,6 +633,54 @@ class ResultsStore:
                               "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute,
                       clipped=None if clipped is None else clipped[good])
         return trial, moved[good]
+
+    # the analysis a fit used ----------------------------------------------------------
+    def analysis_digests(self) -> dict[str, str]:
+        """``{trial_id: SHA-256}`` of every trial analysed OK (in the run record), over its
+        stored tables' digests (``status.json`` ``tables``; the files themselves for results
+        written before those were recorded): what a fit records, and what tells that a
+        trial was analysed again since (:meth:`fit_staleness`)."""
+        out = {}
+        for m in self.read_run().get("trials", []):
+            tid = m.get("id") if isinstance(m, dict) else None
+            if not isinstance(tid, str):
+                continue
+            st = self.status(tid) or {}
+            if st.get("status") != "ok":
+                continue
+            tables = st.get("tables") or {}
+            parts = []
+            for name in ("frames.parquet", "forces.parquet"):
+                digest = (tables.get(name) or {}).get("sha256")
+                if digest is None:
+                    try:
+                        digest = sha256_file(self.trial_dir(tid) / name)
+                    except OSError:
+                        digest = "missing"
+                parts.append(f"{name}={digest}")
+            out[tid] = hashlib.sha256(";".join(parts).encode()).hexdigest()
+        return out
+
+    def fit_staleness(self, record: dict | None = None) -> str | None:
+        """Why the fit (``fit/fit.json``) no longer describes the analysed trials, or None:
+        trials analysed again, newly analysed or gone since the fit (the digests the fit
+        recorded, :meth:`analysis_digests`). None also for a fit that recorded none (made by
+        an older version: nothing to compare)."""
+        record = self.read_fit_record() if record is None else record
+        fitted = (record or {}).get("analysis")
+        if not isinstance(fitted, dict) or not isinstance(fitted.get("trials"), dict):
+            return None
+        before, now_ = fitted["trials"], self.analysis_digests()
+        again = sorted(t for t in set(before) & set(now_) if before[t] != now_[t])
+        new = sorted(set(now_) - set(before))
+        gone = sorted(set(before) - set(now_))
+        if not (again or new or gone):
+            return None
+        parts = [f"{len(v)} {what} (e.g. {v[0]})" for v, what in ((again, "analysed again"),
+                                                                   (new, "newly analysed"),
+                                                                   (gone, "no longer analysed OK")) if v]
+        return (f"the fit is older than the analysis: since it was made, trials were {'; '.join(parts)}; "
+                f"run `fingerfriction fit {self.root}` again")
 
     # fit/ ------------------------------------------------------------------------------
     def write_model(self, trial_id: str, df: pd.DataFrame) -> None:
@@ -560,10 +790,10 @@ def read_fit_table(fit_dir: str | os.PathLike) -> pd.DataFrame:
 
 def _read_json(path: Path) -> dict:
     try:
-        with open(path, encoding="utf-8") as fh:
-            obj = json.load(fh)
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"cannot read {path}: {exc}") from None
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"cannot read {path}: {exc.strerror or exc}") from None
+    obj = parse_json(data, f"cannot read {path}")
     if not isinstance(obj, dict):
         raise ValueError(f"{path}: expected a JSON object, got {type(obj).__name__}")
     return obj

@@ -154,7 +154,9 @@ def read_cine_header(path: str | os.PathLike) -> CineHeader:
         (_bisize, width, height, _planes, bitcount, bicomp, sizeimage, _xppm, _yppm,
          _clrused, _clrimp) = _BITMAPINFO.unpack(fh.read(_BITMAPINFO.size))
         if bicomp != 0:
-            raise _bad(path, f"biCompression={bicomp}; only uncompressed images (0) are supported")
+            packed = " (packed 10/12-bit pixels)" if bicomp in (256, 1024) else ""
+            raise _bad(path, f"biCompression={bicomp}{packed}; only uncompressed 8- or 16-bit images (0) are "
+                       "supported: save the cine unpacked (16 bit) from the camera software")
         if bitcount not in (8, 16):
             raise _bad(path, f"biBitCount={bitcount}; only 8- and 16-bit gray images are supported "
                        "(packed 10/12-bit and colour cines are not)")

@@ -262,7 +262,7 @@ def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tupl
     if isinstance(reader, AVReader):
         import av  # heavy (FFmpeg bindings): only for compressed videos
 
-        with av.open(reader.path) as c:
+        with av.open(reader.path, format=reader.demuxer) as c:
             st = c.streams.video[0]
             keys = np.asarray([i for i, pk in enumerate(p for p in c.demux(st) if p.size) if pk.is_keyframe],
                               dtype=np.int64)
@@ -273,7 +273,7 @@ def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tupl
             want = set(pick.tolist())
             fmt = "gray16le" if reader.dtype == np.uint16 else "gray"
             out = []
-            with av.open(reader.path) as c:
+            with av.open(reader.path, format=reader.demuxer) as c:
                 st = c.streams.video[0]
                 for i, pk in enumerate(p for p in c.demux(st) if p.size):
                     if i in want:

@@ -41,15 +41,19 @@ import numpy as np
 
 from .cine import read_cine_header
 
-__all__ = ["VideoReader", "open_video", "TiffStackReader", "MultiPageTiffReader", "AVReader",
-           "CineReader", "VIDEO_EXTENSIONS", "VideoProbe", "probe_video", "is_video_path", "FrameRate",
-           "frame_rate", "FPS_TOLERANCE"]
+__all__ = ["VideoReader", "open_video", "tiff_frame_files", "TiffStackReader", "MultiPageTiffReader",
+           "AVReader", "CineReader", "VIDEO_EXTENSIONS", "VideoProbe", "probe_video", "is_video_path",
+           "FrameRate", "frame_rate", "FPS_TOLERANCE"]
 
 log = logging.getLogger(__name__)
 
 #: File extensions recognised by :func:`open_video` (lower case, with dot).
 VIDEO_EXTENSIONS = (".tif", ".tiff", ".avi", ".mp4", ".mkv", ".mov", ".cine")
 
+#: The FFmpeg demuxer of each container extension. It is named, never guessed from the
+#: content: a guessed format could be a playlist (HLS, ffconcat) that makes FFmpeg read
+#: other files or URLs, outside the study folder and outside what resume hashes.
+AV_DEMUXERS = {".avi": "avi", ".mp4": "mov", ".mov": "mov", ".mkv": "matroska"}
 #: Relative difference between the time stamps' rate and the nominal one above which they
 #: disagree (1e-4: 0.1 ms in a 1 s recording; a camera's clock is better than this).
 FPS_TOLERANCE = 1e-4
@@ -284,34 +288,68 @@ def _natural_key(name: str):
 # ---------------------------------------------------------------------------------------
 # TIFF
 # ---------------------------------------------------------------------------------------
+def tiff_frame_files(folder: str | os.PathLike) -> list[str]:
+    """The frames of a folder of TIFF images: its ``.tif``/``.tiff`` files in natural name
+    order (``frame2`` before ``frame10``), as paths.
+
+    Raises
+    ------
+    ValueError
+        A folder without TIFF files, or a frame that is a link to a file outside the
+        folder (a folder's frames are its own: that is what is read and what resume hashes).
+    """
+    folder = os.fspath(folder)
+    try:
+        names = sorted((n for n in os.listdir(folder) if n.lower().endswith((".tif", ".tiff"))),
+                       key=_natural_key)
+    except OSError as exc:
+        raise ValueError(f"{folder}: cannot list the folder of TIFF frames ({exc.strerror or exc})") from None
+    if not names:
+        raise ValueError(f"{folder}: folder contains no .tif/.tiff files")
+    real = os.path.realpath(folder)
+    files = []
+    for n in names:
+        p = os.path.join(folder, n)
+        target = os.path.realpath(p)
+        if os.path.dirname(target) != real and not target.startswith(real + os.sep):
+            raise ValueError(f"{p}: frame file links to {target}, outside the folder {real}")
+        if not os.path.isfile(target):
+            raise ValueError(f"{p}: not a file (a frame of the TIFF folder must be a TIFF image)")
+        files.append(p)
+    return files
+
+
+def _read_tiff_image(path: str) -> np.ndarray:
+    """The first image of one TIFF file, gray. Read by page, never through tifffile's
+    series, which for an OME-TIFF would also read the other files its metadata names."""
+    import tifffile  # only for TIFF files
+
+    with tifffile.TiffFile(path) as tf:
+        return _to_gray(tf.pages[0].asarray(), path)
+
+
 class TiffStackReader(VideoReader):
-    """A folder of single-image TIFF files, one frame each, in natural name order."""
+    """A folder of single-image TIFF files, one frame each, in natural name order
+    (:func:`tiff_frame_files`)."""
 
     format = "tiff"
 
     def __init__(self, path: str) -> None:
-        import tifffile  # only for TIFF files
-
         super().__init__(path)
-        names = sorted((n for n in os.listdir(path) if n.lower().endswith((".tif", ".tiff"))),
-                       key=_natural_key)
-        if not names:
-            raise ValueError(f"{path}: folder contains no .tif/.tiff files")
-        self.files = [os.path.join(path, n) for n in names]
+        self.files = tiff_frame_files(path)
         try:
-            first = _to_gray(tifffile.imread(self.files[0]), self.files[0])
-        except (OSError, ValueError, KeyError) as exc:
-            raise ValueError(f"{self.files[0]}: cannot read TIFF image ({exc})") from None
+            first = _read_tiff_image(self.files[0])
+        except Exception as exc:  # noqa: BLE001 - tifffile raises many types on bad files
+            raise ValueError(
+                f"{self.files[0]}: cannot read TIFF image ({type(exc).__name__}: {exc})") from None
         self.dtype = _check_dtype(first.dtype, self.files[0])
         self.shape = first.shape
         self.n_frames = len(self.files)
 
     def _read_range(self, start, stop, out):
-        import tifffile  # only for TIFF files
-
         f = self.files
         return self._read_images(
-            start, stop, out, lambda i: _to_gray(tifffile.imread(f[i]), f[i]),
+            start, stop, out, lambda i: _read_tiff_image(f[i]),
             unreadable=lambda i, exc: f"{f[i]}: cannot read TIFF image ({type(exc).__name__}: {exc})",
             misshapen=lambda i, shape: f"{f[i]}: image is {shape}, the stack's frames are {self.shape}")
 
@@ -379,9 +417,13 @@ class AVReader(VideoReader):
 
         super().__init__(path)
         self.format = os.path.splitext(path)[1].lower().lstrip(".")
+        self.demuxer = AV_DEMUXERS.get("." + self.format)
+        if self.demuxer is None:
+            raise ValueError(f"{path}: unknown video container {self.format!r}; allowed: "
+                             + ", ".join(AV_DEMUXERS))
         self._threads = int(threads)
         try:
-            with av.open(path) as c:
+            with av.open(path, format=self.demuxer) as c:
                 if not c.streams.video:
                     raise ValueError(f"{path}: file has no video stream")
                 s = c.streams.video[0]
@@ -423,7 +465,7 @@ class AVReader(VideoReader):
         import av  # heavy (FFmpeg bindings), only for video containers
 
         self.close()
-        self._container = av.open(self.path)
+        self._container = av.open(self.path, format=self.demuxer)
         s = self._container.streams.video[0]
         s.thread_count = self._threads
         s.thread_type = "AUTO" if self._threads > 1 else "SLICE"
@@ -545,6 +587,8 @@ def open_video(path: str | os.PathLike, **kwargs) -> VideoReader:
         return TiffStackReader(p)
     if not os.path.exists(p):
         raise ValueError(f"{p}: no such video file or folder")
+    if not os.path.isfile(p):  # a FIFO or a device: reading it would block, or never end
+        raise ValueError(f"{p}: not a regular file or a folder of TIFF frames")
     ext = os.path.splitext(p)[1].lower()
     if ext in (".tif", ".tiff"):
         return MultiPageTiffReader(p)

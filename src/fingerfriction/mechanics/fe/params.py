@@ -20,10 +20,11 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
+
+from ..._check import positive
 
 __all__ = ["FEFingerParams", "FEMeshParams", "LITERATURE_FINGER", "HOMOGENEOUS_FINGER"]
 
@@ -31,10 +32,7 @@ __all__ = ["FEFingerParams", "FEMeshParams", "LITERATURE_FINGER", "HOMOGENEOUS_F
 def _pos(owner: str, name: str, value, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise TypeError(f"{owner}.{name} must be a number in {unit}, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{owner}.{name} must be a finite positive number in {unit}, got {value!r}")
-    return v
+    return positive(f"{owner}.{name}", value, unit)
 
 
 @dataclass(frozen=True)
@@ -145,13 +143,6 @@ class FEFingerParams:
         """Undeformed lower outline height (mm) above the lowest point at offsets ``u`` (mm)."""
         u = np.asarray(u, float)
         return self.semi_height * (1.0 - np.sqrt(np.clip(1.0 - (u / self.radius) ** 2, 0.0, None)))
-
-    def load_per_width(self, load: float) -> float:
-        """``F_N / D`` in N/mm."""
-        F = float(load)
-        if not math.isfinite(F) or F <= 0:
-            raise ValueError(f"load must be a finite positive normal force in N, got {load!r}")
-        return F / self.width
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import json
 import logging
 import math
 import os
@@ -34,7 +35,7 @@ from ...surfaces import Surface
 from .params import LITERATURE_FINGER, FEFingerParams, FEMeshParams, params_key
 from .solver import FEContactSolver, FEState
 
-__all__ = ["FEProvider", "FE_SUBJECTS", "CACHE_VERSION", "default_cache_dir", "surface_key"]
+__all__ = ["FEProvider", "FE_SUBJECTS", "CACHE_VERSION", "default_cache_dir", "default_mesh", "surface_key"]
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +50,22 @@ FE_SUBJECTS: dict[str, FEFingerParams] = {
     "2": dataclasses.replace(LITERATURE_FINGER, radius=12.0, semi_height=7.0, bone_half_width=7.0,
                              name="subject 2 (FE, literature values)"),
 }
+
+
+def default_mesh() -> FEMeshParams:
+    """:class:`FEMeshParams` defaults, or the JSON object of ``$FINGERFRICTION_FE_MESH``
+    (e.g. ``{"surface_cell": 0.4}``: a coarse mesh for tests and quick looks; the mesh used
+    is recorded with the finger in a study's truth and is part of the cache key)."""
+    text = os.environ.get("FINGERFRICTION_FE_MESH")
+    if not text:
+        return FEMeshParams()
+    try:
+        d = json.loads(text)
+        if not isinstance(d, dict):
+            raise ValueError("not a JSON object")
+        return FEMeshParams(**d)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"FINGERFRICTION_FE_MESH={text!r} is not a valid FE mesh: {exc}") from None
 
 
 def default_cache_dir() -> Path:
@@ -72,26 +89,32 @@ class FEProvider:
     fingers : dict, optional
         Subject label -> :class:`FEFingerParams` (default :data:`FE_SUBJECTS`).
     mesh : FEMeshParams, optional
-        Mesh resolution (default :class:`FEMeshParams`).
+        Mesh resolution (default :func:`default_mesh`).
     grid_step : float
         Spacing in mm of the relative grid ``xi`` (default 0.02).
     cache_dir : path-like or None, optional
         Where solved sweeps are kept (default :func:`default_cache_dir`); ``False`` for no
         cache.
+    friction : float
+        Sliding friction coefficient of a tangential traction on the contact (default 0:
+        frictionless; ``benchmarks/fe_finger.py`` measures what it changes).
     """
 
     name = "fe"
 
     def __init__(self, *, fingers: dict | None = None, mesh: FEMeshParams | None = None,
-                 grid_step: float = 0.02, cache_dir=None):
+                 grid_step: float = 0.02, cache_dir=None, friction: float = 0.0):
         self.fingers = dict(FE_SUBJECTS if fingers is None else fingers)
         for k, f in self.fingers.items():
             if not isinstance(f, FEFingerParams):
                 raise TypeError(f"finger of subject {k!r} must be an FEFingerParams, got {type(f).__name__}")
-        self.mesh = mesh or FEMeshParams()
+        self.mesh = mesh or default_mesh()
         if not (isinstance(grid_step, (int, float)) and math.isfinite(grid_step) and grid_step > 0):
             raise ValueError(f"grid_step must be a positive length in mm, got {grid_step!r}")
         self.grid_step = float(grid_step)
+        if not (isinstance(friction, (int, float)) and math.isfinite(friction) and friction >= 0):
+            raise ValueError(f"friction must be a coefficient >= 0, got {friction!r}")
+        self.friction = float(friction)
         self.cache_dir = None if cache_dir is False else Path(cache_dir or default_cache_dir())
         self.failures = 0
         self.computed = 0  # sweeps solved (not read from the cache), for tests and benchmarks
@@ -122,7 +145,19 @@ class FEProvider:
         xc = np.asarray(x_centres, float)
         return params_key("fe-table", CACHE_VERSION, self._finger(subject).to_dict(), self.mesh.to_dict(),
                           surface_key(surface), np.round(xc, 9).tolist(), round(float(load), 12),
-                          self.grid_step)
+                          self.grid_step, self.friction)
+
+    def reach(self, subject: str, surface) -> float:
+        """Offset (mm) from the finger centre beyond which the relief cannot touch: where the
+        undeformed outline has risen 1 mm above the feature's height (the pad's approach is
+        under 0.7 mm at the tabulated loads, the contact criterion 0.07 mm), within the
+        finely meshed contact arc."""
+        f = self._finger(subject)
+        top = float(getattr(surface, "max_height", 1.0)) + 1.0
+        u = np.linspace(0.0, 0.97 * f.radius, 2001)
+        above = np.flatnonzero(f.outline(u) >= top)
+        r = float(u[above[0]]) if above.size else 0.97 * f.radius
+        return min(r, self.mesh.contact_half_width) + 0.2
 
     def solve(self, surface: Surface, subject: str, x_centres, load: float):
         """Outline ``y_f`` (mm) and pressure ``p`` (MPa), each ``(n_positions, xi.size)``."""
@@ -154,7 +189,7 @@ class FEProvider:
         finger = self._finger(subject)
         s = self.solver(subject)
         xi = self.grid(subject)
-        reach = min(self.mesh.contact_half_width, 0.97 * finger.radius) + 0.5
+        reach = self.reach(subject, surface)
         a, b = surface.feature_extent if isinstance(surface, Surface) else (-math.inf, math.inf)
         flat = (xc + reach < a) | (xc - reach > b)
         y = np.empty((xc.size, xi.size))
@@ -163,7 +198,8 @@ class FEProvider:
 
         def flat_state(level):
             if level not in states:
-                sol, st = s.solve(lambda x: np.full_like(np.asarray(x, float), level), 0.0, load=load)
+                sol, st = s.solve(lambda x: np.full_like(np.asarray(x, float), level), 0.0, load=load,
+                                  friction=self.friction)
                 if not sol.success:
                     self.failures += 1
                     log.warning("FE flat-ground solve did not converge (%s)", sol.message)
@@ -185,7 +221,7 @@ class FEProvider:
             state = FEState(u=st.u, z=st.z, x_c=x0 - step, P=st.P)
             bad = 0
             for i in order:
-                sol, new = s.solve(surface, xc[i], load=load, warm=state)
+                sol, new = s.solve(surface, xc[i], load=load, warm=state, friction=self.friction)
                 if sol.success:
                     state = new
                 else:
