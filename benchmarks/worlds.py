@@ -27,8 +27,8 @@ runs of the default set take about an hour on two shared cores at 36 trials.
 
 Run: ``.venv/bin/python benchmarks/worlds.py`` (every world, the default seeds), or
 ``--world interlocking --seed 7`` (repeatable). The default seeds are drawn, not chosen:
-the first three of ``numpy.random.default_rng(20).integers(1, 10_000, 3)`` (20, the
-issue's number, seeds the draw).
+the first three of ``numpy.random.default_rng(20).integers(1, 10_000, 3)``. Seed-major
+order: every world's first seed comes before any world's second.
 """
 
 from __future__ import annotations
@@ -193,8 +193,8 @@ def main(argv=None) -> int:
                                                                     "10_000, 3))")
           + f"; {REPS} repetition per condition (36 trials per study)")
     outcomes = {}
-    for w in worlds:
-        for s in seeds:
+    for s in seeds:
+        for w in worlds:
             outcomes[w, s] = run(w, s)
     print("\nsummary")
     print(pd.Series({f"{w} seed {s}": o for (w, s), o in outcomes.items()}).to_string())

@@ -84,3 +84,20 @@ def test_fit_console_by_default_the_comparison_variants_flags_are_notes(failing)
     assert not any("paper model" in ln for ln in err if ln.startswith("warning:"))
     notes = [ln for ln in out if ln.startswith("notes on the comparison variants")]
     assert len(notes) == 1 and "paper negative-p0 x8" in notes[0]
+
+
+def test_the_comparison_prints_when_a_column_is_unknown_in_every_variant(capsys):
+    """fit.json writes NaN as null: a study without two trials per surface has no residual
+    structure in any variant, a column of nulls; the console shows '-' (it crashed)."""
+    from fingerfriction.cli.study import _print_fit_tables
+    from fingerfriction.report import comparison_frame
+
+    rows = [{"model": m, "title": m, "family": m, "verdict": v, "why": "", "n_trials": 2, "n_unphysical": 0,
+             "table1_cells_ok": 2, "table1_cells": 2, "loso_cells_ok": None, "loso_cells": None,
+             "cv_rho_mean": None, "residual_structure": None}
+            for m, v in (("load", "chosen"), ("paper", "comparison only"))]
+    comp = comparison_frame(rows)
+    assert comp["residual_structure"].dtype.kind == "f" and comp["model"].tolist() == ["load", "paper"]
+    _print_fit_tables("load", None, None, comp)
+    out = capsys.readouterr().out
+    assert "Which model the data support" in out and "* load" in out and "Traceback" not in out

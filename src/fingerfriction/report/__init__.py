@@ -43,7 +43,7 @@ from .tables import (
 )
 from .trial_pages import choose_pages, page_href, write_trial_pages
 
-__all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
+__all__ = ["make_report", "ReportResult", "load_report_data", "ReportData", "comparison_frame"]
 
 logger = logging.getLogger(__name__)
 
@@ -256,13 +256,28 @@ _COMPARISON = (("model", "model"), ("title", "variant"), ("verdict", "verdict"),
                ("why", "bars missed"))
 
 
+#: Text columns of the comparison; every other one is a number (None in JSON where unknown).
+_COMPARISON_TEXT = ("model", "title", "family", "verdict", "why", "selectable", "passes")
+
+
+def comparison_frame(records) -> pd.DataFrame:
+    """The comparison of the variants (``fit.json`` ``selection.comparison``) as a table whose
+    number columns are numbers: JSON writes NaN as null, and a column of nulls alone (the
+    residual structure of a study without two trials per surface) would be read as objects."""
+    rows = pd.DataFrame(records or [])
+    for c in rows.columns:
+        if c not in _COMPARISON_TEXT:
+            rows[c] = pd.to_numeric(rows[c], errors="coerce")
+    return rows
+
+
 def _selection(fit: dict, notes: list[dict]) -> dict | None:
     """The model choice for the page: how it was made, its reason, the comparison table and
     the comparison variants' flags as notes (grouped by variant and kind)."""
     sel = fit.get("selection")
     if not isinstance(sel, dict):
         return None
-    rows = pd.DataFrame(sel.get("comparison") or [])
+    rows = comparison_frame(sel.get("comparison"))
     table = None
     if not rows.empty:
         cols = [(c, h) for c, h in _COMPARISON if c in rows.columns]
@@ -368,7 +383,7 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
                         notices=tuple(notices), flags=tuple(flags), pages=pages, stale_fit=data.stale_fit,
                         model=(data.fit or {}).get("model") if has_fit else None,
                         rejection=sel.get("reason", "") if sel.get("rejected") else "",
-                        comparison=pd.DataFrame(sel["comparison"]) if sel.get("comparison") else None,
+                        comparison=comparison_frame(sel["comparison"]) if sel.get("comparison") else None,
                         notes=tuple(comparison_notes(data)) if has_fit else ())
 
 #: Titles of the ground-truth tables (simulated studies).
