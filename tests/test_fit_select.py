@@ -83,6 +83,7 @@ def world_trials(contact, world: str, *, seed: int = 0, reps: int = 3) -> list[T
     return trials
 
 
+@pytest.mark.slow  # four variants fitted and validated on 18 trials: a few seconds each
 @pytest.mark.parametrize(("world", "family"), [("load-sharing", "load"), ("constant-pressure", "pressure"),
                                                ("interlocking", "interlock")])
 def test_auto_picks_the_variant_of_the_world(contact, world, family):
