@@ -257,3 +257,29 @@ def test_newey_west_covariance_of_one_column_is_the_standard_error_squared():
     X = np.column_stack([b, 1e-9 * b])
     p, ok = column_weights(X, 2.0 * b)
     assert ok.tolist() == [True, False] and p == pytest.approx([2.0, 0.0])
+
+
+def test_with_two_surfaces_the_default_is_used_and_the_held_out_bars_do_not_apply():
+    """Leaving one of two surfaces out predicts it from a single other feature shape: no
+    comparison out of sample. The default variant is used when it passes in sample, and a
+    held-out rho that misses its bar does not reject it."""
+    from fingerfriction.fit.select import DEFAULT_MODEL, MIN_CV_SURFACES
+
+    good, poor = [0.95, 0.96], [0.2, 0.3]
+    ev = {m: _evidence(good, poor) for m in ("load", "pressure", "interlock")}
+    ev["interlock"] = _evidence([0.99, 0.99], poor)  # fits better in sample (more free weights)
+    sel = select_model(ev)
+    assert MIN_CV_SURFACES == 3 and DEFAULT_MODEL == "load"
+    assert sel.model == "load" and not sel.rejected and not sel.cross_validated
+    assert sel.reason.startswith("load (Load-consistent Eq. 4): passes every bar (0 of 36 trial fits "
+                                 "unphysical, Table 1 rho >= 0.75 in 2 of 2 cells); not cross-validated: "
+                                 "too few surfaces to compare the variants out of sample (2 held out per "
+                                 "subject; the comparison needs 3")
+    assert "and it is the default variant" in sel.reason
+    # the default unphysical in sample: another passing variant, said so; none: rejected
+    ev["load"] = _evidence(good, poor, n_bad=10)
+    sel = select_model(ev)
+    assert sel.model in ("pressure", "interlock") and "; not cross-validated: too few surfaces" in sel.reason
+    ev = {m: _evidence(good, poor, n_bad=10) for m in ("load", "pressure")}
+    sel = select_model(ev)
+    assert sel.rejected and "no variant passes the bars (load: 10 of 36 trial fits" in sel.reason

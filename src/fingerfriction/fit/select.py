@@ -23,6 +23,13 @@ physical:
    per-cell differences. Of two variants the data support equally, the simpler one.
 3. **Refusal**: when no selectable variant passes, the study gets the error
    ``model-rejected`` with each variant's reason, and the fit's exit status says so.
+4. **Too few surfaces to compare out of sample** (fewer than :data:`MIN_CV_SURFACES` per
+   subject: a held-out surface would be predicted from the parameters of a single other
+   feature shape, or there is no held-out surface at all): the choice and the bars rest on
+   Table 1 and the share of unphysical fits alone, the leave-one-surface-out table is shown
+   for information, and :data:`DEFAULT_MODEL` is used when it passes (in sample a variant
+   with more free weights always fits at least as well, so an in-sample comparison cannot
+   choose between them); the reason says so.
 
 Also reported, not used to choose: the structure left in each variant's residuals
 (:func:`residual_structure`), which says how much of the misfit repeats from trial to
@@ -43,7 +50,7 @@ from .common import FitFlag
 from .variants import VARIANTS
 
 __all__ = ["Bars", "BARS", "Evidence", "Selection", "select_model", "residual_structure", "CV_COLUMN",
-           "CHOICE_COLUMN"]
+           "CHOICE_COLUMN", "MIN_CV_SURFACES", "DEFAULT_MODEL"]
 
 #: The out-of-sample rho the bar is set on (a column of the leave-one-surface-out table):
 #: the prediction of a held-out surface from its geometry alone (forward contact model,
@@ -54,6 +61,14 @@ CV_COLUMN = "rho_out_of_sample"
 #: judges the friction law alone; what the forward finger model and the trial's load
 #: wander add to the error is the same for every variant and only blurs the comparison.
 CHOICE_COLUMN = "rho_heldout_params_video"
+
+
+#: Surfaces per subject a comparison out of sample needs: each held-out surface predicted
+#: from the parameters fitted on at least two others (two different feature shapes).
+MIN_CV_SURFACES = 3
+#: The variant used when the study has too few surfaces to compare the variants out of
+#: sample (module notes, step 4): the project's default model (docs/fit.md).
+DEFAULT_MODEL = "load"
 
 
 @dataclass(frozen=True)
@@ -141,8 +156,9 @@ class Selection:
         the bars it misses).
     bars : Bars
     cross_validated : bool
-        False when no variant has a leave-one-surface-out table (one surface, or not
-        computed): the choice then rests on Table 1 alone, and the reason says so.
+        False when the study has fewer than :data:`MIN_CV_SURFACES` surfaces per subject in
+        the leave-one-surface-out table (or none: one surface, or not computed): the choice
+        then rests on Table 1 alone, with :data:`DEFAULT_MODEL` first, and the reason says so.
     """
 
     model: str
@@ -190,7 +206,15 @@ def _t1_cells(table1: pd.DataFrame) -> pd.Series:
                      index=list(zip(per["subject"], per["scale"], per["shape"], strict=True)))
 
 
-def _judge(name: str, ev: Evidence, bars: Bars) -> dict:
+def _held_out_surfaces(loso: pd.DataFrame | None) -> int:
+    """The most surfaces any subject has in the leave-one-surface-out table (0: none)."""
+    if loso is None or not len(loso):
+        return 0
+    per = loso[loso["subject"] != BOTH]
+    return int(per.groupby("subject")["surface"].nunique().max()) if len(per) else 0
+
+
+def _judge(name: str, ev: Evidence, bars: Bars, cross_validated: bool = True) -> dict:
     v = VARIANTS[name]
     share = ev.n_unphysical / ev.n_trials if ev.n_trials else 1.0
     t1_ok, t1_n = _cells_ok(ev.table1["rho"], bars.table1_rho)
@@ -203,7 +227,7 @@ def _judge(name: str, ev: Evidence, bars: Bars) -> dict:
     if t1_ok < bars.needed(bars.table1_share, t1_n):
         fails.append(f"Table 1 rho >= {bars.table1_rho:g} in {t1_ok} of {t1_n} cells "
                      f"(bar {bars.needed(bars.table1_share, t1_n)})")
-    if ev.loso is not None and lo_ok < bars.needed(bars.loso_share, lo_n):
+    if cross_validated and ev.loso is not None and lo_ok < bars.needed(bars.loso_share, lo_n):
         why = (f"leave-one-surface-out rho >= {bars.loso_rho:g} in {lo_ok} of {lo_n} cells "
                f"(bar {bars.needed(bars.loso_share, lo_n)})")
         if CHOICE_COLUMN in ev.loso.columns:
@@ -253,8 +277,9 @@ def select_model(evidence: Mapping[str, Evidence], *, bars: Bars = BARS) -> Sele
     """
     if not evidence:
         raise ValueError("evidence is empty: fit at least one model variant")
-    rows = [_judge(n, ev, bars) for n, ev in evidence.items()]
-    cross_validated = any(evidence[r["model"]].loso is not None for r in rows)
+    n_surf = max(_held_out_surfaces(ev.loso) for ev in evidence.values())
+    cross_validated = n_surf >= MIN_CV_SURFACES
+    rows = [_judge(n, ev, bars, cross_validated) for n, ev in evidence.items()]
     score = "_cv" if cross_validated else "_t1"
 
     def mean(r) -> float:
@@ -273,15 +298,28 @@ def select_model(evidence: Mapping[str, Evidence], *, bars: Bars = BARS) -> Sele
     within = [r for r in pool if r is best or (math.isfinite(r["cv_diff_se"])
                                                and r["cv_diff_from_best"] <= r["cv_diff_se"])]
     chosen = min(within, key=lambda r: (r["complexity"], -mean(r))) if passing else best
+    default = next((r for r in passing if r["model"] == DEFAULT_MODEL), None)
+    if not cross_validated and default is not None:
+        chosen = default
     what = ("held-out (leave one surface out, on the held-out trials' own contact and load)"
             if cross_validated else "Table 1 (in-sample; not cross-validated)")
+    few = ("" if cross_validated else
+           f"not cross-validated: too few surfaces to compare the variants out of sample "
+           f"({n_surf or 'none'} held out per subject; the comparison needs {MIN_CV_SURFACES}, each "
+           "predicted from at least two others), so the bars are Table 1's and the unphysical fits'")
     if passing:
         reason = (f"{chosen['model']} ({chosen['title']}): passes every bar "
                   f"({chosen['n_unphysical']} of {chosen['n_trials']} trial fits unphysical, Table 1 rho >= "
                   f"{bars.table1_rho:g} in {chosen['table1_cells_ok']} of {chosen['table1_cells']} cells"
                   + (f", leave-one-surface-out rho >= {bars.loso_rho:g} in {chosen['loso_cells_ok']} of "
                      f"{chosen['loso_cells']}" if cross_validated else "") + ")")
-        if chosen is best:
+        if few and chosen is default:
+            reason += (f"; {few}, and it is the default variant (in sample a variant with more free weights "
+                       "fits at least as well: an in-sample comparison cannot choose); compare the variants "
+                       "on a study with more surfaces, or choose one with --model")
+        elif few:
+            reason += f" and has the highest mean {what} rho, {mean(best):.3f}; {few}"
+        elif chosen is best:
             others = [r["model"] for r in passing if r is not best]
             reason += (f" and has the highest mean {what} rho, {mean(best):.3f}"
                        + (f" (passing too: {', '.join(others)})" if others else ""))
@@ -294,7 +332,8 @@ def select_model(evidence: Mapping[str, Evidence], *, bars: Bars = BARS) -> Sele
             reason += ". Not passing: " + " | ".join(failing)
     else:
         reason = ("no variant passes the bars (" + " | ".join(
-            f"{r['model']}: {'; '.join(r['_fails'])}" for r in selectable) + "); the tables show "
+            f"{r['model']}: {'; '.join(r['_fails'])}" for r in selectable) + ")" + (f"; {few}" if few else "")
+            + "; the tables show "
             f"{best['model']}, the best {what}, only for reference")
     for r in rows:
         r["verdict"] = ("chosen" if r is chosen and passing else "fails (shown)" if r is chosen
