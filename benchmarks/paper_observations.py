@@ -6,8 +6,8 @@ paper's 180). Each world's study is simulated with the realistic measurement cha
 (``fingerfriction simulate --world W --chain realistic``) and analysed by the real
 analysis (``fingerfriction.study.analyze``, the simulated studies' options with the
 second-order sensor model) into ``benchmarks/out/studies`` (both resume), then every
-observation is printed beside the paper's statement and the accepted range
-(issue 20). Definitions (fixed before the worlds were tuned; docs/worlds.md):
+observation is printed beside the paper's statement and the accepted range.
+Definitions (fixed before the worlds were tuned; docs/worlds.md):
 
 * **Step Down / Step Up**: per subject and scale, the largest ``|F_T|`` beyond the flat
   segment (finger centre > -9 mm) of the mean analysed profile of the 15 trials (3 speeds x
@@ -34,8 +34,8 @@ observation is printed beside the paper's statement and the accepted range
   the analysed contact regions of all its trials (Fig. 3's criterion), and in the
   truth's geometric regions. Paper: 0.47 mm.
 
-Then the measurement chain (issue 20: the analysis must not invert it exactly, yet the
-force stage must stay accurate): per subject x surface cell, the Pearson rho of analysed
+Then the measurement chain (the analysis must not invert it exactly, yet the force
+stage must stay accurate): per subject x surface cell, the Pearson rho of analysed
 vs true ``F_T`` (each trial's series linearly detrended, then concatenated, as Table 1)
 and the force stage's error, the RMS of (analysed - true) in % of the true peak-to-peak
 per trial (worst and median of the cell). The true ``F_T`` is brought onto the grid as in

@@ -22,6 +22,8 @@ def test_demo_small_design_end_to_end_and_resumed(tmp_path):
     assert first and text.index("Table 1") == first.start(), text[:2000]
     assert first.group(1) == get(first.group(2)).title
     assert "demo: 1 trial," in text and f"{first.group(2)} model: mu 0." in text  # the summary line
+    # why that model, after the tables: one surface, so no comparison out of sample
+    assert f"model: {first.group(2)} (" in text and "not cross-validated: too few surfaces" in text
     assert "1 computed, 0 already done, 0 failed" in r.output
     assert (tmp_path / "demo" / "results" / "report" / "index.html").is_file()
     assert (tmp_path / "demo" / "study" / "manifest.json").is_file()

@@ -1,5 +1,5 @@
 """The console of `fingerfriction fit` on a study whose fits fail: one warning line per
-subject and one summary line, not one line per trial, fold and grid point (issue 14)."""
+subject and one summary line, not one line per trial, fold and grid point."""
 
 from __future__ import annotations
 

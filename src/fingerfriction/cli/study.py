@@ -322,7 +322,7 @@ def fit_cmd(
     _fit_warnings(res, store, verbosity)
     if verbosity >= 0:
         _print_fit_tables(res.model, res.table1, res.loso, res.selection.comparison, res.notes, res.rejected)
-    _print_rejection(res.selection.reason if res.rejected else "", verbosity)
+    _print_choice(res.selection, res.requested, verbosity)
     print_summary(summary_line("fit", _fit_facts(res), elapsed_s=time.perf_counter() - t0,
                           output=str(store.fit_dir), log=log))
     finish(res.n_failed == 0 and not res.rejected)
@@ -409,6 +409,15 @@ def _print_rejection(reason: str, verbosity: int = 0) -> None:
     if reason and verbosity >= 0:
         err_console.print(f"[bold red]error: model rejected:[/] {escape(reason)}", highlight=False,
                           soft_wrap=True)
+
+
+def _print_choice(selection, requested: str = "auto", verbosity: int = 0) -> None:
+    """Why ``--model auto`` used the variant it used (one paragraph, after the tables); the
+    error of a rejection instead (:func:`_print_rejection`)."""
+    if selection.rejected:
+        _print_rejection(selection.reason, verbosity)
+    elif requested == "auto" and verbosity >= 0:
+        console.print(f"model: {escape(selection.reason)}", highlight=False, soft_wrap=True)
 
 
 def _print_fit_tables(model, table1, loso, comparison, notes=(), rejected: bool = False) -> None:
@@ -566,7 +575,7 @@ def demo(
     _fit_warnings(f, ResultsStore(res.results), verbosity)
     if verbosity >= 0:
         _print_tables(res.report)
-    _print_rejection(f.selection.reason if f.rejected else "", verbosity)
+    _print_choice(f.selection, f.requested, verbosity)
     t = res.elapsed_s
     print_summary(summary_line(
         "demo", [plural(a.n_trials, "trial"), f"simulate {t['simulate']:.0f} s",
