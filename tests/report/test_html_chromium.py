@@ -183,7 +183,8 @@ def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp
     fit(clean, progress=False)
     rep = make_report(clean, sample=0, animations=False)
     assert not [f for f in rep.flags if f["level"] != "info"], rep.flags
-    assert not rep.rejection and rep.notes  # the comparison variants' flags are notes, not warnings
+    # the comparison variants' flags, if any, are notes, not warnings (the console test shows some)
+    assert not rep.rejection and all(n["model"] != rep.model for n in rep.notes)
     got = _probe(exe, rep.html, tmp_path / "p2")
     assert got["warnings"] is False and got["rejected"] is False
     assert got["images_decoded"] == got["images_total"] == len(FIGURES) + 1
