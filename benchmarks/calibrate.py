@@ -1,4 +1,4 @@
-"""Finger calibration from recordings (issue 15): recovery, blind spots, CPU time.
+"""Finger calibration from recordings: recovery, blind spots, CPU time.
 
 From one run:
 
@@ -43,13 +43,17 @@ import numpy as np
 
 from _studies import STUDIES, analysed_study, simulated_study
 from fingerfriction.mechanics import SUBJECTS
-from fingerfriction.mechanics._calibration_problem import _Problem
+from fingerfriction.mechanics._calibration_problem import CalibrationProblem
 from fingerfriction.mechanics.calibrate import CalibrationOptions
 from fingerfriction.mechanics.finger_file import finger_from_mapping
-from fingerfriction.predict import validate_results
+from fingerfriction.model.stats import BOTH
+from fingerfriction.pipeline.finger_calibration import (
+    calibrate_held_out,
+    calibrate_results,
+    trials_from_results,
+)
+from fingerfriction.pipeline.validation import validate_results
 from fingerfriction.sim.fingers import DRAWN_FIELDS, relative_difference
-from fingerfriction.stats import BOTH
-from fingerfriction.study.finger_calibration import calibrate_held_out, calibrate_results, trials_from_results
 
 TARGET_PARAM = 0.05
 TARGET_BS_MM = 0.05
@@ -122,7 +126,7 @@ def warm_start_table(results: str, subject: str, finger) -> None:
     base = None
     for mode in ("none", "positions", "parameters"):
         opts = CalibrationOptions(warm_start=mode)
-        pb = _Problem(trials, finger, opts)
+        pb = CalibrationProblem(trials, finger, opts)
         z = np.zeros(len(opts.fit))
         pb.tables(z, "fine", opts.fine_step)  # the base sweep (cold or position-started)
         n0, it0, t0 = pb.n_solves, pb.cg_iterations, pb.t_bem

@@ -1,4 +1,4 @@
-"""The layered finite-element finger (issue 23): verification, friction coupling, blind
+"""The layered finite-element finger: verification, friction coupling, blind
 spots on the paper's surfaces, and the cost of its contact tables.
 
 Sections (each prints measured figures; nothing is asserted):
@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fingerfriction.blindspots import blind_spots
 from fingerfriction.mechanics import ContactSolver, FingerParams
 from fingerfriction.mechanics.bem import GEOMETRIC_TOL
 from fingerfriction.mechanics.fe import (
@@ -43,6 +42,7 @@ from fingerfriction.mechanics.fe import (
     FEProvider,
 )
 from fingerfriction.mechanics.hertz import hertz_half_width, hertz_peak_pressure
+from fingerfriction.model.blindspots import blind_spots
 from fingerfriction.regions import regions_from_mask
 from fingerfriction.sim.contact import build_table
 from fingerfriction.surfaces import SURFACE_NAMES, RaisedCosine, get_surface

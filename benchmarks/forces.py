@@ -1,6 +1,6 @@
 """Accuracy and throughput of the force processing on a simulated study.
 
-For every trial, the recovered ``F_T(x)`` (``fingerfriction.study.trial.process_trial_forces``: the
+For every trial, the recovered ``F_T(x)`` (``fingerfriction.pipeline.trial.process_trial_forces``: the
 recorded channels, the finger positions per video frame) is compared with the *true*
 tangential force of the simulator (``truth/<trial>.npz``) brought onto the same grid by the
 same *linear* processing the recovered force went through:
@@ -20,7 +20,8 @@ same *linear* processing the recovered force went through:
   onto the force clock through the manifest's clock offsets.
 
 Error: RMS over the 26 mm window of (recovered - reference), in % of the reference's
-peak-to-peak. Criterion (issue 6): below 5 % on every surface and speed. Also printed:
+peak-to-peak. Criterion (the force stage's accuracy target): below 5 % on every surface and
+speed. Also printed:
 the paper's procedure as written (no high-pass compensation), the error against the
 unfiltered truth, the default without the rest after the lift-off (``post_baseline=None``:
 the drift line from the rest before the touch alone), the sensitivity to a +-5 % error in
@@ -58,9 +59,9 @@ from fingerfriction.forces import (
     remove_linear_drift,
     resample_to_positions,
 )
+from fingerfriction.pipeline.trial import TrialInput, process_trial_forces, read_trial_forces
 from fingerfriction.sim import SensorParams
 from fingerfriction.study import load_manifest, resolve_path
-from fingerfriction.study.trial import TrialInput, process_trial_forces, read_trial_forces
 from fingerfriction.surfaces import surface_from_spec
 from fingerfriction.video import AnalysisOptions, analyze_video
 
@@ -282,7 +283,7 @@ def main(argv=None) -> int:
         groups[(r["surface"], r["speed"])].append(r)
     print(
         "\nRMS error of F_T(x) over the window, in % of the reference's peak-to-peak; criterion "
-        "(issue 6): default < 5 % on every trial.\n"
+        "(the force stage's target): default < 5 % on every trial.\n"
         "  default: mains fitted on the baseline + 500 Hz low-pass + high-pass compensation, vs the\n"
         "           truth low-passed at 500 Hz, flat-segment trend removed (the primary figure);\n"
         "  no LP:   the same result vs the truth without the low-pass;\n"

@@ -1,4 +1,4 @@
-"""What integrity costs (issue 22): `analyze`, `fit` and `report` on the paper's 180-trial
+"""What integrity costs: `analyze`, `fit` and `report` on the paper's 180-trial
 study with today's code against the code before the integrity work, in the same run.
 
 Usage::
@@ -7,7 +7,8 @@ Usage::
 
 The study is ``benchmarks/out/studies/paper-seed0`` (simulated on the first run, shared
 with the other benchmarks, :mod:`benchmarks._studies`). The code before is the package of
-commit ``BASELINE`` (94a37d8, the main branch before issue 22), extracted once with
+commit ``BASELINE`` (94a37d8, main before the integrity work: content hashes, verified
+tables, locks), extracted once with
 ``git archive`` into ``benchmarks/out/integrity/`` (gitignored) and run from there; the code
 now is this checkout's. Each command runs in its own process, the way a user runs it:
 

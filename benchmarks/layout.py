@@ -1,4 +1,4 @@
-"""The package's layout figures of issue 16, printed: the longest modules, every function
+"""The package's layout figures, printed: the longest modules, every function
 over 80 lines, and every function-level import with its reason.
 
 A function's length here is all its lines, ``end_lineno - lineno + 1`` (signature and

@@ -4,7 +4,7 @@ Run: ``python benchmarks/paper_observations.py [--world NAME|all] [--seed S] [--
 (defaults: every world, seed 0, 3 repetitions: 108 trials per world; ``--reps 5`` is the
 paper's 180). Each world's study is simulated with the realistic measurement chain
 (``fingerfriction simulate --world W --chain realistic``) and analysed by the real
-analysis (``fingerfriction.study.analyze``, the simulated studies' options with the
+analysis (``fingerfriction.pipeline.analyze``, the simulated studies' options with the
 second-order sensor model) into ``benchmarks/out/studies`` (both resume), then every
 observation is printed beside the paper's statement and the accepted range.
 Definitions (fixed before the worlds were tuned; docs/worlds.md):
@@ -58,11 +58,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _studies import simulated_study  # noqa: E402
-from fingerfriction.blindspots import blind_spots  # noqa: E402
 from fingerfriction.forces import lowpass_filter  # noqa: E402
+from fingerfriction.model.blindspots import blind_spots  # noqa: E402
+from fingerfriction.pipeline.analyze import analyze  # noqa: E402
+from fingerfriction.pipeline.params import AnalysisParams, sim_params  # noqa: E402
 from fingerfriction.sim import WORLD_NAMES  # noqa: E402
-from fingerfriction.study.analyze import analyze  # noqa: E402
-from fingerfriction.study.params import AnalysisParams, sim_params  # noqa: E402
 from fingerfriction.study.store import ResultsStore, regions_from_table  # noqa: E402
 from fingerfriction.surfaces import surface_from_spec  # noqa: E402
 

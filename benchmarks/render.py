@@ -1,4 +1,4 @@
-"""Benchmark of the haptic renderer's queries (fingerfriction.render).
+"""Benchmark of the haptic renderer's queries (fingerfriction.predict.render).
 
 Prints, for a renderer precomputed on a 3 mm bump (subject 1):
 
@@ -9,7 +9,7 @@ Prints, for a renderer precomputed on a 3 mm bump (subject 1):
   percentiles (p50, p99, p99.9) measured with ``time.perf_counter_ns``;
 * batch: samples per second of ``query_many`` on 10^6 positions, next to ``np.interp``.
 
-Targets (issue 8): >= 10 kHz sustained with p99 < 50 us in-process, >= 10^6 samples/s
+Targets (a display's control loop): >= 10 kHz sustained with p99 < 50 us in-process, >= 10^6 samples/s
 in batch. The machine is shared, so figures are noisy: the ratios against the reference
 measured in the same run are the stable numbers.
 
@@ -25,7 +25,7 @@ import numpy as np
 
 from fingerfriction.model import FrictionParams
 from fingerfriction.predict import flat_contact_length
-from fingerfriction.render import HapticRenderer
+from fingerfriction.predict.render import HapticRenderer
 
 
 def unpaced(fn, xs) -> float:

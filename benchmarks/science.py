@@ -11,7 +11,7 @@ A. **Default model on the seed-0 virtual study** (``fingerfriction simulate --se
 B. **Why mu is not refined jointly**: on the same trials, mu, the inset and kappa fitted
    together by minimising the residual (p1 profiled out per trial) beside mu from flat
    ground.
-C. **The paper's variant against the issue's figures** (mu at the grid edge, negative p0,
+C. **The paper's variant against the figures first measured** (mu at the grid edge, negative p0,
    Bump 2 mm rho), and the flags it raises.
 D. **Realism on** (``simulate --realism``: per-trial mu scatter, mu depending on load,
    normal-force wander): the same as A, with the subjects' mu ``per trial`` (default) and
@@ -20,12 +20,14 @@ E. **Synthetic Eq. (4) in absolute form** (``fingerfriction.testing``, 10 % nois
    and F_N, known mu, p0, p1; 4 seeds): recovery of every parameter, with each trial's
    p1 error against its own standard error.
 
-Run: ``.venv/bin/python benchmarks/science.py`` (on a fresh clone: the two studies,
-``simulate --seed 0`` and ``--seed 0 --realism``, are simulated and analysed into
-``benchmarks/out/studies/paper-seed0`` and ``realism-seed0``, about 15 min each on two
-cores, and reused later), or ``--results RESULTS --study STUDY [--realism-results R2
---realism-study S2]``. The benchmark itself takes a few minutes. The fit's outputs go to a
-copy of each results folder under a temporary folder.
+Run: ``.venv/bin/python benchmarks/science.py [--realism]`` (no arguments needed), or on
+studies of your own: ``--results RESULTS --study STUDY [--realism-results R2 --realism-study
+S2]``. Without them the studies are simulated and analysed on the first run into the
+gitignored ``benchmarks/out/studies`` (:mod:`_studies`: ``paper-seed0``, made with
+``fingerfriction simulate --seed 0``, and with ``--realism`` also ``realism-seed0``, made
+with ``--seed 0 --realism``; about 15 min each on two cores) and reused afterwards; the
+benchmark itself takes a few minutes. It writes nothing else outside a temporary folder
+(the fit's outputs go to a copy of each results folder).
 """
 
 from __future__ import annotations
@@ -33,7 +35,6 @@ from __future__ import annotations
 import argparse
 import math
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -42,14 +43,13 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _studies import analysed_study, simulated_study  # noqa: E402
+from _studies import analysed_study, simulated_study  # the benchmarks' shared studies
 from fingerfriction.fit import LoadFitOptions, fit_load_subject
 from fingerfriction.fit.load import _LoadDesign, _search_designs
 from fingerfriction.model import FrictionModel
-from fingerfriction.predict import trials_from_results
-from fingerfriction.stats import BOTH, correlation_table
-from fingerfriction.study.fitting import fit as fit_study
+from fingerfriction.model.stats import BOTH, correlation_table
+from fingerfriction.pipeline.fitting import fit as fit_study
+from fingerfriction.pipeline.validation import trials_from_results
 from fingerfriction.study.store import ResultsStore
 from fingerfriction.surfaces import SURFACE_NAMES
 from fingerfriction.testing import synthetic_trial
@@ -215,7 +215,7 @@ def part_b(work: Path) -> None:
 
 
 def part_c(s) -> None:
-    print("\nC. The paper's variant on the same study (issue 12 measured: mu 0.900 / 0.900, 73 of 180 "
+    print("\nC. The paper's variant on the same study (first measured: mu 0.900 / 0.900, 73 of 180 "
           "p0 < 0, Bump 2 mm rho 0.51 / 0.60 / 0.57)")
     n_bad, codes = unphysical(s, "paper")
     print(f"  trial fits failed or unphysical: {n_bad} of {s.n_trials} (error flags {codes})")
@@ -290,23 +290,29 @@ def part_e() -> bool:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--results", type=Path, help="analysed seed-0 study (default: simulated and analysed "
-                                                 "into benchmarks/out/studies/paper-seed0)")
-    ap.add_argument("--study", type=Path, help="the simulated seed-0 study (truth/)")
-    ap.add_argument("--realism-results", type=Path, help="analysed seed-0 --realism study (default: "
-                                                         "benchmarks/out/studies/realism-seed0)")
-    ap.add_argument("--realism-study", type=Path)
+    ap.add_argument("--study", type=Path, help="the simulated seed-0 study (truth/; default: simulated "
+                    "into benchmarks/out/studies/paper-seed0)")
+    ap.add_argument("--results", type=Path, help="its analysed results (default: STUDY-results, analysed "
+                    "when missing)")
+    ap.add_argument("--realism", action="store_true",
+                    help="also part D, on the simulated seed-0 --realism study")
+    ap.add_argument("--realism-study", type=Path,
+                    help="a seed-0 --realism study of your own (implies --realism)")
+    ap.add_argument("--realism-results", type=Path, help="analysed seed-0 --realism study")
     ap.add_argument("--skip-joint", action="store_true", help="skip part B (a few minutes)")
-    ap.add_argument("--skip-realism", action="store_true", help="skip part D (simulating its study)")
     args = ap.parse_args()
-    if args.study is None:
-        args.study = simulated_study("paper-seed0", "--seed", "0")
     if args.results is None:
+        args.study = args.study or simulated_study("paper-seed0", "--seed", "0")
         args.results = analysed_study(args.study)
-    if not args.skip_realism and args.realism_study is None:
-        args.realism_study = simulated_study("realism-seed0", "--seed", "0", "--realism")
-    if args.realism_study is not None and args.realism_results is None:
-        args.realism_results = analysed_study(args.realism_study)
+    elif args.study is None:
+        ap.error("--results needs --study (the simulated study whose truth/ it is compared with)")
+    if args.realism or args.realism_study is not None or args.realism_results is not None:
+        if args.realism_results is None:
+            args.realism_study = (args.realism_study
+                                  or simulated_study("realism-seed0", "--seed", "0", "--realism"))
+            args.realism_results = analysed_study(args.realism_study)
+        elif args.realism_study is None:
+            ap.error("--realism-results needs --realism-study")
     ok = True
     with tempfile.TemporaryDirectory(prefix="ff-science-") as tmp:
         tmp = Path(tmp)

@@ -13,7 +13,7 @@ Prints, measured in this run:
   and the cost of sensor read noise in bytes/frame;
 * the extrapolated full 180-trial study: frames (from the planned kinematics of all 180
   trials), CPU time, and wall time on 2 workers (CPU time / 2, assuming two free cores);
-* the worlds and chains (issue 20): the same three trials simulated in every world with the
+* the worlds and chains: the same three trials simulated in every world with the
   realistic chain and in today's default path (load-sharing world, ideal chain), rounds
   interleaved and the fastest of each kept, CPU per trial and the ratio to the default path
   (accepted: at most 1.2); and the share of a contact table spent on the worlds' extra

@@ -36,8 +36,8 @@ import time
 from pathlib import Path
 
 from _studies import simulated_study
-from fingerfriction.study.analyze import analyze
-from fingerfriction.study.params import AnalysisParams, sim_params
+from fingerfriction.pipeline.analyze import analyze
+from fingerfriction.pipeline.params import AnalysisParams, sim_params
 
 PAPER_TRIALS = 180
 
@@ -90,8 +90,8 @@ def _cpu() -> float:
 
 def report_timing(results: Path) -> None:
     """Fit ``results`` if it is not fitted, then time its report; print both."""
+    from fingerfriction.pipeline.fitting import fit
     from fingerfriction.report import make_report
-    from fingerfriction.study.fitting import fit
 
     if not (results / "fit" / "fit.json").is_file():
         c0, t0 = time.process_time(), time.perf_counter()

@@ -17,7 +17,7 @@ Accuracy, against the simulator's ground truth (``truth/<trial>.npz``):
   with the positions each one covers (the force processing needs |x| <= 13 mm);
 * contact region end points vs ``regions_geom`` (frames where the region count agrees);
 * the number of contact regions per frame;
-* blind-spot widths (``fingerfriction.blindspots``) from our regions vs from the truth,
+* blind-spot widths (``fingerfriction.model.blindspots``) from our regions vs from the truth,
   per surface over all its trials (Fig. 3);
 * for both contact metrics (euclidean: the paper's; vertical: the simulator's gap), and
   for each outline smoothing of the contact test (``--outline-smooth``, columns of the
@@ -49,7 +49,7 @@ import cv2
 import numpy as np
 
 from _studies import simulated_study
-from fingerfriction.blindspots import blind_spots
+from fingerfriction.model.blindspots import blind_spots
 from fingerfriction.regions import n_regions
 from fingerfriction.study import load_manifest
 from fingerfriction.video import (

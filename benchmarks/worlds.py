@@ -50,10 +50,10 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _studies import simulated_study  # noqa: E402
 from fingerfriction.fit.variants import MODELS, get  # noqa: E402
-from fingerfriction.stats import BOTH  # noqa: E402
-from fingerfriction.study.analyze import analyze  # noqa: E402
-from fingerfriction.study.fitting import fit  # noqa: E402
-from fingerfriction.study.params import AnalysisParams, sim_params  # noqa: E402
+from fingerfriction.model.stats import BOTH  # noqa: E402
+from fingerfriction.pipeline.analyze import analyze  # noqa: E402
+from fingerfriction.pipeline.fitting import fit  # noqa: E402
+from fingerfriction.pipeline.params import AnalysisParams, sim_params  # noqa: E402
 
 WORLDS = ("load-sharing", "constant-pressure", "interlocking")
 #: The world whose own family must be chosen (``None``: a refusal with its reason is

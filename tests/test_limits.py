@@ -1,4 +1,4 @@
-"""Every size, step and count a user gives has a bound (issue 22): command-line options,
+"""Every size, step and count a user gives has a bound: command-line options,
 the manifest's numbers and ids, JSON nesting, surfaces. A value outside is a one-line
 error naming it, never a traceback, an overflow or a run out of memory."""
 

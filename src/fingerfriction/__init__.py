@@ -5,8 +5,8 @@ finger-contact model and a virtual experiment.
 Stages, in the order a trial flows through them: :mod:`~fingerfriction.surfaces`,
 :mod:`~fingerfriction.regions`, :mod:`~fingerfriction.mechanics`, :mod:`~fingerfriction.sim`
 (the virtual experiment), :mod:`~fingerfriction.video`, :mod:`~fingerfriction.forces`,
-:mod:`~fingerfriction.model`, :mod:`~fingerfriction.fit`, :mod:`~fingerfriction.stats`,
-:mod:`~fingerfriction.blindspots`, :mod:`~fingerfriction.study` (manifest, results store,
+:mod:`~fingerfriction.model`, :mod:`~fingerfriction.fit`, :mod:`~fingerfriction.model.stats`,
+:mod:`~fingerfriction.model.blindspots`, :mod:`~fingerfriction.study` (manifest, results store,
 one trial, the parallel analysis, the fit), :mod:`~fingerfriction.predict`,
 :mod:`~fingerfriction.report`, :mod:`~fingerfriction.demo`; ``docs/`` has one page per
 stage with the reasoning and measured figures behind its choices.
@@ -19,8 +19,8 @@ try:
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
-from .blindspots import blind_spots, occupancy
 from .model import FrictionModel, FrictionParams, friction_force
+from .model.blindspots import blind_spots, occupancy
 from .surfaces import SURFACE_NAMES, RaisedCosine, SampledProfile, get_surface, surface_from_spec
 
 __all__ = [

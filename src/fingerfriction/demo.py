@@ -11,11 +11,11 @@ from pathlib import Path
 from typing import Any
 
 from ._progress import stage_progress
+from .pipeline.analyze import AnalyzeResult, analyze
+from .pipeline.fitting import FitSummary, fit
+from .pipeline.params import AnalysisParams, sim_params
 from .report import make_report
 from .sim import SimOptions, simulate_study
-from .study.analyze import AnalyzeResult, analyze
-from .study.fitting import FitSummary, fit
-from .study.params import AnalysisParams, sim_params
 
 __all__ = ["DEMO_REPS", "FULL_REPS", "DemoResult", "demo"]
 

@@ -49,6 +49,7 @@ finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
 # --- decomposition (Methods "Measurement apparatus", Fig. 1C) ---------------------------------
 
 
+@pytest.mark.slow
 @given(arrays(np.float64, st.integers(1, 50), elements=finite), arrays(np.float64, 50, elements=finite))
 def test_decompose_identities(f1, f2):
     f2 = f2[: f1.size]
@@ -897,6 +898,7 @@ def test_estimate_highpass_is_exact_without_noise():
 
 # derandomized: a fixed set of examples. Over 300 random draws the largest error was 0.41 %
 # (0.55 % with a 0.15 s rest after the lift-off): the 0.5 % bound is a tail event, not noise
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None, derandomize=True)
 @given(
     cutoff=st.floats(2.0, 10.0),
@@ -915,6 +917,7 @@ def test_estimate_highpass_recovers_the_cutoff_from_a_prior_off_by_20_percent(cu
     assert other.fc_hz == pytest.approx(est.fc_hz, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_estimate_highpass_standard_error_matches_the_scatter():
     """Over 40 noise draws the standard error predicts the scatter of the estimate (within a
     factor 1.5 either way); it grows with the noise."""

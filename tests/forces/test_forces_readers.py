@@ -12,7 +12,7 @@ import scipy.io
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
 from fingerfriction.forces import ForceFileError, read_force_file
-from fingerfriction.study.trial import read_trial_forces
+from fingerfriction.pipeline.trial import read_trial_forces
 
 FS = 10_000.0
 
@@ -337,8 +337,8 @@ def test_csv_layouts_read_back_exactly(tmp_path, channels, delimiter, decimal, h
 
 
 def test_headerless_semicolon_csv_in_volts_with_time_column(tmp_path, channels):
-    """The issue's file: no header, ';', a time column starting at 0.25 s, two piezo
-    channels in volts from charge amplifiers set to 10 and 20 N/V."""
+    """A lab's file as its acquisition software wrote it: no header, ';', a time column
+    starting at 0.25 s, two piezo channels in volts from charge amplifiers set to 10 and 20 N/V."""
     f1, f2 = channels
     v1, v2 = f1 / 10.0, f2 / 20.0
     t = 0.25 + np.arange(f1.size) / FS

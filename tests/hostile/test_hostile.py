@@ -1,4 +1,4 @@
-"""Hostile inputs and faults on a 2-trial study (issue 22): each case has its expected
+"""Hostile inputs and faults on a 2-trial study: each case has its expected
 outcome, and every case is held to four invariants.
 
 Outcomes: ``error`` (exit status 2, one ``error:`` line naming what is wrong), ``flagged``

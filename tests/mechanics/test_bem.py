@@ -42,6 +42,7 @@ def _edges_from_pressure(sol):
     return math.sqrt(-c0 / c1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [2048, 4096])
 def test_hertz_half_width_and_pressure(n):
     finger = _parabolic_finger()
@@ -67,6 +68,7 @@ def test_hertz_half_width_and_pressure(n):
     assert np.all(sol.gap[sol.pressure > 0] == 0)
 
 
+@pytest.mark.slow
 def test_circle_finger_close_to_hertz():
     finger = FingerParams(radius=30.0, modulus=0.1, width=10.0)
     sol = solve_contact(_flat, finger, 2.5, load=0.3, n=2048, half_width=8.0)
@@ -179,7 +181,8 @@ def test_region_extraction_matches_the_regions_module():
     # bem extracts the regions of every sweep position with its own vectorised code; it
     # must give exactly what fingerfriction.regions.regions_from_mask gives.
     from fingerfriction.mechanics._cgkernels import contact_regions
-    from fingerfriction.mechanics.bem import _geometric_regions, _mechanical_regions
+    from fingerfriction.mechanics.solution import _mechanical_regions
+    from fingerfriction.mechanics.solution import regions_within_gap as _geometric_regions
     from fingerfriction.regions import regions_from_mask
 
     rng = np.random.default_rng(3)

@@ -1,4 +1,4 @@
-"""Finger calibration from contact regions (fingerfriction.mechanics.calibrate, issue 15)."""
+"""Finger calibration from contact regions (fingerfriction.mechanics.calibrate)."""
 
 from __future__ import annotations
 
@@ -109,6 +109,7 @@ def test_unconverged_calibration_is_flagged_not_silent(trials):
     assert "did not converge" in res.message
 
 
+@pytest.mark.slow
 def test_too_few_trials_or_no_contact_is_an_error(trials):
     with pytest.raises(CalibrationError, match="only 2 trial"):
         calibrate_finger(trials[:2], TRUE, options=CalibrationOptions(**FAST))

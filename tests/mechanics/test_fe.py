@@ -125,6 +125,7 @@ def test_contact_tangent_is_the_derivative_of_the_residual():
     assert np.max(np.abs(fd - K @ v)) < 1e-6 * np.max(np.abs(fd))
 
 
+@pytest.mark.slow
 def test_cylinder_against_plane_strain_hertz_coarse():
     """Half-width within 3 % and peak pressure within 8 % of Hertz on a coarse mesh (the
     benchmark refines to 3 % for both)."""
@@ -142,6 +143,7 @@ def test_cylinder_against_plane_strain_hertz_coarse():
     assert np.isclose(np.trapezoid(p, xg), P, rtol=1e-3)
 
 
+@pytest.mark.slow
 def test_homogeneous_finger_against_bem_on_a_shallow_bump():
     """Small strains (a shallow bump, 0.1 N): contact lengths within 5 % of the BEM's."""
     surf = RaisedCosine("bump", 4.0, height=0.2)
@@ -158,6 +160,7 @@ def test_homogeneous_finger_against_bem_on_a_shallow_bump():
         assert abs((p > 0).sum() / (b.pressure > 0).sum() - 1) < 0.05
 
 
+@pytest.mark.slow
 def test_load_balance_and_no_penetration_on_a_bump_sweep():
     s = FEContactSolver(LITERATURE_FINGER, COARSE)
     surf = get_surface("step-up-2mm")
@@ -172,6 +175,7 @@ def test_load_balance_and_no_penetration_on_a_bump_sweep():
         assert np.min(sol.outline_y - surf.h(sol.outline_x)) > -1e-3
 
 
+@pytest.mark.slow
 def test_provider_cache_reuses_unchanged_and_recomputes_changed(tmp_path, monkeypatch):
     surf = RaisedCosine("bump", 2.0)
     xs = np.arange(-9.0, -6.9, 0.3)
@@ -195,6 +199,7 @@ def test_provider_cache_reuses_unchanged_and_recomputes_changed(tmp_path, monkey
         surf, "1", xs, 0.3)
 
 
+@pytest.mark.slow
 def test_provider_flat_positions_are_translated_solutions(tmp_path):
     surf = get_surface("step-up-2mm")
     pr = FEProvider(mesh=COARSE, grid_step=0.05, cache_dir=False)

@@ -1,4 +1,4 @@
-"""Finger files are checked for known values and physical ranges (issue 22)."""
+"""Finger files are checked for known values and physical ranges."""
 
 from __future__ import annotations
 

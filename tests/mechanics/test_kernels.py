@@ -10,13 +10,13 @@ import pytest
 from scipy.integrate import quad
 
 from fingerfriction.mechanics import FingerParams, hertz_half_width, solve_contact
-from fingerfriction.mechanics.bem import (
-    _layer_kernel,
-    _skin_compliance,
-    _skin_kernel,
+from fingerfriction.mechanics.kernels import (
     halfspace_kernel,
     layer_compliance,
 )
+from fingerfriction.mechanics.kernels import layer_kernel as _layer_kernel
+from fingerfriction.mechanics.kernels import skin_compliance as _skin_compliance
+from fingerfriction.mechanics.kernels import skin_kernel as _skin_kernel
 
 
 def _flat(x):
@@ -33,6 +33,7 @@ def _quad_kernel(spectrum, x, dx):
     return sum(quad(f, a, b, limit=20000)[0] for a, b in zip(edges[:-1], edges[1:], strict=True))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("x", [0.0, 0.3, 1.0, 3.0])
 def test_layer_kernel_matches_quadrature(x):
     dx, E, t = 0.05, 0.1, 1.0
@@ -41,6 +42,7 @@ def test_layer_kernel_matches_quadrature(x):
     assert k == pytest.approx(q, abs=2e-4 * abs(_layer_kernel(np.array([0.0]), dx, E, t, 0.5)[0]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("x", [0.0, 0.1, 0.5, 2.0, 6.0])
 def test_skin_kernel_matches_quadrature(x):
     dx, E, Es, hs, ref = 0.02, 0.05, 1.0, 0.5, 8.0
@@ -59,6 +61,7 @@ def test_layer_compliance_limits():
     assert layer_compliance(np.array([1e-2]), 0.5)[0] == pytest.approx(2 * 1e-6 / 3, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_thick_layer_is_hertz_and_thin_layer_is_winkler():
     thick = FingerParams(radius=8, modulus=0.1, width=10, layer_thickness=200.0)
     sol = solve_contact(_flat, thick, 0.0, n=2048, half_width=6)

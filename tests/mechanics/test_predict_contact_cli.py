@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
@@ -20,6 +21,7 @@ def _invoke(args):
     return res
 
 
+@pytest.mark.slow
 def test_predict_contact_prints_blind_spots_and_writes_png(tmp_path):
     res = _invoke(["--surface", "step-up-2mm", "--subject", "1", "--step", "0.05", "--out", str(tmp_path)])
     assert res.exit_code == 0, res.output

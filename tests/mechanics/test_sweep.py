@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fingerfriction.blindspots import blind_spots
 from fingerfriction.mechanics import (
     SUBJECTS,
     ContactSolver,
@@ -14,6 +13,7 @@ from fingerfriction.mechanics import (
     outline_table,
     sweep,
 )
+from fingerfriction.model.blindspots import blind_spots
 from fingerfriction.regions import as_regions
 from fingerfriction.surfaces import get_surface
 

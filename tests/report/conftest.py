@@ -9,7 +9,7 @@ from report_synthetic import write_synthetic_results
 @pytest.fixture(scope="session")
 def synthetic_results(tmp_path_factory):
     """(results folder after analyze-equivalent + fit, truth dict)."""
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     base = tmp_path_factory.mktemp("synthetic")
     truth = write_synthetic_results(base / "results", truth_dir=base / "study" / "truth")

@@ -35,6 +35,7 @@ def _texts(fig) -> list[Text]:
     return [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("stem", [f[0] for f in FIGURES])
 def test_every_text_at_least_7_pt_at_the_saved_size(data, stem, tmp_path):
     """Read back from the figure after it was saved (tick labels exist only once drawn)."""
@@ -54,6 +55,7 @@ def test_every_text_at_least_7_pt_at_the_saved_size(data, stem, tmp_path):
     assert b"<text" in blobs["svg"], "SVG text should stay text (svg.fonttype none)"
 
 
+@pytest.mark.slow
 def test_line_colours_come_from_the_colour_blind_safe_palette(data):
     palette = {v.lower() for v in OKABE_ITO.values()}
     for stem, _, fn, _ in FIGURES:
@@ -68,6 +70,7 @@ def test_line_colours_come_from_the_colour_blind_safe_palette(data):
 # ---------------------------------------------------------------------------------- Fig. 3
 
 
+@pytest.mark.slow
 def test_fig3_has_a_colour_bar_profile_and_labelled_blind_spots(data, synthetic_results):
     _, truth = synthetic_results
     fig = fig3_occupancy(data)
@@ -106,6 +109,7 @@ def test_sliding_frames_leave_out_the_rest_at_touch_down():
     assert s[(x > -12.0) & (x < 12.0)].all()  # every frame of the slide inside the window
 
 
+@pytest.mark.slow
 def test_fig3_has_no_step_at_the_resting_contacts_edge(data):
     """The cause of the brightness step near x = -9.6 mm: the rest at touch-down (x = -15.5 mm,
     the contact reaching 6 mm ahead) counted as contact time. Fig. 3 counts sliding frames only."""
@@ -119,7 +123,7 @@ def test_fig3_has_no_step_at_the_resting_contacts_edge(data):
     near = (xc > -10.5) & (xc < -8.5)  # around the resting contact's leading edge, -9.5 mm
     assert np.abs(np.diff(occ[near])).max() < 0.01  # a smooth taper, no step
     # counting every frame (the old figure) the same data shows the step
-    from fingerfriction.blindspots import occupancy
+    from fingerfriction.model.blindspots import occupancy
 
     every = occupancy(tr.regions)
     near = (every.centers > -10.5) & (every.centers < -8.5)
@@ -133,6 +137,7 @@ def _bands(ax) -> list[PolyCollection]:
     return [c for c in ax.collections if isinstance(c, PolyCollection)]
 
 
+@pytest.mark.slow
 def test_fig4_labels_n_per_curve_and_bands_only_where_n_above_1(data):
     fig = fig4_forces(data)
     panels = [ax for ax in fig.axes if ax.get_title()]
@@ -151,6 +156,7 @@ def test_fig4_labels_n_per_curve_and_bands_only_where_n_above_1(data):
         assert _bands(ax) == []
 
 
+@pytest.mark.slow
 def test_fig4_says_which_footing_it_shows(data):
     # the fixture has absolute forces
     assert "Footing: absolute" in fig4_forces(data)._suptitle.get_text()
@@ -177,6 +183,7 @@ def test_fig4_says_which_footing_it_shows(data):
 # ---------------------------------------------------------------------------------- Fig. 6
 
 
+@pytest.mark.slow
 def test_fig6_names_its_footing_and_marks_region_events(data):
     fig = fig6_model(data)
     title = fig._suptitle.get_text()

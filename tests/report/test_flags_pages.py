@@ -32,6 +32,7 @@ def _with_gap(t, rows=slice(200, 230), reason="finger leaves the field of view: 
     return dataclasses.replace(t, frames=fr)
 
 
+@pytest.mark.slow
 def test_position_gap_flagged_with_its_frames_and_reasons(results):
     data = load_report_data(results)
     t = _with_gap(data.trials[0])
@@ -46,11 +47,12 @@ def test_position_gap_flagged_with_its_frames_and_reasons(results):
     assert position_gaps(_with_gap(data.trials[1], rows=slice(300, 301))) == []
 
 
+@pytest.mark.slow
 def test_failed_trials_and_fit_failures_are_flagged_and_get_a_page(results):
     store = ResultsStore(results)
     tid = store.trial_ids()[3]
     store.write_failure(tid, "ValueError: video truncated at frame 12", {})
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     # the paper's variant forced, its mu at the edge of its grid
     fit(results, progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05), model="paper")
@@ -77,6 +79,7 @@ def test_failed_trials_and_fit_failures_are_flagged_and_get_a_page(results):
     assert html.index('id="comparison-notes"') > html.index('id="model-choice"')
 
 
+@pytest.mark.slow
 def test_choose_pages_flagged_plus_an_even_sample(results):
     data = load_report_data(results)
     order = [m["id"] for m in data.run["trials"]]
@@ -89,6 +92,7 @@ def test_choose_pages_flagged_plus_an_even_sample(results):
         choose_pages(data, [], -1)
 
 
+@pytest.mark.slow
 def test_trial_page_has_three_plots_and_says_why_there_is_no_animation(results):
     rep = make_report(results, sample=1)
     assert len(rep.pages) == 1

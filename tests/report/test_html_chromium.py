@@ -3,8 +3,10 @@
 On the report of a small demo (simulated videos, analysed, fitted): every ``<img>``
 decodes (naturalWidth > 0); the links to the trial pages resolve; a trial page shows its
 animation and its three plots; the warnings block is there when a fit is flagged and
-absent when nothing is. Screenshots of the top of the report and of a trial page are kept
-in ``tests/artifacts/`` (gitignored) for a person to look at.
+absent when nothing is. Screenshots of the top of the report and of a trial page are written
+to the test's temporary folder, or, for a person to look at, to the folder named by the
+environment variable ``FINGERFRICTION_TEST_ARTIFACTS`` (nothing is written into the source
+tree).
 
 Chromium comes from Debian's ``chromium`` package; ``make test`` installs it when run as
 root (``.ci/run``). When it is missing this test FAILS (it is part of the acceptance), it
@@ -14,6 +16,7 @@ does not skip.
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -29,7 +32,8 @@ from fingerfriction.report import make_report
 from fingerfriction.report.figures import FIGURES
 
 CHROMIUM = "/usr/bin/chromium"
-ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
+#: Where the screenshots are kept for a person to look at (default: the test's tmp_path).
+ARTIFACTS_ENV = "FINGERFRICTION_TEST_ARTIFACTS"
 
 #: Runs after load: writes what the DOM holds into attributes of <body> (read from --dump-dom).
 _PROBE = """<script>
@@ -93,9 +97,10 @@ def _probe(exe: str, page: Path, profile: Path) -> dict:
     return json.loads(m.group(1).replace("&quot;", '"').replace("&amp;", "&"))
 
 
-def _screenshot(exe: str, page: Path, profile: Path, name: str, size=(1280, 1600)) -> Path:
-    ARTIFACTS.mkdir(exist_ok=True)
-    shot = ARTIFACTS / name
+def _screenshot(exe: str, page: Path, profile: Path, folder: Path, name: str, size=(1280, 1600)) -> Path:
+    folder = Path(os.environ.get(ARTIFACTS_ENV) or folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    shot = folder / name
     shot.unlink(missing_ok=True)
     res = _run(exe, profile, f"--screenshot={shot}", f"--window-size={size[0]},{size[1]}",
                "--hide-scrollbars", page.as_uri())
@@ -154,8 +159,8 @@ def test_demo_report_in_headless_chromium(demo_report, tmp_path):
     assert got["images_decoded"] == got["images_total"] == 4
 
     # 4. screenshots for a person to look at
-    _screenshot(exe, index, tmp_path / "p3", "report_top.png")
-    _screenshot(exe, page, tmp_path / "p4", "report_trial_page.png", size=(1100, 1800))
+    _screenshot(exe, index, tmp_path / "p3", tmp_path, "report_top.png")
+    _screenshot(exe, page, tmp_path / "p4", tmp_path, "report_trial_page.png", size=(1100, 1800))
 
 
 @pytest.mark.slow
@@ -176,7 +181,7 @@ def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp
     # trial with their parameters inside their bounds, nothing is flagged
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     clean = tmp_path / "clean"
     write_synthetic_results(clean, transient_mm=0.8, regions="forward")

@@ -22,6 +22,7 @@ def report(synthetic_results):
     return make_report(results), results, truth
 
 
+@pytest.mark.slow
 def test_every_figure_written_as_png_and_svg(report):
     rep, results, _ = report
     for stem, *_ in FIGURES:
@@ -31,6 +32,7 @@ def test_every_figure_written_as_png_and_svg(report):
         assert b"<svg" in svg.read_bytes()[:2000], stem
 
 
+@pytest.mark.slow
 def test_html_is_self_contained(report):
     rep, results, _ = report
     html = rep.html.read_text()
@@ -43,6 +45,7 @@ def test_html_is_self_contained(report):
     assert "<link" not in html and "<script src" not in html
 
 
+@pytest.mark.slow
 def test_blind_spots_found_where_the_contact_never_was(report):
     rep, _, truth = report
     bs = rep.blindspots
@@ -53,6 +56,7 @@ def test_blind_spots_found_where_the_contact_never_was(report):
         assert row["width_mm"].iloc[0] == pytest.approx(b - a, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_table1_and_truth_tables(report):
     rep, results, truth = report
     t1 = rep.table1
@@ -81,6 +85,7 @@ def test_table1_and_truth_tables(report):
     assert (load["ci95_lo"] < load["mu_fitted"]).all() and (load["mu_fitted"] < load["ci95_hi"]).all()
 
 
+@pytest.mark.slow
 def test_fit_recovers_parameters(synthetic_results):
     results, truth = synthetic_results
     df = pd.read_csv(results / "fit" / "trials.csv", dtype={"subject": str})
@@ -95,6 +100,7 @@ def test_fit_recovers_parameters(synthetic_results):
     np.testing.assert_allclose(model["F_int_N"] + model["F_def_N"], model["F_model_N"], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_report_before_fit_leaves_out_model_figures(tmp_path):
     from report_synthetic import write_synthetic_results
 
@@ -106,6 +112,7 @@ def test_report_before_fit_leaves_out_model_figures(tmp_path):
     assert "fingerfriction fit" in rep.html.read_text()
 
 
+@pytest.mark.slow
 def test_failed_trials_listed(tmp_path):
     from report_synthetic import write_synthetic_results
 
@@ -124,6 +131,7 @@ def test_not_a_results_folder(tmp_path):
         make_report(tmp_path)
 
 
+@pytest.mark.slow
 def test_out_of_sample_validation_next_to_table1(report):
     """``fit`` runs the leave-one-surface-out validation; the report shows it after Table 1."""
     rep, results, _ = report
@@ -152,10 +160,11 @@ def test_out_of_sample_validation_next_to_table1(report):
     assert f"{fit_csv['rho_out_of_sample'].iloc[0]:.3g}" in html[j:]
 
 
+@pytest.mark.slow
 def test_fit_without_validation_says_so(tmp_path):
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     write_synthetic_results(tmp_path / "r")
     (tmp_path / "r" / "fit").mkdir(parents=True)
@@ -169,6 +178,7 @@ def test_fit_without_validation_says_so(tmp_path):
     assert "loso.csv" not in {p.name for p in rep.files}
 
 
+@pytest.mark.slow
 def test_p_values_never_print_as_zero(report):
     """Table 1 and the leave-one-surface-out table: p below the smallest double is '< 1e-300',
     small p in scientific notation; the CSV keeps the numbers."""
@@ -189,10 +199,11 @@ def test_p_values_never_print_as_zero(report):
     assert pd.read_csv(results / "report" / "table1.csv")["p"].dtype.kind == "f"
 
 
+@pytest.mark.slow
 def test_one_subject_report_does_not_say_both_subjects(tmp_path):
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     write_synthetic_results(tmp_path / "r", subjects={"1": 0.55})
     fit(tmp_path / "r", progress=False, validate=False)
@@ -203,6 +214,7 @@ def test_one_subject_report_does_not_say_both_subjects(tmp_path):
     assert "one subject" in html
 
 
+@pytest.mark.slow
 def test_report_before_fit_says_so_at_the_top_and_on_the_console(tmp_path):
     from report_synthetic import write_synthetic_results
     from typer.testing import CliRunner
@@ -220,10 +232,11 @@ def test_report_before_fit_says_so_at_the_top_and_on_the_console(tmp_path):
     assert 'class="notice"' in body[:first_section] and "not fitted" in body[:first_section]
 
 
+@pytest.mark.slow
 def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
     from report_synthetic import write_synthetic_results
 
-    from fingerfriction.study.fitting import fit
+    from fingerfriction.pipeline.fitting import fit
 
     write_synthetic_results(tmp_path / "r")
     # the paper's variant forced: its mu is the study's (truth 0.55, 0.60)
@@ -238,6 +251,7 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
     assert html.index('id="warnings"') < html.index("<h2>Summary</h2>")
 
 
+@pytest.mark.slow
 def test_run_record_is_a_readable_table(report):
     rep, results, _ = report
     html = rep.html.read_text()

@@ -13,11 +13,12 @@ import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
+from fingerfriction.flags import Flag
+from fingerfriction.pipeline.analyze import analyze
+from fingerfriction.pipeline.params import AnalysisParams
 from fingerfriction.report.data import load_report_data
 from fingerfriction.report.flags import collect_flags
 from fingerfriction.sim import KinematicsParams, SimOptions, simulate_study
-from fingerfriction.study.analyze import analyze
-from fingerfriction.study.params import AnalysisParams
 from fingerfriction.study.store import ResultsStore
 
 pytestmark = pytest.mark.slow
@@ -128,9 +129,9 @@ def test_sync_auto_moves_the_wrong_clock(study, tmp_path):
     step = st["info"]["forces"]["history"][0]
     assert step["step"] == "synchronise" and step["offset_ms"] == pytest.approx(-10.0, abs=1.0)
     assert st["info"]["selfcheck"]["sync"]["check"]["level"] == "warning"
-    assert any(
-        f.startswith("sync-offset: ") and "moved the force clock" in f for f in st["info"]["forces"]["flags"]
-    )
+    stored = [Flag.from_dict(f) for f in st["info"]["forces"]["flags"]]  # Flag records, level kept
+    assert any(f.code == "sync-offset" and f.level == "warning" and "moved the force clock" in f.message
+               for f in stored)
     assert res.sync["trials"]["bad-t0"]["check"]["level"] == "warning"
     # the report's warnings block takes it from the force stage's flags (its existing path)
     flags = collect_flags(load_report_data(res.results))

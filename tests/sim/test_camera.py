@@ -46,6 +46,7 @@ def _image_contact(frame, calib, thr=128, tol_px=3.0):
     return dist[top, np.arange(frame.shape[1])] <= tol_px
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("provider", ["mechanics", "fallback"])
 def test_silhouette_contact_matches_geometric_truth(provider):
     surf = get_surface("bump-2mm")

@@ -17,6 +17,7 @@ def _invoke(args):
     return CliRunner().invoke(app, prefix + args)
 
 
+@pytest.mark.slow
 def test_option_mistakes_are_one_line_errors(tmp_path):
     out = tmp_path / "o"
     for args, msg in [

@@ -23,6 +23,7 @@ def fb_table():
                        provider=BridgedFoundation())
 
 
+@pytest.mark.slow
 def test_table_interpolation_exact_at_nodes_and_clamped(fb_table):
     t = fb_table
     i = 37
@@ -38,6 +39,7 @@ def test_table_interpolation_exact_at_nodes_and_clamped(fb_table):
     np.testing.assert_allclose(y_far, t.y_f[1, 0], atol=1e-6)
 
 
+@pytest.mark.slow
 def test_fallback_physics_sanity(fb_table):
     t = fb_table
     surf = get_surface("bump-2mm")
@@ -79,6 +81,7 @@ def test_mechanics_provider_load_and_grid():
         prov.finger_dict("9")
 
 
+@pytest.mark.slow
 def test_stack_and_save_round_trip(tmp_path, fb_table):
     a = build_table(get_surface("bump-2mm"), "1", loads=(0.35,), step=0.1, provider=BridgedFoundation())
     b = build_table(get_surface("bump-2mm"), "1", loads=(0.25,), step=0.1, provider=BridgedFoundation())

@@ -1,4 +1,4 @@
-"""Studies simulated with the layered finite-element finger (issue 23): drawn FE fingers,
+"""Studies simulated with the layered finite-element finger: drawn FE fingers,
 options, and one tiny study end to end (``simulate --finger-model fe``)."""
 
 from __future__ import annotations

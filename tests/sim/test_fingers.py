@@ -1,4 +1,4 @@
-"""Simulated subjects with any finger: per-subject overrides and seeded draws (issue 15)."""
+"""Simulated subjects with any finger: per-subject overrides and seeded draws."""
 
 from __future__ import annotations
 

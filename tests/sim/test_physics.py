@@ -45,6 +45,7 @@ def _direct(surface, x_c, f_n, mu, beta):
     return np.trapezoid(q * proj, xi), np.trapezoid(beta * q * s * proj, xi)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("x_c", [-8.0, -1.5, -0.3, 0.0, 0.7, 1.9, 6.0])
 def test_force_law_matches_direct_integration(table, x_c):
     surf = get_surface("step-up-4mm")
@@ -61,6 +62,7 @@ def test_force_law_matches_direct_integration(table, x_c):
         assert fd[0] == 0.0
 
 
+@pytest.mark.slow
 def test_transient_and_start_of_motion(table):
     law = ForceLaw(mu=0.5, transient=0.4, transient_mm=0.5)
     d = np.array([0.0, 0.05, 0.1, 0.5, 5.0])

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from fingerfriction.sim import RealismParams, SimOptions, plan_trial
+from fingerfriction.sim.options import realism_rng as _realism_rng
+from fingerfriction.sim.options import trial_rngs as _rngs
 from fingerfriction.sim.physics import true_forces
-from fingerfriction.sim.writer import _realism_rng, _rngs
 
 
 def test_default_study_has_no_realism_and_an_unchanged_record():

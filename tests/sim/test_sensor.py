@@ -13,6 +13,7 @@ from fingerfriction.sim.sensor import SensorParams, apply_sensor, from_channels,
 finite = st.floats(-5, 5, allow_nan=False)
 
 
+@pytest.mark.slow
 @given(st.lists(st.tuples(finite, finite), min_size=1, max_size=50))
 @settings(max_examples=50, deadline=None)
 def test_channel_decomposition_is_an_exact_inverse(pairs):

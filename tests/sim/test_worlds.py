@@ -63,6 +63,7 @@ def _motion(x, f_n=0.3, speed=80.0, f_target=0.3):
 QUIET = Interlocking(psi_sd=0.0, mu_sd=0.0, fluct_sd=0.0)  # no draws that change the forces
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("world", [LoadSharing(), ConstantPressure(p1_sd=0.0), QUIET])
 def test_flat_ground_is_amontons_in_every_world(tables, world):
     f = world.trial_forces(tables["step-up-4mm"], _motion([-9.0, -8.0]), "1", np.random.default_rng(0))
@@ -71,6 +72,7 @@ def test_flat_ground_is_amontons_in_every_world(tables, world):
     assert f.truth["mu_trial"] == pytest.approx(0.55)
 
 
+@pytest.mark.slow
 def test_constant_pressure_is_eq4_on_the_geometric_contact(tables):
     """Hand computation: with the outline on the surface the contact is [x - 3, x + 3]; p0
     carries the target load over the flat contact (6 mm), p1 is the world's."""
@@ -95,6 +97,7 @@ def test_constant_pressure_is_eq4_on_the_geometric_contact(tables):
         assert g.f_t[0] == pytest.approx(f.f_t[0], rel=1e-12)
 
 
+@pytest.mark.slow
 def test_constant_pressure_draws_p1_per_trial(tables):
     w = ConstantPressure()
     tab = tables["step-up-4mm"]
@@ -104,6 +107,7 @@ def test_constant_pressure_draws_p1_per_trial(tables):
     assert np.std(p1) / np.mean(p1) == pytest.approx(0.15, rel=0.15)
 
 
+@pytest.mark.slow
 def test_interlocking_pushes_back_on_rising_ground_and_gives_little_on_falling(tables):
     """Mirror geometries: the step up at x and the step down at -x put the same pressure on
     slopes of opposite sign; the deformation force is (1 + psi_up) times the elastic push
@@ -118,6 +122,7 @@ def test_interlocking_pushes_back_on_rising_ground_and_gives_little_on_falling(t
     assert up.f_int[0] == pytest.approx(0.55 * 0.3, rel=0.05)
 
 
+@pytest.mark.slow
 def test_interlocking_grows_with_speed(tables):
     tab = tables["step-up-4mm"]
     fd = [QUIET.trial_forces(tab, _motion([-1.0], speed=v), "1", np.random.default_rng(0)).f_def[0]
@@ -127,6 +132,7 @@ def test_interlocking_grows_with_speed(tables):
     assert fd[0] / fd[1] == pytest.approx((1 + up40) / (1 + QUIET.psi_up), rel=1e-6)
 
 
+@pytest.mark.slow
 def test_interlocking_varies_within_and_between_trials(tables):
     w = Interlocking()
     m = TrialMotion(t=np.arange(4000) / 1e4, x=np.full(4000, -1.0), f_n=np.full(4000, 0.3),

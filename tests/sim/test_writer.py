@@ -32,6 +32,7 @@ def study_dir(tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 def test_layout_and_manifest(study_dir):
     st = load_manifest(study_dir)
     assert len(st.trials) == 1
@@ -64,6 +65,7 @@ def test_layout_and_manifest(study_dir):
     assert float(truth["geom_tol_mm"]) == pytest.approx(3 * 0.023)
 
 
+@pytest.mark.slow
 def test_recorded_forces_follow_truth(study_dir):
     """F1, F2 decompose to F_N, F_T that follow the true forces once the sensor's known
     high-pass is applied to the truth (the remaining difference: drift, mains, noise)."""
@@ -81,6 +83,7 @@ def test_recorded_forces_follow_truth(study_dir):
     assert np.max(np.abs(truth["F_N"])) > 0.25  # the finger did press
 
 
+@pytest.mark.slow
 def test_truth_regions_match_video(study_dir):
     """End to end: contact seen in the stored video frames (3-px criterion) overlaps the
     stored geometric regions."""
@@ -111,6 +114,7 @@ def test_truth_regions_match_video(study_dir):
     assert np.median(ious) > 0.9 and min(ious) > 0.7, ious
 
 
+@pytest.mark.slow
 def test_same_seed_byte_identical_and_resume(study_dir, tmp_path):
     other = tmp_path / "again"
     simulate_study(other, tiny_options(), workers=1)
@@ -127,6 +131,7 @@ def test_same_seed_byte_identical_and_resume(study_dir, tmp_path):
     assert _digest(other) == _digest(study_dir)
 
 
+@pytest.mark.slow
 def test_different_seed_differs(study_dir, tmp_path):
     d = tmp_path / "seed4"
     simulate_study(d, tiny_options(seed=4), workers=1)
@@ -142,6 +147,7 @@ def test_workers_do_not_change_results(tmp_path):
     assert _digest(tmp_path / "w1") == _digest(tmp_path / "w2")
 
 
+@pytest.mark.slow
 def test_folder_with_a_different_study_is_refused_untouched(study_dir, tmp_path):
     before = _digest(study_dir)
     with pytest.raises(StudyFolderError, match="different study.*seed: existing 3, requested 5"):
@@ -193,6 +199,7 @@ def test_paper_design_by_default():
     assert specs[0].id == "s1-bump-2mm-v040-r1"
 
 
+@pytest.mark.slow
 def test_tiff_format(tmp_path):
     import tifffile
 
@@ -205,6 +212,7 @@ def test_tiff_format(tmp_path):
         assert tf.pages[0].shape == (720, 1280)
 
 
+@pytest.mark.slow
 def test_options_round_trip_and_truth_geometry_rebuilt(study_dir):
     """truth/study.json holds everything needed to recompute any frame's true geometry."""
     import json

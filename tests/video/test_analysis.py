@@ -26,6 +26,7 @@ def video(tmp_path_factory):
     return path, xs
 
 
+@pytest.mark.slow
 def test_end_to_end_and_flags(video):
     path, xs = video
     res = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(chunk_size=4))
@@ -50,6 +51,7 @@ def test_end_to_end_and_flags(video):
     assert res.timings["frames_per_s"] > 0
 
 
+@pytest.mark.slow
 def test_same_result_in_every_format(video, tmp_path):
     path, _ = video
     ref = analyze_video(path, 0.4, surface=SURF)
@@ -64,6 +66,7 @@ def test_same_result_in_every_format(video, tmp_path):
         np.testing.assert_allclose(res.x, ref.x, equal_nan=True)
 
 
+@pytest.mark.slow
 def test_truncated_video_flags_missing_frames(video, tmp_path):
     path, _ = video
     from fingerfriction.video import open_video
@@ -85,6 +88,7 @@ def test_truncated_video_flags_missing_frames(video, tmp_path):
     assert res.truncated and (res.flags[5:] == FrameFlag.CORRUPT).all()
 
 
+@pytest.mark.slow
 def test_threshold_leaving_no_contour_is_a_clear_error(video):
     path, _ = video
     with pytest.raises(ValueError, match=r"trial\.mkv.*calibration frame 0.*leaves no contour"):
@@ -104,6 +108,7 @@ def test_frames_with_only_a_lifted_finger_are_flagged(tmp_path):
     assert res.flags[1] == 0 and res.flags[2] == FrameFlag.AREA_UNREACHABLE
 
 
+@pytest.mark.slow
 def test_result_save_is_readable_without_pickle(video, tmp_path):
     path, _ = video
     res = analyze_video(path, 0.4, surface=SURF)
@@ -124,6 +129,7 @@ def test_a_finger_wider_than_the_view_is_out_of_view_not_no_contour(tmp_path):
     assert res.flags[1] == 0 and res.flags[2] == FrameFlag.OUT_OF_VIEW
 
 
+@pytest.mark.slow
 def test_position_option_selects_the_chord_midpoint(video):
     path, xs = video
     cf = analyze_video(path, 0.4, surface=SURF)
@@ -162,6 +168,7 @@ def sweep(tmp_path_factory):
     return path, xs
 
 
+@pytest.mark.slow
 def test_hybrid_position_covers_the_window(sweep):
     from fingerfriction.video import PositionSource
 
@@ -188,6 +195,7 @@ def test_hybrid_position_covers_the_window(sweep):
     assert "no hybrid position" in res.reasons(len(res.x) - 1)[-1]
 
 
+@pytest.mark.slow
 def test_default_position_unchanged_and_hybrid_always_reported(sweep):
     path, xs = sweep
     cf = analyze_video(path, 0.4, surface=SURF)
@@ -203,6 +211,7 @@ def test_default_position_unchanged_and_hybrid_always_reported(sweep):
     np.testing.assert_allclose(hy.regions[ok], cf.regions[ok][:, : hy.regions.shape[1]], equal_nan=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("position", ["cf-centroid", "hybrid"])
 def test_more_regions_than_n_max_is_flagged_not_raised(tmp_path, position):
     """A frame whose contact has more regions than n_max_regions is flagged (with its
@@ -227,6 +236,7 @@ def test_more_regions_than_n_max_is_flagged_not_raised(tmp_path, position):
     np.testing.assert_allclose(res.regions[other, :1], ref.regions[other, :1])
 
 
+@pytest.mark.slow
 def test_regions_cut_by_the_crop_edge_are_marked_clipped(sweep, tmp_path):
     path, xs = sweep
     res = analyze_video(path, 0.4, surface=SURF, options=AnalysisOptions(position="hybrid"))

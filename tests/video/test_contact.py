@@ -177,6 +177,7 @@ def test_smooth_outline_keeps_quadratics_and_nan_neighbourhoods():
         smooth_outline(q, 20)
 
 
+@pytest.mark.slow
 def test_outline_smoothing_makes_a_slowly_opening_contact_edge_accurate():
     """A large, nearly flat finger: the gap reaches 3 px with a slope of 0.05 px/px, where
     0.1 px of outline noise moves the end point by 2 px. Raw outlines vs the default fit."""

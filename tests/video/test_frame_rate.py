@@ -1,4 +1,4 @@
-"""A video's frame rate from its time stamps (issue 21): the readers, ``init`` and ``check``
+"""A video's frame rate from its time stamps: the readers, ``init`` and ``check``
 share one rule: the frames' time stamps win over the header's nominal setting, which is
 kept as a cross-check and named when it disagrees."""
 

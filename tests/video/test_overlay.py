@@ -39,6 +39,7 @@ def study(tmp_path_factory):
     return root
 
 
+@pytest.mark.slow
 def test_write_overlay_mp4_and_gif(study, tmp_path):
     video = study / "trials" / "t1" / "video.mkv"
     info = write_overlay(video, 0.4, tmp_path / "o.mp4", surface=SURF)
@@ -68,6 +69,7 @@ def test_cli_overlay(study, tmp_path):
     assert not list(tmp_path.glob("*.tmp*"))
 
 
+@pytest.mark.slow
 def test_write_results_overlay_draws_the_stored_results(study, tmp_path):
     """From the per-frame table ``analyze`` stores: only the drawn frames are decoded, the
     regions drawn are the stored ones (here: moved 2 mm, so not what a new analysis finds)."""

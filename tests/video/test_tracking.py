@@ -39,6 +39,7 @@ def test_line_for_area_matches_root_finding(seed, A):
         assert area_below_line(f, r)[0] == pytest.approx(A, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_moving_finger_is_tracked_on_the_flat():
     """A disc finger pressed on a flat region: the C_f centroid is the disc centre."""
     surf = RaisedCosine("bump", 2.0)
@@ -56,6 +57,7 @@ def test_moving_finger_is_tracked_on_the_flat():
     np.testing.assert_allclose(A, an.area, rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_finger_over_the_bump_after_offset_removal():
     surf = RaisedCosine("bump", 2.0)
     xs = np.linspace(-6.0, 6.0, 41)

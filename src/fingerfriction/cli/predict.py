@@ -1,6 +1,6 @@
 """The forward model's commands: predict-contact, predict, render, validate and
 calibrate-finger (``fingerfriction.mechanics``, ``fingerfriction.predict``,
-``fingerfriction.render``)."""
+``fingerfriction.predict.render``)."""
 
 from __future__ import annotations
 
@@ -156,7 +156,7 @@ def render_cmd(
     ),
 ) -> None:
     """Friction command for a flat friction-modulating display, as a signal in time."""
-    from ..render import HapticRenderer  # heavy (the forward model); imported when the command runs
+    from ..predict.render import HapticRenderer  # heavy (the forward model); imported when the command runs
 
     finger = None if finger_path is None else read_fingers(finger_path)
     try:
@@ -195,8 +195,8 @@ def validate_cmd(
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
-    from ..predict import validate_results  # heavy (the forward model); imported when the command runs
-    from ..study.finger_calibration import calibrate_held_out  # heavy (numba); likewise
+    from ..pipeline.finger_calibration import calibrate_held_out  # heavy (numba); likewise
+    from ..pipeline.validation import validate_results  # heavy (the forward model); likewise
 
     fingers = read_fingers(items=finger)
     try:
@@ -240,7 +240,7 @@ def calibrate_finger_cmd(
     """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
     and write it as a finger JSON that predict, predict-contact, validate and render accept."""
     from ..mechanics.calibrate import CalibrationOptions  # heavy (numba); when the command runs
-    from ..study.finger_calibration import calibrate_results  # heavy (the forward model); likewise
+    from ..pipeline.finger_calibration import calibrate_results  # heavy (the forward model); likewise
 
     start = None if initial is None else read_fingers(initial)
     target = out or f"finger-s{subject}.json"

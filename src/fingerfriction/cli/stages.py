@@ -28,8 +28,8 @@ def overlay_cmd(
                                 callback=bounded(0.05, 4.0)),
 ) -> None:
     """Write a video of a trial's frames with the traced contours and contact regions drawn."""
-    from ..study.params import video_options  # heavy (video stage); imported when the command runs
-    from ..study.trial import TrialInput  # heavy (both stages); imported when the command runs
+    from ..pipeline.params import video_options  # heavy (video stage); imported when the command runs
+    from ..pipeline.trial import TrialInput  # heavy (both stages); imported when the command runs
     from ..video.overlay import write_overlay  # heavy (OpenCV, PyAV); imported when the command runs
 
     try:
@@ -66,7 +66,7 @@ def forces_cmd(
     With --from-video, x(t) and the contact regions come from the video stage run exactly as
     `analyze` runs it (the same options)."""
     from ..forces import ForceProcessingParams  # heavy (scipy); imported when the command runs
-    from ..study.trial import TrialInput, finger_positions, process_trial_forces  # heavy: both stages
+    from ..pipeline.trial import TrialInput, finger_positions, process_trial_forces  # heavy: both stages
 
     try:
         tr = TrialInput.from_study(study, trial)

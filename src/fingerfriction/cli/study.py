@@ -172,7 +172,7 @@ def check_cmd(
 def _deep_check(study: str) -> None:
     """``check --deep``: the shallow problems, then each consistency finding of each trial;
     exit status 2 if there is any error (a warning alone keeps 0)."""
-    from ..study.selfcheck import deep_check  # heavy (every stage); imported when the command runs
+    from ..pipeline.selfcheck import deep_check  # heavy (every stage); imported when the command runs
 
     with console_log(0, echo):
         problems, found = deep_check(study)
@@ -223,9 +223,9 @@ def analyze_cmd(
     the run; a trial whose recordings do not match its entry fails, the others go on. A
     finished trial is computed again when its input files, its manifest entry or the
     analysis parameters changed."""
+    from ..pipeline.analyze import StudyCheckError, analyze, plan_analysis  # heavy (Dask, both stages)
+    from ..pipeline.params import POSITIONS, AnalysisParams, sim_params  # heavy (both stages), as above
     from ..selfcheck import SYNC_MODES  # heavy (both stages), as above
-    from ..study.analyze import StudyCheckError, analyze, plan_analysis  # heavy (Dask, both stages)
-    from ..study.params import POSITIONS, AnalysisParams, sim_params  # heavy (both stages), as above
 
     try:
         if position not in POSITIONS:
@@ -307,7 +307,7 @@ def fit_cmd(
     """Every model variant: mu per subject, per-trial parameters, Table 1 with CIs, the
     out-of-sample comparison, the variant the data support (or its rejection), flags.
     Exit status 1 when every variant is rejected."""
-    from ..study.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
+    from ..pipeline.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
     from ..study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
     verbosity = verbosity_of(verbose, quiet)

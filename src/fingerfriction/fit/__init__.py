@@ -22,7 +22,7 @@ Variants of Eq. (4) (:mod:`fingerfriction.model`), one object each in the regist
 
 :mod:`fingerfriction.fit.select` chooses the variant the data support out of sample, or
 rejects every one. All return per-trial results with ``measured``/``estimate`` series (for
-Table 1, :mod:`fingerfriction.stats`) and :class:`FitFlag` objects for everything
+Table 1, :mod:`fingerfriction.model.stats`) and :class:`FitFlag` objects for everything
 unphysical or doubtful; nothing here reads or writes files.
 """
 

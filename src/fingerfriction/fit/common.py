@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
 
+from ..flags import Flag
 from ..regions import as_regions
 from ..surfaces import RaisedCosine, Surface, surface_from_spec
 
@@ -18,6 +19,7 @@ __all__ = [
     "nmse_eq5",
     "Trial",
     "FitFlag",
+    "fit_flag",
     "flat_segment_mask",
     "flat_detrend",
     "median_filter",
@@ -101,8 +103,8 @@ def nmse_eq5(measured, estimate) -> float:
     towards a *larger* model: for a model ``c G`` with a free scale ``c`` and centred
     signals, Eq. (5) is minimised at ``c = ||F||^2 / <G, F>`` whereas least squares gives
     ``c = <G, F> / ||G||^2``; their ratio is ``1 / r^2`` (``r`` the correlation of ``G``
-    and ``F``), so noise in ``F`` inflates Eq. (5)'s parameters (by ~1 % at 10 % noise,
-    measured in ``tests/test_fit.py``). It is undefined (``inf``) for a flat model, e.g.
+    and ``F``), so noise in ``F`` inflates Eq. (5)'s parameters (``tests/fit/test_fit.py``
+    checks it; its size: ``docs/fit.md``). It is undefined (``inf``) for a flat model, e.g.
     a trial whose contact never reaches the feature after detrending.
     """
     f, g = _pair(measured, estimate)
@@ -377,42 +379,18 @@ def _check_kernel(kernel) -> int:
 # ------------------------------------------------------------------------ flags
 
 
-#: Levels of a :class:`FitFlag`: ``'error'`` (the result must not be used: a failed or
+#: Levels of a fit's flags: ``'error'`` (the result must not be used: a failed or
 #: unphysical fit), ``'warning'`` (usable, with a caveat) and ``'info'`` (what the fit did
 #: that a reader should know, e.g. a parameter held at its physical limit).
 FLAG_LEVELS = ("error", "warning", "info")
 
+#: The fit's flags are the package's one flag type (:class:`fingerfriction.flags.Flag`).
+FitFlag = Flag
 
-@dataclass(frozen=True)
-class FitFlag:
-    """Something a fit noticed, attached to a trial or a subject and shown by the report.
 
-    Attributes
-    ----------
-    level : {'error', 'warning', 'info'}
-    code : str
-        Short machine-readable kind, e.g. ``'mu-at-grid-edge'``, ``'negative-p0'``,
-        ``'negative-p1'``, ``'no-absolute'``.
-    subject : str
-    trial : str
-        Trial id, '' for a flag about the whole subject.
-    model : str
-        The model variant (:mod:`fingerfriction.fit.variants`), or ``''`` for a flag about
-        the study's model choice (``model-rejected``).
-    message : str
-        One line saying what and why.
-    """
-
-    level: str
-    code: str
-    subject: str
-    trial: str
-    model: str
-    message: str
-
-    def __post_init__(self) -> None:
-        if self.level not in FLAG_LEVELS:
-            raise ValueError(f"FitFlag.level must be one of {FLAG_LEVELS}, got {self.level!r}")
-
-    def to_dict(self) -> dict:
-        return asdict(self)
+def fit_flag(level: str, code: str, subject, trial: str, model: str, message: str) -> Flag:
+    """A :class:`~fingerfriction.flags.Flag` raised by a fit, about a trial (``trial`` its
+    id) or a whole subject (``trial=''``), for the model variant ``model``."""
+    if level not in FLAG_LEVELS:
+        raise ValueError(f"a fit's flag level must be one of {FLAG_LEVELS}, got {level!r}")
+    return Flag(level, code, message, trial=trial, subject=str(subject), model=model)

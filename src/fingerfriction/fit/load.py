@@ -22,24 +22,18 @@ contact. Its parameters are fitted in three steps, each where the data pin it:
    subject's summed squared residual with ``p1`` profiled out per trial: a grid over
    ``[0, inset_max] x [0, kappa_max]``, then a bounded Nelder-Mead
    (``scipy.optimize.minimize``) from the best grid point. ``kappa`` is then held where
-   every trial's ``p1`` stays >= 0 (the deformation term dissipates; measured on the
-   simulated study, the residual alone would take ``kappa`` to about 2.5/mm where 40 of
-   180 trials get a slightly negative ``p1``), flagged ``kappa-limited``, and the inset
-   refitted at that ``kappa``. Noise in ``F_N`` enters the
-   model through the pressure and pulls ``delta`` up (errors in variables: about +0.05 mm
-   with 1 % noise on ``F_N`` in the synthetic tests); with forces recovered as well as the
-   force stage does on the simulated study the effect is negligible.
+   every trial's ``p1`` stays >= 0 (the deformation term dissipates; the residual alone
+   can take ``kappa`` past that point), flagged ``kappa-limited``, and the inset refitted
+   at that ``kappa``. Noise in ``F_N`` enters the model through the pressure and pulls
+   ``delta`` up (errors in variables); ``docs/fit.md`` gives the size of both effects.
 3. **p1 per trial** by closed-form least squares on the absolute forces (the model is
    linear in ``p1``), with a standard error that allows for the autocorrelated residuals
    (Newey-West, Bartlett kernel over ``hac_mm`` of positions).
 
-Why ``mu`` is not refined jointly with the rest: on the simulated 180-trial study, mu from
-flat ground lands within 0.01 % of the truth (0.55, 0.60), while minimising the residual
-over ``mu``, ``delta`` and ``kappa`` together moves it to 0.5472 and 0.5991 (-0.51 % and
--0.15 %) for a 4-7 % smaller residual: the
-joint fit bends ``mu`` to absorb model mismatch at the features, where Eq. (4) is an
-approximation, whereas flat ground is where the model is exact (``benchmarks/science.py``
-prints both).
+Why ``mu`` is not refined jointly with the rest: minimising the residual over ``mu``,
+``delta`` and ``kappa`` together bends ``mu`` to absorb model mismatch at the features,
+where Eq. (4) is an approximation, whereas flat ground is where the model is exact
+(``benchmarks/science.py`` prints both; the figures are in ``docs/fit.md``).
 
 A trial without absolute forces (no unloaded rest, or ``sensor_highpass_hz=None`` in the
 force stage) is fitted on the paper's footing instead: the nominal load stands in for
@@ -65,6 +59,7 @@ from .common import (
     _check_kernel,
     _fit_labels,
     _one_subject,
+    fit_flag,
     flat_detrend,
     flat_segment_mask,
     median_filter,
@@ -114,11 +109,10 @@ class LoadFitOptions:
     mu_per : {'trial', 'subject'}
         The ``mu`` each trial's model uses: the trial's own flat-ground value (default; the
         subject's where the trial has too little flat ground) or the subject's, as the
-        paper. Friction varies from trial to trial (skin hydration): on the simulated study
-        with 10 % per-trial scatter of ``mu`` (``simulate --realism``) the subject's ``mu``
-        leaves the contact search nothing to fit (inset 0.06 and 0.00 mm, ``kappa`` 0) and
-        65 of 180 trials at ``p1 < 0`` (Table 1 min rho 0.43), the trial's own gives 0 of
-        180 and min rho 0.85; without scatter the two agree (min rho 0.912 both).
+        paper. Friction varies from trial to trial (skin hydration): with a per-trial
+        scatter of ``mu`` the subject's ``mu`` pushes each trial's friction error into the
+        contact search, which then collapses, and many trials get ``p1 < 0``; without
+        scatter the two agree (``docs/fit.md``).
     n_boot : int
         Bootstrap resamples of the confidence interval of ``mu`` (default 2000).
     seed : int
@@ -138,8 +132,8 @@ class LoadFitOptions:
     search_trials : int
         At most this many of a subject's trials, spread evenly over its surfaces, are used
         to find its load-bearing contact (default 36: 6 per surface of the paper's design;
-        the two parameters are the finger's, and more trials change them by less than
-        0.01 mm and 0.02 on the simulated study while the search's cost grows with them).
+        the two parameters are the finger's, so more trials change them little while the
+        search's cost grows with them; ``docs/fit.md``).
     """
 
     median_kernel: int = 11
@@ -449,12 +443,12 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
     pressure = d.FN / support
     footing = "absolute" if d.absolute else "flat"
     if not d.absolute:
-        flags.append(FitFlag("warning", "no-absolute", t.subject, tid, model_name,
+        flags.append(fit_flag("warning", "no-absolute", t.subject, tid, model_name,
                              "no absolute forces: fitted on the paper's flat-segment footing with the "
                              "nominal load standing in for F_N"))
     if y is None or y.size < 3:
         msg = "no position with load-bearing contact and a normal load to compare"
-        flags.append(FitFlag("error", "fit-failed", t.subject, tid, model_name, msg))
+        flags.append(fit_flag("error", "fit-failed", t.subject, tid, model_name, msg))
         return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=inset, kappa=kappa,
                             p0_mean=math.nan, mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
                             footing=footing, used=used,
@@ -472,18 +466,18 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
             p1_se = hac_se(b, y - p1 * b, d.lags)
     if not identified:
         p1, p1_se = 0.0, math.nan
-        flags.append(FitFlag("warning", "p1-not-identified", t.subject, tid, model_name,
+        flags.append(fit_flag("warning", "p1-not-identified", t.subject, tid, model_name,
                              "the load-bearing contact never reaches a slope: p1 is not identified "
                              "(F_def = 0)"))
     if p1 < 0:
         success = False
         msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
         parts.insert(0, msg)
-        flags.append(FitFlag("error", "negative-p1", t.subject, tid, model_name, msg))
+        flags.append(fit_flag("error", "negative-p1", t.subject, tid, model_name, msg))
     n_out = int(n - np.count_nonzero(used))
     if n_out:
         level = "error" if n_out > 0.1 * n else "warning"
-        flags.append(FitFlag(level, "positions-left-out", t.subject, tid, model_name,
+        flags.append(fit_flag(level, "positions-left-out", t.subject, tid, model_name,
                              f"{n_out} of {n} positions have no load-bearing contact or a normal force "
                              "below the minimum and are left out of the fit"))
         if level == "error":
@@ -494,7 +488,7 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
         parts.insert(0, "flat-ground F_T / F_N <= 0 (wrong sign)")
     if np.any(d.FN[used] < 0):
         success = False
-        flags.append(FitFlag("error", "negative-pressure", t.subject, tid, model_name,
+        flags.append(fit_flag("error", "negative-pressure", t.subject, tid, model_name,
                              "the measured normal force is negative at some compared positions"))
     # the trial's pressure: total load over total vertical support (a ratio of sums stays
     # unbiased under noise in F_N, a mean of the pointwise pressure would not)
@@ -615,7 +609,7 @@ def _at_bound_flags(subject: str, fitted, inset: float, kappa: float, options: L
     for name, value, bound in bounds:
         if name in fitted and value > 0.98 * bound:
             what = "load-bearing inset" if name == "inset" else "rise of the pressure with height"
-            flags.append(FitFlag("warning", f"{name}-at-bound", subject, "", model,
+            flags.append(fit_flag("warning", f"{name}-at-bound", subject, "", model,
                                  f"the {what} reached its bound {bound:g}"))
     return flags
 
@@ -662,7 +656,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                               n_boot=options.n_boot, seed=options.seed, level=options.level, model=name)
     except ValueError as exc:
         msg = str(exc)
-        flag = FitFlag("error", "mu-unavailable", subject, "", name, msg)
+        flag = fit_flag("error", "mu-unavailable", subject, "", name, msg)
         return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
                               fitted=(), trials=(), flags=(flag,), success=False, message=msg, model=name)
     mu = flat.mu
@@ -688,7 +682,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                 kappa = _physical_kappa(absolute, mu_of, inset, kappa)
             # info, not a warning: the limit is the physics the fit imposes, and it holds
             # on clean studies too (both subjects of the simulated default study)
-            flags.append(FitFlag("info", "kappa-limited", subject, "", name,
+            flags.append(fit_flag("info", "kappa-limited", subject, "", name,
                                  f"the pressure's rise with height is limited to {kappa:.2f}/mm, where every "
                                  f"trial's deformation weight p1 stays >= 0 (the residual alone would take "
                                  f"{best:.2f}/mm)"))

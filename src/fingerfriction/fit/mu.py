@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from .common import FitFlag, Trial, flat_segment_mask
+from .common import Trial, fit_flag, flat_segment_mask
 
 __all__ = ["FlatGroundMu", "flat_ground_mu"]
 
@@ -106,13 +106,13 @@ def _flat_segments(trials, subject: str, min_load: float, min_flat_mm: float, mo
     for t in trials:
         d = _flat_data(t, min_load, min_flat_mm)
         if d is None:
-            flags.append(FitFlag("warning", "short-flat", subject, t.id, model,
+            flags.append(fit_flag("warning", "short-flat", subject, t.id, model,
                                  f"less than {min_flat_mm:g} mm of flat ground before the feature: "
                                  "the trial takes no part in mu"))
             continue
         ratio = float(d[1].sum() / d[2].sum())
         if not ratio > 0:
-            flags.append(FitFlag("error", "negative-mu", subject, t.id, model,
+            flags.append(fit_flag("error", "negative-mu", subject, t.id, model,
                                  f"flat-ground friction ratio F_T / F_N = {ratio:.3g} <= 0: the tangential "
                                  "force has the wrong sign (sensor axis or sliding direction?); the trial "
                                  "takes no part in mu"))
@@ -206,7 +206,7 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
     if transient:
         lam, mus, at_bound = _fit_transient(data, float(transient_max_mm))
         if at_bound:
-            flags.append(FitFlag("warning", "transient-at-bound", subject, "", model,
+            flags.append(fit_flag("warning", "transient-at-bound", subject, "", model,
                                  f"the start transient's decay length reached its bound "
                                  f"{transient_max_mm:g} mm: the flat-ground ratio drifts over the whole "
                                  "flat segment"))
@@ -221,7 +221,7 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
         se = float(np.std(boots, ddof=1))
     else:
         ci, se = (math.nan, math.nan), math.nan
-        flags.append(FitFlag("warning", "mu-ci-unavailable", subject, "", model,
+        flags.append(fit_flag("warning", "mu-ci-unavailable", subject, "", model,
                              "mu comes from a single trial: no confidence interval"))
     return FlatGroundMu(subject=subject, mu=mu, ci=ci, se=se, level=level,
                         mu_trials=dict(zip(ids, (float(m) for m in mus), strict=True)),

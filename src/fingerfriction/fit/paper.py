@@ -28,8 +28,8 @@ How measurement and model are compared (the choices this module makes)
    squares minimise the same function. ``median_on='estimate'`` is the literal reading:
    filter ``F_hat`` after combining; it is nonlinear in ``(p0, p1)``, Nelder-Mead handles
    it exactly and least squares uses the filtered-basis fit as its (approximate) solution
-   (measured on synthetic trials, kernel 11: p0 within 0.03 %, p1 within 1.5 %, objective
-   within 1e-4 relative of Nelder-Mead's). A window of 1 switches the filter off.
+   (how close, on synthetic trials: ``docs/fit.md``). A window of 1 switches the filter
+   off.
 3. **Objective.** :func:`nmse` (conventional, default) and :func:`nmse_eq5` (Eq. 5 as
    printed); see their docstrings for why the conventional one is the default.
 4. **mu grid.** For each ``mu`` of the grid every trial is refitted; the subject's curve is
@@ -56,6 +56,7 @@ from .common import (
     _check_kernel,
     _fit_labels,
     _one_subject,
+    fit_flag,
     flat_detrend,
     flat_segment_mask,
     median_filter,
@@ -513,12 +514,11 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     ``F = p0 mu K + (p0 + p1 mu) S + p1 Q`` (see :class:`_Design`): with ``p0, p1`` free per
     trial, ``mu`` is identified only by the consistency of the three per-frame integrals
     across the trial, mostly through variations of the contact length (``K``). When the
-    contact length hardly varies, the summed objective is nearly flat in ``mu``: on the
-    rigid-pad trials of :mod:`fingerfriction.testing` at 10 % noise it varies by < 1 %
-    over 0.30..0.90 and the selected ``mu`` can be off by 0.1 or more (0.40 for a true 0.60
-    over 90 trials in ``benchmarks/fit.py``), while noise-free trials give the true value
-    exactly; with a contact length varying by ~2 mm (``tests/test_fit.py``) ``mu`` comes
-    out within 2 %. Inspect ``curve`` before trusting ``mu``.
+    contact length hardly varies, the summed objective is nearly flat in ``mu`` and, under
+    noise, the selected ``mu`` can be far from the truth, while noise-free trials give the
+    true value exactly; a contact length that varies over the trial pins it
+    (``tests/fit/test_fit.py``; the figures of both cases are in ``docs/fit.md``). Inspect
+    ``curve`` before trusting ``mu``.
     """
     options = options or FitOptions()
     _check_method(method)
@@ -588,7 +588,8 @@ def paper_flags(fit: SubjectFit) -> list[FitFlag]:
     * ``mu-at-grid-edge`` (error): the grid minimum is at an end of the grid, so the
       optimum may lie outside it;
     * ``mu-not-identifiable`` (warning): Eq. (4) is exactly invariant under
-      ``(mu, p0, p1) -> (p0/p1, p1 mu, p1)`` (see :func:`fingerfriction.predict.leave_one_surface_out`),
+      ``(mu, p0, p1) -> (p0/p1, p1 mu, p1)`` (see
+      :func:`fingerfriction.pipeline.validation.leave_one_surface_out`),
       and the flat-segment detrend removes most of the ``cos alpha`` term that would pin
       ``mu``; flagged when the summed objective varies by less than 5 % over the grid;
     * ``negative-p0`` and ``fit-failed`` (error), one per trial: an unphysical pressure
@@ -609,20 +610,20 @@ def paper_flags(fit: SubjectFit) -> list[FitFlag]:
     if g.size > 1 and fin.any():
         j = int(np.nanargmin(np.where(fin, c, np.nan)))
         if j in (0, g.size - 1):
-            out.append(FitFlag("error", "mu-at-grid-edge", s, "", "paper",
+            out.append(fit_flag("error", "mu-at-grid-edge", s, "", "paper",
                                f"mu = {fit.mu:.3f} is at the end of the grid [{g[0]:.2f}, {g[-1]:.2f}]: "
                                "the objective may still fall outside it"))
         lo, hi = float(np.min(c[fin])), float(np.max(c[fin]))
         if hi <= 1.05 * lo:
-            out.append(FitFlag("warning", "mu-not-identifiable", s, "", "paper",
+            out.append(fit_flag("warning", "mu-not-identifiable", s, "", "paper",
                                f"the summed objective changes by {100 * (hi / lo - 1):.1f} % over mu in "
                                f"[{g[0]:.2f}, {g[-1]:.2f}]: mu is not identified by these forces"))
     for tf in fit.trials:
         tid = str(tf.labels.get("trial", ""))
         if not tf.success:
             if tf.p0 < 0:
-                out.append(FitFlag("error", "negative-p0", s, tid, "paper",
+                out.append(fit_flag("error", "negative-p0", s, tid, "paper",
                                    f"p0 = {tf.p0:.3g} N/mm < 0: an unphysical (negative) pressure"))
             else:
-                out.append(FitFlag("error", "fit-failed", s, tid, "paper", tf.message))
+                out.append(fit_flag("error", "fit-failed", s, tid, "paper", tf.message))
     return out

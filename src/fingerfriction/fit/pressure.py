@@ -54,6 +54,7 @@ from .common import (
     _by_subject,
     _fit_labels,
     _one_subject,
+    fit_flag,
     median_filter,
     nmse,
 )
@@ -69,7 +70,7 @@ NAME = "pressure"
 def _failed(t: Trial, mu: float, mu_flat: float, flags: list, msg: str,
             code: str = "fit-failed") -> LoadTrialFit:
     nan = np.full(t.n, np.nan)
-    flags.append(FitFlag("error", code, t.subject, t.id, NAME, msg))
+    flags.append(fit_flag("error", code, t.subject, t.id, NAME, msg))
     return LoadTrialFit(mu=mu, p1=math.nan, p1_se=math.nan, inset=0.0, kappa=0.0, p0_mean=math.nan,
                         mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
                         footing="absolute" if t.has_absolute else "flat", used=np.zeros(t.n, bool),
@@ -106,28 +107,28 @@ def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, option
     p1_se = math.sqrt(max(float(cov[1, 1]), 0.0)) if ok[1] else math.nan
     success, parts = True, ["p0 and p1 by closed-form least squares"]
     if not ok[1]:
-        flags.append(FitFlag("warning", "p1-not-identified", t.subject, t.id, NAME,
+        flags.append(fit_flag("warning", "p1-not-identified", t.subject, t.id, NAME,
                              "the contact never reaches a slope: p1 is not identified (F_def = 0)"))
     if not p0 > 0:
         success = False
         msg = f"p0 = {p0:.4g} N/mm <= 0: an unphysical (negative) pressure"
         parts.insert(0, msg)
-        flags.append(FitFlag("error", "negative-p0", t.subject, t.id, NAME, msg))
+        flags.append(fit_flag("error", "negative-p0", t.subject, t.id, NAME, msg))
     f_int = p0 * B[:, 0]
     if p1 < 0:
         success = False
         msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
         parts.insert(0, msg)
-        flags.append(FitFlag("error", "negative-p1", t.subject, t.id, NAME, msg))
+        flags.append(fit_flag("error", "negative-p1", t.subject, t.id, NAME, msg))
     n_cut = int(np.count_nonzero(~seen))
     if n_cut:
-        flags.append(FitFlag("info", "clipped-left-out", t.subject, t.id, NAME,
+        flags.append(fit_flag("info", "clipped-left-out", t.subject, t.id, NAME,
                              f"{n_cut} of {t.n} positions, where the camera's field cut the contact, are "
                              "left out (the constant-pressure law needs the whole contact)"))
     n_out = int(np.count_nonzero(seen & ~used))
     if n_out:
         level = "error" if n_out > 0.1 * t.n else "warning"
-        flags.append(FitFlag(level, "positions-left-out", t.subject, t.id, NAME,
+        flags.append(fit_flag(level, "positions-left-out", t.subject, t.id, NAME,
                              f"{n_out} of {t.n} positions have no contact or a normal force below the "
                              "minimum and are left out of the fit"))
         if level == "error":
@@ -178,7 +179,7 @@ def fit_pressure_subject(trials: Sequence[Trial], options: LoadFitOptions | None
                               n_boot=options.n_boot, seed=options.seed, level=options.level, model=NAME)
     except ValueError as exc:
         msg = str(exc)
-        flag = FitFlag("error", "mu-unavailable", subject, "", NAME, msg)
+        flag = fit_flag("error", "mu-unavailable", subject, "", NAME, msg)
         return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
                               fitted=(), trials=(), flags=(flag,), success=False, message=msg, model=NAME)
     wrong_sign = {f.trial for f in flat.flags if f.code == "negative-mu"}

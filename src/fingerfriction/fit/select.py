@@ -45,8 +45,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..stats import BOTH
-from .common import FitFlag
+from ..model.stats import BOTH
+from .common import FitFlag, fit_flag
 from .variants import VARIANTS
 
 __all__ = ["Bars", "BARS", "Evidence", "Selection", "select_model", "residual_structure", "CV_COLUMN",
@@ -117,7 +117,7 @@ class Evidence:
     Parameters
     ----------
     table1 : pandas.DataFrame
-        Its Table 1 (:func:`fingerfriction.stats.correlation_table`), column ``rho``.
+        Its Table 1 (:func:`fingerfriction.model.stats.correlation_table`), column ``rho``.
     loso : pandas.DataFrame or None
         Its leave-one-surface-out table (:func:`fingerfriction.predict.leave_one_surface_out`),
         None when not computed.
@@ -172,7 +172,7 @@ class Selection:
         """The study-level flag of a rejection (none otherwise)."""
         if not self.rejected:
             return []
-        return [FitFlag("error", "model-rejected", "", "", "", self.reason)]
+        return [fit_flag("error", "model-rejected", "", "", "", self.reason)]
 
     def to_dict(self) -> dict:
         """The selection for ``fit/fit.json``."""

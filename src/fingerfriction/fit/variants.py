@@ -400,7 +400,7 @@ class PaperVariant(Variant):
     def heldout_series(self, t, fwd, params, model, ctx):
         # The measured force on the paper's footing (drift-corrected, near zero on flat
         # ground) and the prediction minus its exact flat-ground level mu p0 L_flat (module
-        # notes of fingerfriction.predict.loso).
+        # notes of fingerfriction.pipeline.validation).
         opts = ctx.paper
         flat_level = params.mu * params.p0 * ctx.flat_length() if opts.detrend else 0.0
         m = np.asarray(t.force, dtype=float)

@@ -8,7 +8,7 @@ and resampling onto positions), :mod:`.checks` (input checks, flags), :mod:`.sig
 (the provenance object), :mod:`.params` (the options) and :mod:`.chain`
 (:func:`process_forces`, the whole chain for one trial). The choices and the measured
 figures behind them are in ``docs/forces.md``. A trial of a study (its manifest entry) is
-processed by :func:`fingerfriction.study.trial.process_trial_forces`.
+processed by :func:`fingerfriction.pipeline.trial.process_trial_forces`.
 """
 
 from __future__ import annotations

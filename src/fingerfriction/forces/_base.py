@@ -19,7 +19,10 @@ class ForceFileError(ValueError):
     """A force file that cannot be read as the manifest describes it."""
 
 
-def _as_channel(values, *, name, path: Path) -> np.ndarray:
+def as_channel(values, *, name, path: Path) -> np.ndarray:
+    """A force channel read from ``path`` as a float64 vector, checked: real numbers, not empty,
+    one vector (squeezed), at most :data:`MAX_SAMPLES` values; :class:`ForceFileError` naming
+    the channel and the file otherwise."""
     arr = np.asarray(values)
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
         raise ForceFileError(f"channel {name!r} in {str(path)!r} has dtype {arr.dtype}, expected numbers")
@@ -38,7 +41,9 @@ def _as_channel(values, *, name, path: Path) -> np.ndarray:
     return squeezed.astype(np.float64)
 
 
-def _not_index(path: Path, fmt: str, wanted: dict) -> None:
+def not_index(path: Path, fmt: str, wanted: dict) -> None:
+    """Refuse channels given as column indices (``wanted``: channel key -> name or index) for a
+    ``fmt`` file whose channels have names (:class:`ForceFileError`)."""
     for key, name in wanted.items():
         if isinstance(name, int):
             raise ForceFileError(
@@ -47,7 +52,8 @@ def _not_index(path: Path, fmt: str, wanted: dict) -> None:
             )
 
 
-def _too_long(path: Path, name: str, key: str, n: int) -> ForceFileError:
+def too_long(path: Path, name: str, key: str, n: int) -> ForceFileError:
+    """The :class:`ForceFileError` of a channel with more than :data:`MAX_SAMPLES` samples."""
     return ForceFileError(
         f"channel {name!r} (channel {key}) of {str(path)!r} holds {n} samples, more than the "
         f"{MAX_SAMPLES} a trial may have (MAX_SAMPLES: {MAX_SAMPLES / 1e4 / 60:.0f} min at 10 kHz); "

@@ -12,11 +12,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
-from scipy import ndimage
 
 from .._atomic import atomic_write
+from ..flags import Flag
 from .checks import (
-    Flag,
     ForceDataError,
     check_channels,
     check_flat_rest,
@@ -25,7 +24,7 @@ from .checks import (
     check_resampling,
     check_window_covered,
 )
-from .filters import design_lowpass, design_notch, lowpass_filter
+from .filters import design_lowpass, design_notch
 from .params import ForceProcessingParams
 from .positions import (
     extrapolate_positions,
@@ -35,8 +34,7 @@ from .positions import (
     resample_to_positions,
 )
 from .readers import ForceRecord
-from .response import estimate_response
-from .sensor import compose, detect_baseline, detect_post_baseline
+from .rests import sensor_chain
 from .signals import ForceSignals
 
 __all__ = ["ForceProfile", "process_forces", "sensor_signals", "SensorSignals"]
@@ -197,7 +195,7 @@ def process_forces(record: ForceRecord, t_frames, x_frames, *,
         flags.extend(sensor.flags)
     else:
         raw = ForceSignals.from_record(replace(record, f1=f1, f2=f2))
-        sig, base, post = _sensor_chain(raw, params, flags)
+        sig, base, post = sensor_chain(raw, params, flags)
     mask, flat_mm, how = _flat_segment(t, tf, x_at, regions, feature_start, flat_mm, window, params)
     if not check_flat_segment(x_at, mask, how, params, flags):
         return _failed(on_error, params, window, flat_mm, flags)
@@ -268,7 +266,7 @@ def sensor_signals(record: ForceRecord, params: ForceProcessingParams | None = N
     f1 = np.where(np.isfinite(f1), f1, 0.0)
     f2 = np.where(np.isfinite(f2), f2, 0.0)
     flags: list[Flag] = []
-    sig, base, post = _sensor_chain(ForceSignals.from_record(replace(record, f1=f1, f2=f2)), params, flags)
+    sig, base, post = sensor_chain(ForceSignals.from_record(replace(record, f1=f1, f2=f2)), params, flags)
     return SensorSignals(sig, tuple(flags), base, post, float(record.fs_hz), params)
 
 
@@ -330,7 +328,7 @@ def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, para
     """The frames' finger positions, extended at constant speed when they do not cover the
     window (a warning flag); None, with an error flag, when no frame has a finger."""
     if not np.isfinite(x_frames).any():
-        flags.append(Flag("no-finger", "x_frames holds no finger position (all NaN)", "error"))
+        flags.append(Flag("error", "no-finger", "x_frames holds no finger position (all NaN)"))
         return None
     x_lo, x_hi = float(np.nanmin(x_frames)), float(np.nanmax(x_frames))
     if params.extrapolate_mm > 0 and (x_lo > window[0] or x_hi < window[1]):
@@ -339,6 +337,7 @@ def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, para
         if ext[0] > 0 or ext[1] > 0:
             flags.append(
                 Flag(
+                    "warning",
                     "extrapolated",
                     f"x(t) was tracked over [{x_lo:.3f}, {x_hi:.3f}] mm only; it was extended at constant "
                     f"speed (fitted over {params.extrapolate_fit_s * 1e3:g} ms of tracked frames) by "
@@ -347,53 +346,6 @@ def _extended_positions(t_frames: np.ndarray, x_frames: np.ndarray, window, para
                 )
             )
     return x_frames
-
-
-def _sensor_chain(sig: ForceSignals, params: ForceProcessingParams, flags: list):
-    """The sensor's steps on the decomposed forces: baseline (drift line and mains on the rest
-    before the touch), notch, low-pass, high-pass compensation (at the estimated cut-off
-    with ``estimate_highpass``), residual drift on both rests.
-
-    Returns
-    -------
-    (signals, base, post) : the processed :class:`ForceSignals`, the rest before the touch
-    (mask or None) and the rest after the lift-off (``(mask, description)`` or None).
-    """
-    fit_mains = params.mains in ("fit", "both") and bool(params.notch_hz)
-    notch = params.mains in ("notch", "both") and bool(params.notch_hz)
-    base = None
-    if params.sensor_highpass_hz is not None or fit_mains:
-        base = _baseline_mask(sig, params, flags)
-        if base is not None:
-            sig = sig.remove_baseline(base, mains_hz=params.notch_hz, subtract_mains=fit_mains)
-        elif fit_mains:
-            notch = True
-            flags.append(
-                Flag(
-                    "mains-notch",
-                    "mains='fit' needs an unloaded baseline; the interference was removed by notch "
-                    f"filters at {list(params.notch_hz)} Hz instead (they also remove the force's "
-                    "own content there)",
-                )
-            )
-    if notch:
-        sig = sig.notch(params.notch_hz, q=params.notch_q)
-    if params.lowpass_hz is not None:
-        sig = sig.lowpass(params.lowpass_hz, order=params.lowpass_order)
-    post = None
-    if params.sensor_highpass_hz is not None and params.highpass_model == "second-order":
-        sig, post = _response_compensation(sig, base, params, flags)
-    elif params.sensor_highpass_hz is not None:
-        if params.estimate_highpass:
-            fc, sig, post = _estimated_compensation(sig, base, params, flags)
-        else:
-            fc = params.sensor_highpass_hz
-            sig = sig.compensate_highpass(fc)
-            post = _post_baseline_mask(sig, params, flags)
-        if post is not None:
-            rests = post[0] if base is None else post[0] | base
-            sig = sig.remove_rest_drift(rests, fc, rests=_rests_text(base, post))
-    return sig, base, post
 
 
 def _flat_segment(t, t_frames, x_at, regions, feature_start: float, flat_mm, window,
@@ -435,7 +387,7 @@ def _on_positions(x_at, sig: ForceSignals, sig_abs: ForceSignals | None, window,
             f_t_abs = resample_to_positions(x_at, sig_abs.f_t, window=window, resolution=resolution).values
             f_n_abs = resample_to_positions(x_at, sig_abs.f_n, window=window, resolution=resolution).values
     except ValueError as exc:
-        flags.append(Flag("window", f"at the force sample times, {exc}", "error"))
+        flags.append(Flag("error", "window", f"at the force sample times, {exc}"))
         return None
     check_resampling(res_t, params, flags)
     return res_t, res_n, f_t_abs, f_n_abs
@@ -455,246 +407,8 @@ def _absolute_footing(params: ForceProcessingParams, base, post, flags: list) ->
         message = ("no unloaded rest before the touch or after the lift-off anchors the drift: the "
                    "forces are known only relative to the flat segment (the paper's footing)")
     if message:
-        flags.append(Flag("no-absolute", message))
+        flags.append(Flag("warning", "no-absolute", message))
     return not message, message
-
-
-def _baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list) -> np.ndarray | None:
-    """The unloaded-rest samples before the high-pass compensation, or None (flagged)."""
-    t = sig.times()
-    fs = sig.fs_hz
-    consequence = (
-        "; the drift is not removed before the high-pass compensation (it becomes quadratic in time: "
-        "only a rest after the lift-off, post_baseline, can remove it then; the flat-segment fit removes "
-        "only its linear part)"
-        if params.sensor_highpass_hz is not None
-        else ""
-    )
-    if params.baseline is None:
-        flags.append(Flag("no-baseline", "baseline=None" + consequence))
-        return None
-    if params.baseline == "auto":
-        quick = lowpass_filter(np.vstack([sig.f_n, sig.f_t]), fs, min(50.0, 0.4 * fs))
-        n = detect_baseline(
-            quick[0], quick[1], fs, threshold=params.contact_threshold_n, guard_s=params.baseline_guard_s
-        )
-        mask = np.arange(t.size) < n
-        how = (
-            f"the record starts with {n / fs:.4f} s of rest before the force departs by "
-            f"contact_threshold_n={params.contact_threshold_n:g} N"
-        )
-    else:
-        lo, hi = params.baseline
-        mask = (t >= lo) & (t <= hi)
-        how = f"baseline=({lo:g}, {hi:g}) s holds {int(mask.sum())} samples"
-    if mask.sum() < params.min_baseline_s * fs:
-        flags.append(
-            Flag(
-                "no-baseline",
-                f"no usable unloaded baseline: {how}, less than min_baseline_s={params.min_baseline_s:g} s"
-                + consequence
-                + ". Record a rest before the touch, or set baseline=(t_lo, t_hi)",
-            )
-        )
-        return None
-    return mask
-
-
-def _post_baseline_mask(sig: ForceSignals, params: ForceProcessingParams, flags: list):
-    """The unloaded rest after the lift-off, as (mask, description), or None (flagged)."""
-    if params.post_baseline is None:
-        return None
-    t = sig.times()
-    fs = sig.fs_hz
-    if params.post_baseline == "auto":
-        k = detect_post_baseline(
-            sig.f_n, sig.f_t, fs, max_rate=params.rest_rate_n_per_s, guard_s=params.baseline_guard_s
-        )
-        mask = np.arange(t.size) >= k
-        how = (
-            f"the record ends with {(t.size - k) / fs:.4f} s of rest after the lift-off (forces changing "
-            f"slower than rest_rate_n_per_s={params.rest_rate_n_per_s:g} N/s, F_N below a quarter of its "
-            "maximum)"
-        )
-    else:
-        lo, hi = params.post_baseline
-        mask = (t >= lo) & (t <= hi)
-        how = f"post_baseline=({lo:g}, {hi:g}) s holds {int(mask.sum())} samples"
-    if mask.sum() < max(params.min_baseline_s * fs, 4):
-        flags.append(
-            Flag(
-                "no-post-baseline",
-                f"no usable unloaded rest after the lift-off: {how}, less than "
-                f"min_baseline_s={params.min_baseline_s:g} s (the record ends in contact or too soon); the "
-                "drift line under the high-pass compensation rests on the baseline before the touch alone, "
-                "whose slope error grows quadratically through the compensation (up to 5.5 % of the "
-                "peak-to-peak at 40 mm/s on simulated trials, against 1 % with both rests). Record a rest "
-                "after the lift-off, or set post_baseline=(t_lo, t_hi)",
-            )
-        )
-        return None
-    return mask, how
-
-
-def _rests_text(base, post) -> str:
-    which = "after the lift-off" if base is None else "before the touch and after the lift-off"
-    return f"{which}; {post[1]}"
-
-
-def _post_rest_near_prior(raw: ForceSignals, params: ForceProcessingParams, tried: list):
-    """The rest after the lift-off detected on ``raw`` compensated at the prior cut-off and,
-    with ``post_baseline='auto'``, at 0.9, 1.1, 0.8, 1.2, 0.7, 1.3 times it (a wrong cut-off
-    leaves a decaying error that can delay or hide the rest); the prior's flags go to
-    ``tried``. ``(mask, description)`` or None."""
-    prior = params.sensor_highpass_hz
-    post = _post_baseline_mask(raw.compensate_highpass(prior), params, tried)
-    if post is None and params.post_baseline == "auto":
-        for s in (0.9, 1.1, 0.8, 1.2, 0.7, 1.3):
-            post = _post_baseline_mask(raw.compensate_highpass(s * prior), params, [])
-            if post is not None:
-                break
-    return post
-
-
-def _estimated_compensation(raw: ForceSignals, base, params: ForceProcessingParams, flags: list):
-    """Compensate the high-pass at the cut-off estimated on the rests (:func:`estimate_highpass`).
-
-    The rest after the lift-off is detected on the forces compensated at the prior. A wrong
-    cut-off leaves there a decaying error (a fraction ``fc / prior - 1`` of the high-pass
-    tail, time constant ``1 / (2 pi fc)``) that can delay or hide the rest: when none is
-    found at the prior, the detection is tried at the prior times 0.9, 1.1, 0.8, 1.2, 0.7,
-    1.3. After the estimate the rest is detected again at the estimate, and the estimate
-    repeated (at most twice) while the rest changes. Falls back on the prior, with a flag,
-    when no rest after the lift-off is found or the rests do not determine the cut-off.
-
-    Returns
-    -------
-    (cutoff_hz, signals, post) : the cut-off used, ``raw`` compensated at it (with the
-    estimate in its history), and the rest after the lift-off as for
-    :func:`_post_baseline_mask` (or None).
-    """
-    prior = params.sensor_highpass_hz
-    tried: list[Flag] = []
-    post = _post_rest_near_prior(raw, params, tried)
-    if post is None:
-        flags.extend(tried)
-        flags.append(
-            Flag(
-                "highpass-estimate",
-                "estimate_highpass=True but there is no usable rest after the lift-off (see the "
-                "no-post-baseline flag), so the cut-off is not determined; the prior "
-                f"sensor_highpass_hz={prior:g} Hz was used",
-            )
-        )
-        return prior, raw.compensate_highpass(prior), None
-    for _ in range(3):
-        rests = post[0] if base is None else post[0] | base
-        sig, est = raw.estimate_highpass(rests, prior, rests=_rests_text(base, post))
-        if not est.success:
-            flags.append(
-                Flag(
-                    "highpass-estimate",
-                    f"estimate_highpass=True but {est.message}; the prior sensor_highpass_hz={prior:g} Hz "
-                    "was used",
-                )
-            )
-            return prior, sig.compensate_highpass(prior), post
-        again = sig.compensate_highpass(est.fc_hz)
-        if params.post_baseline != "auto":
-            break
-        new = _post_baseline_mask(again, params, [])
-        if new is None or np.array_equal(new[0], post[0]):
-            break
-        post = new
-    if abs(est.rel_change) > params.highpass_max_change:
-        flags.append(
-            Flag(
-                "highpass-estimate",
-                f"the sensor cut-off estimated on the rests, {est.fc_hz:.4g} +- {est.se_hz:.2g} Hz, is "
-                f"{100 * est.rel_change:+.0f} % from the prior sensor_highpass_hz={prior:g} Hz (allowed "
-                f"highpass_max_change={params.highpass_max_change:g}); it was used: check the sensor's "
-                "specification, and that the rests are free of contact",
-            )
-        )
-    return est.fc_hz, again, post
-
-
-def _rough_post_rest(sig: ForceSignals, params: ForceProcessingParams):
-    """A first guess of the rest after the lift-off when the forces compensated at the prior
-    do not settle (a second pole left uninverted decays slowly, so neither their level nor
-    their rate marks the rest): the unloading is the fastest fall of ``F_N`` (its
-    derivative, smoothed by an 8 ms Gaussian, at its minimum); the rest starts
-    ``baseline_guard_s`` after that derivative is back above a tenth of its minimum.
-    ``(mask, description)`` or None."""
-    fs = sig.fs_hz
-    rate = ndimage.gaussian_filter1d(sig.f_n, 0.008 * fs, order=1, mode="nearest") * fs
-    k_min = int(np.argmin(rate))
-    back = np.flatnonzero(rate[k_min:] > 0.1 * rate[k_min])
-    if not back.size or not rate[k_min] < 0:
-        return None
-    k = k_min + int(back[0]) + int(round(params.baseline_guard_s * fs))
-    mask = np.arange(sig.f_n.size) >= k
-    if mask.sum() < max(params.min_baseline_s * fs, 8):
-        return None
-    return mask, (f"first guess: from {params.baseline_guard_s:g} s after the unloading (the fastest fall "
-                  f"of F_N) to the end ({mask.sum() / fs:.4f} s)")
-
-
-def _response_compensation(raw: ForceSignals, base, params: ForceProcessingParams, flags: list):
-    """``highpass_model='second-order'``: each transducer's response estimated on the rests
-    (:func:`~fingerfriction.forces.response.estimate_response`) and inverted, its drift
-    removed through it (:meth:`ForceSignals.compensate_response`).
-
-    The rest after the lift-off is detected on the forces compensated at the prior (first
-    order, tried at 0.7-1.3 times it), else guessed (:func:`_rough_post_rest`); after the
-    estimate it is detected again on the compensated forces and the estimate repeated (at
-    most twice) while it changes. Without any rest after the lift-off the response is not
-    determined: the prior's first order is used, with a flag.
-
-    Returns
-    -------
-    (signals, post) : compensated and drift-corrected signals, and the rest after the
-    lift-off ``(mask, description)`` or None.
-    """
-    prior = params.sensor_highpass_hz
-    tried: list = []
-    post = _post_rest_near_prior(raw, params, tried)
-    if post is None and params.post_baseline == "auto":
-        post = _rough_post_rest(raw.compensate_highpass(prior), params)
-    if post is None:
-        flags.extend(tried)
-        flags.append(Flag("highpass-estimate", "highpass_model='second-order' but there is no usable rest "
-                          "after the lift-off, so the response is not determined; the prior "
-                          f"sensor_highpass_hz={prior:g} Hz (first order) was used"))
-        sig = raw.compensate_highpass(prior)
-        if base is not None:
-            sig = sig.remove_rest_drift(base, prior, rests="before the touch")
-        return sig, None
-    chans = compose(raw.f_n, raw.f_t)
-    for _ in range(3):
-        rests = post[0] if base is None else post[0] | base
-        ests = [estimate_response(y, rests, raw.fs_hz, prior) for y in chans]
-        sig = raw.compensate_response([e.response for e in ests], rests,
-                                      rests_text=_rests_text(base, post), estimates=ests)
-        if params.post_baseline != "auto":
-            break
-        new = _post_baseline_mask(sig, params, [])
-        if new is None or np.array_equal(new[0], post[0]):
-            break
-        post = new
-    for c, e in enumerate(ests):
-        if not e.success:
-            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: {e.message}; the prior "
-                              f"sensor_highpass_hz={prior:g} Hz (first order) was used for it"))
-        elif abs(e.cutoff_hz / prior - 1.0) > params.highpass_max_change:
-            change = 100 * (e.cutoff_hz / prior - 1)
-            flags.append(Flag("highpass-estimate", f"transducer F{c + 1}: the high-pass estimated on the "
-                              f"rests has its -3 dB cut-off at {e.cutoff_hz:.4g} Hz, {change:+.0f} % from "
-                              "the "
-                              f"prior sensor_highpass_hz={prior:g} Hz (allowed highpass_max_change="
-                              f"{params.highpass_max_change:g}); it was used: check the sensor's "
-                              "specification, and that the rests are free of contact"))
-    return sig, post
 
 
 def _empty_profile(params, window, flat, flags, signals=None, x_at=None) -> ForceProfile:

@@ -1,4 +1,5 @@
-"""Checks of a trial's force input, each returning its findings as :class:`Flag` objects:
+"""Checks of a trial's force input, each returning its findings as
+:class:`~fingerfriction.flags.Flag` objects (the package's one flag type):
 NaN runs and clipping of the channels, the finger's coverage of the window, the record's
 coverage of the slide, the flat segment, and the resampling onto positions.
 
@@ -9,10 +10,9 @@ trial's forces must not be used; :func:`~fingerfriction.forces.process_forces` r
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from ..flags import Flag
 from .params import ForceProcessingParams
 from .readers import ForceRecord
 
@@ -32,15 +32,6 @@ __all__ = [
 
 class ForceDataError(ValueError):
     """Force data that cannot be turned into a trustworthy ``F_T(x)``."""
-
-
-@dataclass(frozen=True)
-class Flag:
-    """One finding about a trial's input: ``severity`` is ``"warning"`` or ``"error"``."""
-
-    code: str
-    message: str
-    severity: str = "warning"
 
 
 def nan_runs(x) -> list[tuple[int, int]]:
@@ -123,16 +114,17 @@ def check_channels(record: ForceRecord, params: ForceProcessingParams, flags: li
             if n > params.max_nan_gap or n >= x.size // 2:
                 flags.append(
                     Flag(
+                        "error",
                         "nan",
                         f"channel {name} has a run of {n} NaN samples starting at sample {s} "
                         f"(t={record.t0_s + s / fs:.4f} s, {n / fs * 1e3:.3g} ms); at most "
                         f"max_nan_gap={params.max_nan_gap} samples can be interpolated",
-                        "error",
                     )
                 )
             else:
                 flags.append(
                     Flag(
+                        "warning",
                         "nan-filled",
                         f"channel {name}: {total} NaN sample(s) in {len(runs)} run(s) of at most {n} "
                         "filled by linear interpolation",
@@ -150,11 +142,11 @@ def check_channels(record: ForceRecord, params: ForceProcessingParams, flags: li
             )
             flags.append(
                 Flag(
+                    "error",
                     "clipped",
                     f"channel {name} is clipped: {tot} sample(s) in {len(clips)} run(s), the longest "
                     f"{n} samples at {v:.6g} N from sample {s} (t={record.t0_s + s / fs:.4f} s), {why}; "
                     "the saturated force is unknown, so this trial cannot be used",
-                    "error",
                 )
             )
         out.append(x)
@@ -169,12 +161,12 @@ def check_window_covered(x_frames: np.ndarray, window: tuple[float, float], para
     if x_lo > window[0] or x_hi < window[1]:
         flags.append(
             Flag(
+                "error",
                 "window",
                 f"the finger positions span [{x_lo:.3f}, {x_hi:.3f}] mm, which does not cover the "
                 f"{params.window_mm:g} mm window [{window[0]:.3f}, {window[1]:.3f}] mm centred on the "
                 f"feature (extrapolate_mm={params.extrapolate_mm:g} mm); the finger must traverse the "
                 "whole window",
-                "error",
             )
         )
         return False
@@ -194,11 +186,11 @@ def check_record_covers_slide(record: ForceRecord, t_frames: np.ndarray, x_frame
     if t[0] > tw0 or t[-1] < tw1:
         flags.append(
             Flag(
+                "error",
                 "coverage",
                 f"the force record covers t=[{t[0]:.4f}, {t[-1]:.4f}] s ({record.n_samples} samples at "
                 f"fs_hz={fs:g} Hz, t0_s={record.t0_s:g} s) but the finger crosses the window during "
                 f"t=[{tw0:.4f}, {tw1:.4f}] s; check force.fs_hz, force.t0_s and video.t0_s",
-                "error",
             )
         )
     video_span = float(t_frames[-1] - t_frames[0])
@@ -207,6 +199,7 @@ def check_record_covers_slide(record: ForceRecord, t_frames: np.ndarray, x_frame
         if not 0.5 <= ratio <= 2.0:
             flags.append(
                 Flag(
+                    "warning",
                     "duration",
                     f"the force record lasts {record.duration_s:.4g} s ({record.n_samples} samples at "
                     f"fs_hz={fs:g} Hz) but the video lasts {video_span:.4g} s; a ratio of {ratio:.3g} "
@@ -223,11 +216,11 @@ def check_flat_segment(x_at: np.ndarray, mask: np.ndarray, how: str, params: For
     if travel < params.min_flat_mm:
         flags.append(
             Flag(
+                "error",
                 "flat-segment",
                 f"the flat segment ({how}) spans {travel:.3f} mm of finger travel "
                 f"({int(mask.sum())} samples); at least min_flat_mm={params.min_flat_mm:g} mm is needed "
                 "to fit the drift; widen the window or set flat_segment_mm",
-                "error",
             )
         )
         return False
@@ -246,6 +239,7 @@ def check_flat_rest(t: np.ndarray, x_at: np.ndarray, mask: np.ndarray, window: t
         if slow.sum() > 0.05 * mask.sum():
             flags.append(
                 Flag(
+                    "warning",
                     "flat-rest",
                     f"{100 * slow.sum() / mask.sum():.0f} % of the flat-segment samples have the finger "
                     "(nearly) at rest (below 10 % of its median speed in the window), e.g. a touch-down "
@@ -260,6 +254,7 @@ def check_resampling(res, params: ForceProcessingParams, flags: list) -> None:
     if res.max_reversal_mm > params.max_reversal_mm:
         flags.append(
             Flag(
+                "warning",
                 "reversal",
                 f"the finger moved backwards by up to {res.max_reversal_mm:.3f} mm inside the window "
                 f"(allowed max_reversal_mm={params.max_reversal_mm:g} mm); forces from the repeated "
@@ -269,6 +264,7 @@ def check_resampling(res, params: ForceProcessingParams, flags: list) -> None:
     if res.max_fill_mm > params.max_fill_mm:
         flags.append(
             Flag(
+                "warning",
                 "gap",
                 f"{res.n_filled} empty position bins were interpolated, the longest run "
                 f"{res.max_fill_mm:.3f} mm (allowed max_fill_mm={params.max_fill_mm:g} mm): the finger "
@@ -281,6 +277,7 @@ def check_resampling(res, params: ForceProcessingParams, flags: list) -> None:
         k = int(np.argmax(res.counts))
         flags.append(
             Flag(
+                "warning",
                 "stall",
                 f"the finger stalled near x={res.x[k]:.2f} mm: {int(dwell.max())} samples in one "
                 f"{params.resolution_mm:g} mm bin (median {med:g}); the forces there were averaged",

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._base import MAX_SAMPLES, ForceFileError, _as_channel, _not_index, _too_long
+from ._base import MAX_SAMPLES, ForceFileError, as_channel, not_index, too_long
 
 __all__ = ["hdf5_outside_data", "read_mat", "read_hdf5", "read_tdms"]
 
@@ -72,7 +72,7 @@ def _not_a_channel(name: str, key: str, path: Path, what: str, version: str = ""
 def read_mat(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
     import h5py  # only for HDF5 and MATLAB v7.3 files
 
-    _not_index(path, "mat", wanted)
+    not_index(path, "mat", wanted)
     if h5py.is_hdf5(path):  # MATLAB v7.3 files are HDF5 with a 512-byte user block
         return _read_mat73(path, wanted)
     import scipy.io  # only for MATLAB v5 files
@@ -115,7 +115,7 @@ def read_mat(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
             raise _not_a_channel(name, key, path, other[dotted])
         if scipy.sparse.issparse(node):  # e.g. inside a cell
             raise _not_a_channel(name, key, path, "a MATLAB sparse matrix")
-        out[key] = _as_channel(node, name=name, path=path)
+        out[key] = as_channel(node, name=name, path=path)
     return out, {"names": names}
 
 
@@ -182,8 +182,8 @@ def _read_mat73(path: Path, wanted: dict) -> tuple[dict, dict]:
             # squeezing makes row and column vectors alike.
             obj = f[dotted.replace(".", "/")]
             if obj.size > MAX_SAMPLES:
-                raise _too_long(path, name, key, obj.size)
-            out[key] = _as_channel(obj[()], name=name, path=path)
+                raise too_long(path, name, key, obj.size)
+            out[key] = as_channel(obj[()], name=name, path=path)
     return out, {"names": names}
 
 
@@ -264,7 +264,7 @@ class _open_hdf5:
 def read_hdf5(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
     import h5py  # only for HDF5 and MATLAB v7.3 files
 
-    _not_index(path, "hdf5", wanted)
+    not_index(path, "hdf5", wanted)
     info: dict = {}
     with _open_hdf5(path) as f:
         info["names"] = _dataset_names(f)
@@ -276,8 +276,8 @@ def read_hdf5(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
                     f"no dataset {name!r} (channel {key}) in {str(path)!r}; datasets: {info['names'][:30]}"
                 )
             if obj.size > MAX_SAMPLES:
-                raise _too_long(path, name, key, obj.size)
-            out[key] = _as_channel(obj[()], name=name, path=path)
+                raise too_long(path, name, key, obj.size)
+            out[key] = as_channel(obj[()], name=name, path=path)
             for attr in ("fs_hz", "sampling_rate_hz"):
                 if attr in obj.attrs and key != "time":
                     info.setdefault("fs_hz", float(np.asarray(obj.attrs[attr])))
@@ -308,7 +308,7 @@ def _tdms_lookup(groups: list, name: str, key: str, path: Path):
 def read_tdms(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
     from nptdms import TdmsFile  # only for TDMS files
 
-    _not_index(path, "tdms", wanted)
+    not_index(path, "tdms", wanted)
     try:
         # Opened here and passed as a file: given a path, npTDMS also reads a
         # '<file>_index' beside it, a second file whose content resume does not hash
@@ -325,7 +325,7 @@ def read_tdms(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
     out = {}
     for key, name in wanted.items():
         ch = _tdms_lookup(groups, name, key, path)
-        out[key] = _as_channel(ch[:], name=name, path=path)
+        out[key] = as_channel(ch[:], name=name, path=path)
         inc = ch.properties.get("wf_increment")
         if key != "time" and inc is not None and float(inc) > 0:
             info.setdefault("fs_hz", 1.0 / float(inc))

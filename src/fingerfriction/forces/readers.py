@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from .._check import check_fs
-from ._base import MAX_SAMPLES, ForceFileError, _as_channel, _not_index, _too_long
+from ._base import MAX_SAMPLES, ForceFileError, as_channel, not_index, too_long
 from .containers import hdf5_outside_data, read_hdf5, read_mat, read_tdms
 from .delimited import CsvLayout, CsvLayoutError, csv_layout
 from .units import FORCE_UNITS, channel_scale
@@ -217,9 +217,6 @@ def infer_force_format(path: str | os.PathLike) -> str:
     return fmt
 
 
-_infer_format = infer_force_format
-
-
 def _check_name(key: str, v) -> str | int:
     if isinstance(v, bool) or not isinstance(v, (str, int)) or v == "" or (isinstance(v, int) and v < 0):
         raise ValueError(f"channels[{key!r}] must be a non-empty name or a column index >= 0, got {v!r}")
@@ -296,7 +293,7 @@ def _read_csv(path: Path, wanted: dict, delimiter: str | None = None) -> tuple[d
                 f"column {label!r} of {str(path)!r} has a non-numeric value {raw.iloc[row]!r} "
                 f"at data row {row}; expected numbers (empty cells are read as NaN)"
             )
-        out[key] = _as_channel(values.to_numpy(dtype=np.float64), name=label, path=path)
+        out[key] = as_channel(values.to_numpy(dtype=np.float64), name=label, path=path)
     return out, info
 
 
@@ -308,7 +305,7 @@ def _read_csv(path: Path, wanted: dict, delimiter: str | None = None) -> tuple[d
 
 
 def _read_npz(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
-    _not_index(path, "npz", wanted)
+    not_index(path, "npz", wanted)
     # Never allow_pickle=True: an .npz can carry pickled objects that run code on load.
     try:
         with np.load(path, allow_pickle=False) as z:
@@ -324,9 +321,9 @@ def _read_npz(path: Path, wanted: dict, delimiter=None) -> tuple[dict, dict]:
                 member = f"{name}.npy" if f"{name}.npy" in z.zip.namelist() else name
                 size = z.zip.getinfo(member).file_size
                 if size > 8 * MAX_SAMPLES + (1 << 20):
-                    raise _too_long(path, name, key, size // 8)
+                    raise too_long(path, name, key, size // 8)
                 try:
-                    out[key] = _as_channel(z[name], name=name, path=path)
+                    out[key] = as_channel(z[name], name=name, path=path)
                 except ValueError as exc:
                     if isinstance(exc, ForceFileError):
                         raise

@@ -9,10 +9,11 @@ import time
 
 import numpy as np
 
-from ..blindspots import blind_spots
+from ..model.blindspots import blind_spots
 from ..surfaces import Surface
-from .bem import ContactSolver, _geometric_regions
+from .bem import ContactSolver
 from .finger import FingerParams
+from .solution import regions_within_gap
 
 __all__: list[str] = []
 
@@ -105,7 +106,10 @@ class _Structure:
         return np.concatenate([self.end_trial, self.run_trial])
 
 
-class _Problem:
+class CalibrationProblem:
+    """The least-squares problem of the finger calibration: the measured frames grouped by
+    surface, the model's sweeps on a grid of ``opts.dx`` (mm), and the counters of the work
+    done (solves, CG iterations, times); :func:`make_fun_jac` gives its residuals and Jacobian."""
     def __init__(self, trials, initial: FingerParams, opts):
         self.opts = opts
         self.initial = initial
@@ -313,7 +317,7 @@ class _Problem:
                 for sd in self.surfaces]
 
 
-def _make_fun_jac(pb: _Problem, level: str, step: float):
+def make_fun_jac(pb: CalibrationProblem, level: str, step: float):
     """Residual function and forward-difference Jacobian sharing the base evaluation.
 
     Warm starts: the base sweep at new parameters starts each position from the previous
@@ -359,7 +363,7 @@ def _soft_weights(r: np.ndarray, f_scale: float) -> np.ndarray:
     return 1.0 / np.sqrt(1.0 + (r / f_scale) ** 2)
 
 
-def _bootstrap(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndarray, opts):
+def bootstrap_spread(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J: np.ndarray, opts):
     """Linearised stratified cluster bootstrap (see the module notes). Returns (std, ci95)."""
     if opts.bootstrap == 0:
         return ({f: math.nan for f in opts.fit}, {f: (math.nan, math.nan) for f in opts.fit})
@@ -401,8 +405,8 @@ def _bootstrap(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndarray, opts):
     return std, ci
 
 
-def _end_bias_sensitivity(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndarray, gain: dict,
-                          opts) -> dict:
+def end_bias_sensitivity(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J: np.ndarray, gain: dict,
+                         opts) -> dict:
     """Parameter change (linearised, IRLS weights at the optimum) if every measured region
     were ``end_bias_px`` px wider at each end; the pixel size is taken as ``tol / 3``."""
     w = _soft_weights(r, opts.fine_soft)
@@ -422,8 +426,8 @@ def _end_bias_sensitivity(pb: _Problem, z: np.ndarray, r: np.ndarray, J: np.ndar
     return {f: float(v * (math.exp(d) - 1.0)) for f, v, d in zip(opts.fit, vals, dz, strict=True)}
 
 
-def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.ndarray,
-                   min_region: np.ndarray) -> list[np.ndarray]:
+def model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.ndarray,
+                  min_region: np.ndarray) -> list[np.ndarray]:
     """Regions ``d <= tol`` per frame, ends interpolated linearly (as the BEM's geometric
     ones), then the measurement's cleanup (as :func:`fingerfriction.video.contact.
     contact_regions`): gaps shorter than ``min_gap`` bridged, regions shorter than
@@ -431,7 +435,7 @@ def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.nd
     out = []
     for i in range(d.shape[0]):
         rows = []
-        for a, bb in _geometric_regions(X[i], d[i], tol[i]):
+        for a, bb in regions_within_gap(X[i], d[i], tol[i]):
             if rows and a - rows[-1][1] < min_gap[i]:
                 rows[-1] = (rows[-1][0], bb)
             else:
@@ -441,7 +445,10 @@ def _model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.nd
     return out
 
 
-def _union_blind_spots(region_list: list[np.ndarray]) -> np.ndarray:
+def union_blind_spots(region_list: list[np.ndarray]) -> np.ndarray:
+    """The blind spots (:func:`fingerfriction.model.blindspots.blind_spots`) of a list of
+    per-frame ``(k_i, 2)`` region arrays, padded with NaN to one ``(n, k, 2)`` array; ``(0, 2)``
+    when no frame has a region."""
     k = max((r.shape[0] for r in region_list), default=0)
     if k == 0:
         return np.empty((0, 2))

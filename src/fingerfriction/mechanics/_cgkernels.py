@@ -2,9 +2,9 @@
 
 Why compiled: at the sweep's grid sizes (1024-4096 cells) one CG iteration is about 30
 small vector operations around one FFT pair, and numpy's per-call overhead, not the
-arithmetic, dominated: measured 60 us per iteration at n = 1024 with numpy, of which the
-FFT pair was about 15 us. Fusing the vector work into two compiled passes per iteration
-(the FFTs stay in scipy's pocketfft) made sweeps about 2-3x faster (benchmarks/contact.py).
+arithmetic, dominated. The vector work is fused into two compiled passes per iteration
+(the FFTs stay in scipy's pocketfft); ``benchmarks/contact.py`` measures the sweeps, and
+``docs/mechanics.md`` keeps the figures.
 
 Work arrays are rows of one ``(7, n)`` array to keep the call overhead low:
 ``G_ = 0`` gap ``g``, ``GS = 1`` gap restricted to the contact set, ``T = 2`` CG direction
@@ -156,11 +156,12 @@ def cg_step(  # pragma: no cover - compiled
 def contact_regions(x, p, gap, tol, mech, geom):  # pragma: no cover - compiled
     """Mechanical (``p > 0``) and geometric (``gap <= tol``) regions of one solution.
 
-    The same arithmetic as :func:`.bem._mechanical_regions` and
-    :func:`.bem._geometric_regions` (cell-edge intervals; ends of the geometric ones
+    The same arithmetic as :func:`.solution._mechanical_regions` and
+    :func:`.solution.regions_within_gap` (cell-edge intervals; ends of the geometric ones
     interpolated linearly at ``gap = tol``), written into ``mech`` and ``geom``
     (``(n // 2 + 1, 2)`` each); returns their numbers of rows. One compiled pass instead
-    of ~20 numpy calls per sweep position (measured ~25 us of ~160 us per position).
+    of ~20 numpy calls per sweep position (its share of a position's time:
+    ``docs/mechanics.md``).
     """
     n = x.size
     dx = x[1] - x[0]

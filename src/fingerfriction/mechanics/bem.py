@@ -75,7 +75,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.fft as sfft
@@ -85,14 +84,14 @@ from ..surfaces import Surface
 from . import _cgkernels as _cg
 from .finger import FingerParams
 from .hertz import hertz_half_width
+from .kernels import halfspace_kernel, layer_kernel, skin_kernel
+from .solution import ContactSolution
 
 __all__ = [
     "GEOMETRIC_TOL",
     "ContactSolution",
     "ContactSolver",
     "solve_contact",
-    "halfspace_kernel",
-    "layer_compliance",
 ]
 
 log = logging.getLogger(__name__)
@@ -110,247 +109,9 @@ _MARGIN = 32  # cells beyond a warm start's contact in the CG window (ContactSol
 GEOMETRIC_TOL = 0.070
 
 
-# ------------------------------------------------------------------------------ kernels
-def _xlogx_minus_x(t: np.ndarray) -> np.ndarray:
-    at = np.abs(t)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(at > 0, t * np.log(np.where(at > 0, at, 1.0)) - t, 0.0)
-
-
-def halfspace_kernel(x: np.ndarray, dx: float, modulus: float, ref_length: float) -> np.ndarray:
-    """Half-space influence coefficients (mm per N/mm^2 of cell pressure).
-
-    Surface displacement (into the body, mm) at ``x`` due to a unit pressure on the cell
-    ``[-dx/2, dx/2]``, zero at distance ``ref_length`` (for a point load).
-
-    Parameters
-    ----------
-    x : (m,) ndarray
-        Distances in mm.
-    dx : float
-        Cell width in mm.
-    modulus : float
-        ``E*`` in MPa.
-    ref_length : float
-        Reference distance ``l`` in mm.
-    """
-    F = _xlogx_minus_x(x + dx / 2) - _xlogx_minus_x(x - dx / 2)
-    return -(2.0 / (math.pi * modulus)) * (F - dx * math.log(ref_length))
-
-
-def layer_compliance(q: np.ndarray, poisson: float) -> np.ndarray:
-    """Dimensionless layer factor ``C(q)``, ``q = |k| t`` (see the module notes).
-
-    Written with ``exp(-2q)`` scaling so it is finite for any ``q >= 0``.
-    """
-    q = np.abs(np.asarray(q, dtype=float))
-    kap = 3.0 - 4.0 * poisson
-    e2 = np.exp(-2.0 * q)
-    e4 = e2 * e2
-    num = kap * (1.0 - e4) - 4.0 * q * e2
-    den = kap * (1.0 + e4) + (1.0 + kap * kap + 4.0 * q * q) * e2
-    return num / den
-
-
-def _reg_log_cell(x: np.ndarray, dx: float, c: float) -> np.ndarray:
-    """Cell integral of ``ln(1 + c^2/xi^2)`` over ``[x - dx/2, x + dx/2]``."""
-
-    def A(t):
-        return t * np.log(t * t + c * c) - 2.0 * t + 2.0 * c * np.arctan(t / c) - 2.0 * _xlogx_minus_x(t)
-
-    return A(x + dx / 2) - A(x - dx / 2)
-
-
-def _layer_kernel(x: np.ndarray, dx: float, modulus: float, thickness: float, poisson: float) -> np.ndarray:
-    t = thickness
-    c = t
-    analytic = _reg_log_cell(x, dx, c) / (math.pi * modulus)
-    # Remainder R(k) = 2 (C(kt) - 1 + exp(-kc)) / (E* k): finite at k = 0, decays like
-    # exp(-min(2t, c) k). Summed on a long periodic grid (period >= 400 t + span) so that
-    # the images are negligible; no aliasing because R S is tiny at the Nyquist number.
-    span = float(np.max(np.abs(x))) + dx
-    period = max(400.0 * t, 8.0 * span)
-    m = int(2 ** math.ceil(math.log2(max(period / dx, 1024))))
-    m = min(m, 2**22)
-    k = 2.0 * math.pi * sfft.rfftfreq(m, d=dx)
-    q = k * t
-    with np.errstate(divide="ignore", invalid="ignore"):
-        Rk = 2.0 * (layer_compliance(q, poisson) - 1.0 + np.exp(-k * c)) / (modulus * k)
-        S = np.where(k > 0, 2.0 * np.sin(0.5 * k * dx) / k, dx)
-    kap = 3.0 - 4.0 * poisson
-    c1 = 4.0 * (kap - 1.0) / (1.0 + kap) ** 2
-    Rk[0] = 2.0 * (c1 * t - c) / modulus
-    r = sfft.irfft(Rk * S, m) / dx  # periodic kernel sampled at j dx
-    j = np.rint(np.abs(x) / dx).astype(int)
-    return analytic + r[j]
-
-
-def _skin_compliance(k: np.ndarray, modulus: float, skin_modulus: float, skin_thickness: float) -> np.ndarray:
-    """``W/P`` (mm per MPa per 1/mm) of the skin-on-pulp model at wavenumbers ``k > 0``."""
-    B = skin_modulus * skin_thickness**3 / 12.0
-    bend = B * k**4
-    local = 0.5 * skin_modulus * k
-    return 1.0 / (0.5 * modulus * k + bend * local / (bend + local))
-
-
-def _skin_kernel(
-    x: np.ndarray, dx: float, modulus: float, skin_modulus: float, skin_thickness: float, ref_length: float
-) -> np.ndarray:
-    c = 4.0 * dx
-    e_hi = modulus + skin_modulus
-    analytic = halfspace_kernel(x, dx, modulus, ref_length) - _reg_log_cell(x, dx, c) / (math.pi * modulus)
-    analytic += _reg_log_cell(x, dx, c) / (math.pi * e_hi)
-    span = float(np.max(np.abs(x))) + dx
-    period = max(8.0 * span, 400.0 * skin_thickness, 400.0 * c)
-    m = int(2 ** math.ceil(math.log2(max(period / dx, 1024))))
-    m = min(m, 2**22)
-    k = 2.0 * math.pi * sfft.rfftfreq(m, d=dx)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        e = np.exp(-k * c)
-        # R = W/P - (2/(E_hi k)) (1 - e^{-kc}) - (2/(E* k)) e^{-kc}: finite at 0, ~k^-4 at inf.
-        Rk = _skin_compliance(k, modulus, skin_modulus, skin_thickness)
-        Rk -= 2.0 / (e_hi * k) * (1.0 - e) + 2.0 / (modulus * k) * e
-        S = np.where(k > 0, 2.0 * np.sin(0.5 * k * dx) / k, dx)
-    # k -> 0: W/P - 2/(E* k) -> 0 and the rest tends to 2 c (1/E* - 1/E_hi).
-    Rk[0] = 2.0 * c * (1.0 / modulus - 1.0 / e_hi)
-    r = sfft.irfft(Rk * S, m) / dx
-    j = np.rint(np.abs(x) / dx).astype(int)
-    return analytic + r[j]
-
-
-# ------------------------------------------------------------------------------ results
-@dataclass
-class ContactSolution:
-    """Result of one contact solve (in the style of ``scipy.optimize.OptimizeResult``).
-
-    Attributes
-    ----------
-    x : (n,) ndarray
-        Cell centres in mm, surface coordinates.
-    pressure : (n,) ndarray
-        Contact pressure ``p(x)`` in MPa (N/mm^2), ``>= 0``.
-    gap : (n,) ndarray
-        Vertical gap ``y_f - h`` in mm (0 in mechanical contact).
-    finger_y : (n,) ndarray
-        Height in mm of the deformed finger's lower surface ``y_f(x)`` (surface
-        coordinates: same reference as ``h``).
-    surface_h : (n,) ndarray
-        Relief height ``h(x)`` in mm on the grid.
-    x_finger : float
-        Finger centre position in mm (see :mod:`~fingerfriction.mechanics.finger`).
-    load : float
-        Normal load ``F_N`` in N.
-    load_per_width : float
-        ``P' = F_N / D`` in N/mm.
-    z : float
-        Height in mm of the lowest point of the *undeformed* outline (rigid body position).
-    approach : float
-        Rigid approach in mm: first-touch height of the undeformed outline minus ``z``
-        (half-space: relative to the displacement reference, see module notes).
-    mechanical_regions : (k, 2) ndarray
-        Intervals ``[a, b]`` (mm) where ``p > 0``, cell edges.
-    geometric_regions : (k, 2) ndarray
-        Intervals (mm) where ``gap <= gap_tol``, edges interpolated linearly between cells.
-    gap_tol : float
-        Tolerance of the geometric criterion in mm (default 0.070: 3 px of the paper).
-    iterations : int
-        Conjugate-gradient iterations.
-    residual : float
-        Final relative change of the pressure, ``dx sum |p - p_old| / P'``.
-    max_penetration : float
-        Largest negative gap in mm (0 for an exact solution).
-    load_error : float
-        ``|dx sum p - P'| / P'``.
-    success : bool
-        True when converged within ``max_iter`` and the checks passed.
-    message : str
-        What happened, in words.
-    """
-
-    x: np.ndarray
-    pressure: np.ndarray
-    gap: np.ndarray
-    finger_y: np.ndarray
-    surface_h: np.ndarray
-    x_finger: float
-    load: float
-    load_per_width: float
-    z: float
-    approach: float
-    mechanical_regions: np.ndarray
-    geometric_regions: np.ndarray
-    gap_tol: float
-    iterations: int
-    residual: float
-    max_penetration: float
-    load_error: float
-    success: bool
-    message: str
-    finger: FingerParams = field(repr=False)
-
-    @property
-    def dx(self) -> float:
-        """Grid spacing in mm."""
-        return float(self.x[1] - self.x[0])
-
-    @property
-    def offsets(self) -> np.ndarray:
-        """Cell centres relative to the finger centre, ``x - x_finger`` (mm), ``(n,)``."""
-        return self.x - self.x_finger
-
-    @property
-    def total_load(self) -> float:
-        """Integrated pressure times the width ``D``: the load check, in N."""
-        return float(self.pressure.sum() * self.dx * self.finger.width)
-
-
-def _runs(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """First and last indices of the runs of True in the boolean ``m`` (n,)."""
-    d = np.diff(m.view(np.int8))
-    starts = np.flatnonzero(d == 1) + 1
-    ends = np.flatnonzero(d == -1)
-    if m[0]:
-        starts = np.concatenate(([0], starts))
-    if m[-1]:
-        ends = np.concatenate((ends, [m.size - 1]))
-    return starts, ends
-
-
-def _geometric_regions(x: np.ndarray, gap: np.ndarray, tol: float) -> np.ndarray:
-    """Intervals where ``gap <= tol``, ends linearly interpolated at ``gap = tol``."""
-    i0, i1 = _runs(gap <= tol)
-    k = i0.size
-    out = np.empty((k, 2))
-    if k == 0:
-        return out
-    # Vectorised over the runs (this runs once per sweep position, where a Python loop
-    # over runs was ~15 % of a warm-started sweep); the same arithmetic as interpolating
-    # run by run. Only the first run can start at cell 0, only the last end at n - 1:
-    # those ends are the grid's ends.
-    f = 1 if i0[0] == 0 else 0
-    i = i0[f:]
-    g0, g1 = gap[i - 1], gap[i]
-    out[f:, 0] = x[i - 1] + (x[i] - x[i - 1]) * (g0 - tol) / (g0 - g1)
-    if f:
-        out[0, 0] = x[0]
-    e = k - 1 if i1[-1] == x.size - 1 else k
-    j = i1[:e]
-    g0, g1 = gap[j], gap[j + 1]
-    out[:e, 1] = x[j] + (x[j + 1] - x[j]) * (tol - g0) / (g1 - g0)
-    if e < k:
-        out[-1, 1] = x[-1]
-    return out
-
-
-def _mechanical_regions(x: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Runs of ``p > 0`` as cell-edge intervals (as :func:`~fingerfriction.regions.regions_from_mask`)."""
-    i0, i1 = _runs(p > 0)
-    dx = float(x[1] - x[0])
-    return np.column_stack([x[i0] - dx / 2, x[i1] + dx / 2])
-
-
 # ------------------------------------------------------------------------------ solver
-def _check_load(load) -> float:
+def check_load(load) -> float:
+    """``load`` as a float: a finite positive normal force in N (TypeError, ValueError otherwise)."""
     if isinstance(load, bool) or not isinstance(load, (int, float, np.integer, np.floating)):
         raise TypeError(f"load must be a normal force in N, got {load!r}")
     F = float(load)
@@ -448,14 +209,14 @@ class ContactSolver:
         self.outline = finger.outline(self.u)
         j = np.arange(n + 1) * self.dx
         if finger.has_skin:
-            kj = _skin_kernel(
+            kj = skin_kernel(
                 j, self.dx, finger.modulus, float(finger.skin_modulus), float(finger.skin_thickness),
                 finger.radius,
             )
         elif finger.layer_thickness is None:
             kj = halfspace_kernel(j, self.dx, finger.modulus, finger.radius)
         else:
-            kj = _layer_kernel(j, self.dx, finger.modulus, finger.layer_thickness, finger.poisson)
+            kj = layer_kernel(j, self.dx, finger.modulus, finger.layer_thickness, finger.poisson)
         self._kj = kj
         self._full = _Convolver(kj, n)
         self._windows: dict[int, _Convolver] = {}
@@ -530,7 +291,7 @@ class ContactSolver:
         ContactSolution
             ``success=False`` with a message when the iteration did not converge.
         """
-        F = _check_load(load)
+        F = check_load(load)
         x_finger = float(x_finger)
         if not math.isfinite(x_finger):
             raise ValueError(f"x_finger must be a finite position in mm, got {x_finger!r}")
@@ -627,7 +388,7 @@ class ContactSolver:
         incrementally: ``p`` changes by ``-tau t`` (whose image ``K t`` the CG step
         computes anyway) plus a few clipped/overlap cells, added column by column when
         there are at most ``_SPARSE`` of them, else ``K p`` is recomputed by FFT. This
-        halves the FFTs per iteration (measured: 1.7x faster sweeps at n = 1024). The
+        halves the FFTs per iteration (the speed-up: ``docs/mechanics.md``). The
         vector work of each iteration runs in two compiled passes (:mod:`._cgkernels`).
         """
         m, dx = conv.m, self.dx
@@ -690,7 +451,7 @@ class ContactSolver:
         pen = float(max(0.0, -gap_c.min()))
         load_error = abs(p.sum() * self.dx - P) / P
         approach = float(np.max(h - self.outline)) - z
-        # Compiled equivalent of _mechanical_regions and _geometric_regions (tested equal).
+        # Compiled equivalent of _mechanical_regions and regions_within_gap (tested equal).
         rm, rg = self._rbuf
         km, kg = _cg.contact_regions(x, p, np.maximum(gap_c, 0.0), float(gap_tol), rm, rg)
         mech, geom = rm[:km].copy(), rg[:kg].copy()

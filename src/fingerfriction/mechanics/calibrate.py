@@ -1,4 +1,4 @@
-"""Calibrate a subject's finger from recorded contact regions (issue 15).
+"""Calibrate a subject's finger from recorded contact regions.
 
 The forward model (:mod:`~fingerfriction.mechanics.bem`) knows the fingers it is given.
 This module finds the finger of a recorded subject: the shape and modulus parameters of
@@ -7,7 +7,7 @@ stadium pad's end radius ``R``, effective modulus ``E*`` and flat length ``L``) 
 the model's **geometric** contact (surface points within ``tol`` = 3 px, ~70 um, of the
 deformed finger: the paper's criterion, Methods "Image analysis") reproduces the contact
 regions measured in every frame, at the frame's finger position and measured normal force.
-It is a pure function of arrays (no file I/O); :mod:`fingerfriction.study.finger_calibration`
+It is a pure function of arrays (no file I/O); :mod:`fingerfriction.pipeline.finger_calibration`
 reads a results folder into :class:`CalibrationTrial` objects.
 
 What is identifiable
@@ -18,7 +18,7 @@ The contact of the plane-strain model depends on the load and the modulus only t
 is fitted: the fitted ``E*`` is an *effective* modulus for that ``D``, and the load per
 width the calibration implies is ``P' = F_N / D``. A study without absolute normal force
 can only give ``E*`` relative to an assumed load (``load=`` in
-:func:`fingerfriction.study.finger_calibration.trials_from_results`; the result is flagged).
+:func:`fingerfriction.pipeline.finger_calibration.trials_from_results`; the result is flagged).
 
 The mismatch (smooth by construction)
 -------------------------------------
@@ -73,15 +73,14 @@ from scipy.optimize import least_squares
 from ..regions import as_regions
 from ..surfaces import Surface
 from ._calibration_problem import (
-    _bootstrap,
-    _end_bias_sensitivity,
-    _make_fun_jac,
-    _model_regions,
-    _Problem,
-    _union_blind_spots,
+    CalibrationProblem,
+    bootstrap_spread,
+    end_bias_sensitivity,
+    make_fun_jac,
 )
 from .bem import GEOMETRIC_TOL
 from .finger import FingerParams
+from .surface_fit import SurfaceFit, surface_fits
 
 __all__ = ["CalibrationTrial", "CalibrationOptions", "FingerCalibration", "SurfaceFit",
            "CalibrationError", "calibrate_finger", "FIT_FIELDS"]
@@ -204,8 +203,9 @@ class CalibrationOptions:
         How each BEM solve starts: ``'positions'`` (default) from the previous position's
         pressure, linearly extrapolated, as :func:`~.sweep.sweep` does; ``'parameters'``
         from the last base sweep's pressure at the same position (previous parameters,
-        same grid cells). Measured on a 36-trial subject (benchmarks/calibrate.py): 19.8
-        vs 22.7 CG iterations per solve, so the positions' start is the default.
+        same grid cells). The positions' start needs fewer CG iterations per solve
+        (``benchmarks/calibrate.py``, figures in ``docs/mechanics.md``), so it is the
+        default.
         ``'none'``: every solve starts cold (a reference for the benchmark).
     end_bias_px : float
         Size in px of the per-end widening of the measured regions whose effect on the
@@ -271,48 +271,6 @@ class CalibrationOptions:
 
 
 # ------------------------------------------------------------------------------ result
-@dataclass
-class SurfaceFit:
-    """Per-surface figures of a calibration.
-
-    Attributes
-    ----------
-    surface : str
-    n_trials, n_frames : int
-    rms_end_mm : float
-        Root mean square of the end-point residuals at the optimum (mm).
-    median_end_mm : float
-        Median absolute end-point residual (mm).
-    hinge_violations : float
-        Fraction of measured interiors / gaps where the model's contact disagrees.
-    measured_blind_spots, predicted_blind_spots : (k, 2) ndarray
-        Blind spots (mm) of the union of the measured regions, and of the calibrated
-        model's regions at the same frames (positions and loads).
-    """
-
-    surface: str
-    n_trials: int
-    n_frames: int
-    rms_end_mm: float
-    median_end_mm: float
-    hinge_violations: float
-    measured_blind_spots: np.ndarray
-    predicted_blind_spots: np.ndarray
-
-    def blind_spot_pairs(self) -> list[tuple[float, float]]:
-        """``(measured width, predicted width)`` in mm, paired by overlap (NaN: no partner)."""
-        return _pair_spots(self.measured_blind_spots, self.predicted_blind_spots)
-
-    def to_dict(self) -> dict:
-        return {
-            "surface": self.surface, "n_trials": self.n_trials, "n_frames": self.n_frames,
-            "rms_end_mm": self.rms_end_mm, "median_end_mm": self.median_end_mm,
-            "hinge_violations": self.hinge_violations,
-            "measured_blind_spots_mm": self.measured_blind_spots.tolist(),
-            "predicted_blind_spots_mm": self.predicted_blind_spots.tolist(),
-        }
-
-
 @dataclass
 class FingerCalibration:
     """Result of :func:`calibrate_finger` (in the style of ``scipy.optimize.OptimizeResult``).
@@ -420,30 +378,6 @@ class FingerCalibration:
         }
 
 
-def _pair_spots(meas: np.ndarray, pred: np.ndarray) -> list[tuple[float, float]]:
-    """Pair blind spots by largest overlap (else nearest centre); unpaired get NaN."""
-    out = []
-    used = set()
-    for a, b in meas:
-        best, score = None, -math.inf
-        for j, (c, d) in enumerate(pred):
-            if j in used:
-                continue
-            ov = min(b, d) - max(a, c)
-            s = ov if ov > 0 else -abs(0.5 * (a + b) - 0.5 * (c + d))
-            if s > score:
-                best, score = j, s
-        if best is not None and score > -1.0:
-            used.add(best)
-            out.append((float(b - a), float(pred[best][1] - pred[best][0])))
-        else:
-            out.append((float(b - a), math.nan))
-    for j, (c, d) in enumerate(pred):
-        if j not in used:
-            out.append((math.nan, float(d - c)))
-    return out
-
-
 # ------------------------------------------------------------------------------ public
 def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptions | None = None
                      ) -> FingerCalibration:
@@ -478,7 +412,7 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     T0 = time.process_time()
     opts = options or CalibrationOptions()
     trials = _check_inputs(trials, initial, opts)
-    pb = _Problem(trials, initial, opts)
+    pb = CalibrationProblem(trials, initial, opts)
     if pb.n_trials < opts.min_trials:
         raise CalibrationError(
             f"only {pb.n_trials} trial(s) with usable contact regions (need at least {opts.min_trials}); "
@@ -499,11 +433,11 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
     failures = pb.last_failures
     J = jac(z)
     t_b = time.process_time()
-    std, ci = _bootstrap(pb, z, r0, J, opts)
-    systematic = _end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
+    std, ci = bootstrap_spread(pb, z, r0, J, opts)
+    systematic = end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
     t_boot = time.process_time() - t_b
     t_p = time.process_time()
-    surfaces = _surface_fits(pb, state["tabs"], r0)
+    surfaces = surface_fits(pb, state["tabs"], r0)
     t_pred = time.process_time() - t_p
 
     success, message, flags = _assess(fine, z, failures, finger, std, surfaces, opts)
@@ -544,14 +478,14 @@ def _check_inputs(trials, initial, opts: CalibrationOptions) -> list[Calibration
     return trials
 
 
-def _optimise(pb: _Problem, opts: CalibrationOptions):
+def _optimise(pb: CalibrationProblem, opts: CalibrationOptions):
     """The coarse then the fine least-squares pass, from the initial finger (z = 0)."""
     lb = np.full(len(opts.fit), -math.log(opts.bound))
     z = np.zeros(len(opts.fit))
     nfev, pass_cpu = {}, {}
     for level, step, soft in (("coarse", opts.coarse_step, opts.coarse_soft),
                               ("fine", opts.fine_step, opts.fine_soft)):
-        fun, jac, state = _make_fun_jac(pb, level, step)
+        fun, jac, state = make_fun_jac(pb, level, step)
         t_pass = time.process_time()
         r = least_squares(fun, z, jac=jac, bounds=(lb, -lb), loss="soft_l1", f_scale=soft,
                           x_scale=1.0, max_nfev=opts.max_nfev, xtol=1e-4, ftol=1e-6, gtol=1e-8)
@@ -588,27 +522,3 @@ def _assess(fine, z, failures: int, finger: FingerParams, std: dict, surfaces, o
                          "does not reproduce this surface's contact")
     message = "; ".join(msg_parts) if msg_parts else f"converged ({fine.message})"
     return success, message, flags
-
-
-def _surface_fits(pb: _Problem, tabs: dict, r0: np.ndarray) -> list[SurfaceFit]:
-    out = []
-    off = 0
-    for sd in pb.surfaces:
-        st = pb.structure("fine", sd)
-        ne, nh = st.fe.size, st.kinds.size
-        re = r0[off: off + ne]
-        rh = r0[off + ne: off + ne + nh]
-        off += ne + nh
-        pos, Y = tabs[sd.name]
-        d = pb.distances(sd, st.idx, pos, Y)
-        model = _model_regions(d, sd.X[st.idx], sd.tol[st.idx], sd.min_gap[st.idx], sd.min_region[st.idx])
-        meas = [sd.regions[i] for i in st.idx]
-        out.append(SurfaceFit(
-            surface=sd.name, n_trials=int(np.unique(sd.trial).size), n_frames=int(st.idx.size),
-            rms_end_mm=float(np.sqrt(np.mean(re**2))) if re.size else math.nan,
-            median_end_mm=float(np.median(np.abs(re))) if re.size else math.nan,
-            hinge_violations=float(np.mean(rh > 0.05)) if rh.size else 0.0,
-            measured_blind_spots=_union_blind_spots(meas),
-            predicted_blind_spots=_union_blind_spots(model),
-        ))
-    return out

@@ -4,7 +4,7 @@ A sweep solves the contact at each finger position in turn, starting each solve 
 previous position's pressure (same finger-frame cells), which cuts the number of
 conjugate-gradient iterations several-fold compared with cold starts. Its contact regions
 are in the project's region format (:mod:`fingerfriction.regions`), ready for
-:func:`fingerfriction.blindspots.blind_spots` and :func:`~fingerfriction.blindspots.occupancy`.
+:func:`fingerfriction.model.blindspots.blind_spots` and :func:`~fingerfriction.model.blindspots.occupancy`.
 """
 
 from __future__ import annotations
@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..blindspots import BlindSpots, Occupancy, blind_spots, occupancy
+from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..regions import n_regions
 from ..surfaces import Surface
-from .bem import GEOMETRIC_TOL, ContactSolver, _check_load
+from .bem import GEOMETRIC_TOL, ContactSolver, check_load
 from .finger import FingerParams
 
 __all__ = ["SweepResult", "sweep", "default_positions", "OutlineTable", "outline_table"]
@@ -114,11 +114,11 @@ class SweepResult:
         raise ValueError(f"kind must be 'geometric' or 'mechanical', got {kind!r}")
 
     def blind_spots(self, kind: str = "geometric", **kwargs) -> BlindSpots:
-        """Tactile blind spots of the sweep (:func:`fingerfriction.blindspots.blind_spots`)."""
+        """Tactile blind spots of the sweep (:func:`fingerfriction.model.blindspots.blind_spots`)."""
         return blind_spots(self.regions(kind), **kwargs)
 
     def occupancy(self, kind: str = "geometric", **kwargs) -> Occupancy:
-        """Contact occupancy map (:func:`fingerfriction.blindspots.occupancy`)."""
+        """Contact occupancy map (:func:`fingerfriction.model.blindspots.occupancy`)."""
         return occupancy(self.regions(kind), **kwargs)
 
     def n_contacts(self, kind: str = "geometric") -> np.ndarray:
@@ -199,7 +199,7 @@ def sweep(
     """
     if not isinstance(finger, FingerParams):
         raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
-    F = _check_load(load)
+    F = check_load(load)
     if positions is None:
         positions = default_positions(surface if isinstance(surface, Surface) else None)
     pos = np.asarray(positions, dtype=float)

@@ -1,4 +1,4 @@
-"""Predict friction on a surface that was never recorded, and validate it out of sample.
+"""Predict friction on a surface that was never recorded, and render it on a haptic display.
 
 The paper's model, Eq. (4) of Janko, Wiertlewski & Visell 2018, needs the contact regions
 ``C_i`` of every frame, which the paper measured from video. Here the regions come from
@@ -6,8 +6,10 @@ the forward finger-contact model (:mod:`fingerfriction.mechanics`) swept across 
 surface (:mod:`.forward`), so a relief that exists only as a spec or a CSV profile gets a
 predicted lateral force ``F_T(x)``, its interfacial and deformation parts (Eq. 2 and 3),
 the contact occupancy (Fig. 3) and the tactile blind spots (:mod:`.prediction`), with the
-documented default parameters of :mod:`.defaults` or fitted ones. :mod:`.loso` validates
-the prediction out of sample (leave one surface out). Why the geometric contact and how
+documented default parameters of :mod:`.defaults` or fitted ones. :mod:`.render` turns a
+prediction into a lookup table for a haptic display. The out-of-sample validation of a
+fitted study (leave one surface out) is a stage of the study:
+:mod:`fingerfriction.pipeline.validation`. Why the geometric contact and how
 the defaults are anchored: ``docs/predict.md``.
 """
 
@@ -24,7 +26,6 @@ from .forward import (
     forward_regions,
     sweep_window,
 )
-from .loso import OutOfSample, leave_one_surface_out, trials_from_results, validate_results
 from .prediction import Prediction, known_surface_names, predict, predict_from_regions
 
 __all__ = [
@@ -45,8 +46,4 @@ __all__ = [
     "predict",
     "predict_from_regions",
     "known_surface_names",
-    "OutOfSample",
-    "leave_one_surface_out",
-    "trials_from_results",
-    "validate_results",
 ]

@@ -17,7 +17,7 @@ from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
 from ..study.store import ResultsStore, read_fit_table
 from ..surfaces import Surface, get_surface
-from .forward import DEFAULT_LOAD_N, _flat_length, _resolve_finger, forward_regions, sweep_window
+from .forward import DEFAULT_LOAD_N, flat_length, forward_regions, resolve_finger, sweep_window
 
 __all__ = ["PAPER_MU", "PAPER_FORCE_RISE_N", "default_params", "default_load_params", "load_params"]
 
@@ -45,7 +45,7 @@ def _calibration_sweep(surface: Surface, finger, load: float, step: float) -> tu
 @functools.lru_cache(maxsize=8)
 def _default_params_cached(key, finger, load: float, step: float) -> FrictionParams:
     mu = PAPER_MU[key]
-    L = _flat_length(finger, load)
+    L = flat_length(finger, load)
     p0 = load / L
     peaks = []
     for name in _P1_CALIBRATION_SURFACES:
@@ -79,7 +79,7 @@ def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05,
         The subject's own finger (e.g. from ``calibrate-finger``) instead of its default:
         the paper's ``mu`` of the subject, ``p0`` and ``p1`` from this finger's sweeps.
     """
-    key, default = _resolve_finger(subject)
+    key, default = resolve_finger(subject)
     finger = default if finger is None else finger
     if key not in PAPER_MU:
         raise ValueError(
@@ -193,7 +193,7 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
             raise ValueError(f"{path}: a folder without fit/fit.json; run 'fingerfriction fit' first")
     try:
         with open(path, "rb") as fh:
-            d = parse_json(fh.read(), str(path))  # bounded depth and size (issue 22)
+            d = parse_json(fh.read(), str(path))  # bounded depth and size: no run out of memory
     except OSError as exc:
         raise ValueError(f"{path}: cannot read parameters ({exc.strerror})") from None
     if not isinstance(d, dict):
@@ -208,8 +208,13 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
         raise ValueError(f"{path}: malformed parameters ({exc})") from None
 
 
-def _resolve_params(params, subject, load: float, model: str | None = None,
-                    finger: FingerParams | None = None):
+def resolve_params(params, subject, load: float, model: str | None = None,
+                   finger: FingerParams | None = None):
+    """``(params, description)`` of the Eq. (4) parameters a prediction uses: the documented
+    defaults of ``model`` (default ``'load'``) for ``subject`` at ``load`` (N) when ``params``
+    is None (:func:`default_params`, :func:`default_load_params`); ``params`` itself when it is
+    a :class:`LoadParams` or :class:`FrictionParams`; a JSON file's read by :func:`load_params`
+    when it is a path. ValueError for an unknown ``model``, TypeError for anything else."""
     if model is not None:
         get(model)  # an unknown name: ValueError naming the known ones
     if params is None:

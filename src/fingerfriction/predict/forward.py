@@ -131,7 +131,7 @@ def sweep_window(surface: Surface) -> tuple[float, float]:
     return (min(-_HALF_WINDOW_MM, a - 11.0), max(_HALF_WINDOW_MM, b + 11.0))
 
 
-def _resolve_finger(subject):
+def resolve_finger(subject):
     """``(label, FingerParams)`` for a subject number or a FingerParams."""
     if isinstance(subject, FingerParams):
         return (subject.name or "custom"), subject
@@ -196,7 +196,7 @@ def _sweep_regions(res, contact: str) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=8)
-def _flat_length(finger, load: float) -> float:
+def flat_length(finger, load: float) -> float:
     """Geometric contact length (mm) of the finger on flat ground at ``load`` (N)."""
     flat = _flat_surface()
     r = forward_regions(flat, finger, np.array([0.0]), load=load)
@@ -220,26 +220,26 @@ def flat_contact_length(subject, *, load: float = DEFAULT_LOAD_N) -> float:
     load : float
         Normal force in N.
     """
-    _, finger = _resolve_finger(subject)
-    return _flat_length(finger, float(load))
+    _, finger = resolve_finger(subject)
+    return flat_length(finger, float(load))
 
 
 @functools.lru_cache(maxsize=16)
-def _flat_length_kind(finger, load: float, contact: str) -> float:
+def flat_length_of_kind(finger, load: float, contact: str) -> float:
     """Flat-ground contact length (mm) of the given kind."""
     if contact == "geometric":
-        return _flat_length(finger, load)
+        return flat_length(finger, load)
     r = forward_regions(_flat_surface(), finger, np.array([0.0]), load=load, contact=contact)
     return float(np.nansum(region_lengths(r)))
 
 
-def _finger_for_label(label: str, fingers):
+def finger_for_label(label: str, fingers):
     """The forward-model finger of a trial's subject label ('1', 'S1', ...)."""
     if fingers is not None:
         if label not in fingers:
             raise ValueError(f"no finger given for subject {label!r}; fingers has {sorted(fingers)}")
         f = fingers[label]
-        return f if isinstance(f, FingerParams) else _resolve_finger(f)[1]
+        return f if isinstance(f, FingerParams) else resolve_finger(f)[1]
     digits = "".join(c for c in str(label) if c.isdigit())
     if digits and int(digits) in SUBJECTS:
         return SUBJECTS[int(digits)]

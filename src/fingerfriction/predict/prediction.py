@@ -17,20 +17,20 @@ import pandas as pd
 
 from .._atomic import atomic_write
 from .._style import figure_style
-from ..blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..fit.variants import variant_of_params
 from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
+from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..regions import as_regions, n_regions, region_lengths
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
-from .defaults import _resolve_params
+from .defaults import resolve_params
 from .forward import (
     DEFAULT_LOAD_N,
     GEOM_TOL_MM,
     MAX_SLOPE_ANGLE,
-    _resolve_finger,
     check_profile,
     forward_regions,
+    resolve_finger,
     sweep_window,
 )
 
@@ -364,12 +364,12 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
         raise ValueError(f"step must be a finger step in mm in [0.001, 1], got {step!r}")
     if not (isinstance(load, (int, float)) and math.isfinite(load) and load > 0):
         raise ValueError(f"load must be a positive normal force in N, got {load!r}")
-    label, default_finger = _resolve_finger(subject)
+    label, default_finger = resolve_finger(subject)
     if finger is None:
         finger = default_finger
     elif not isinstance(finger, FingerParams):
         raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
-    p, source = _resolve_params(params, label, float(load), model, finger=finger)
+    p, source = resolve_params(params, label, float(load), model, finger=finger)
     lo, hi = sweep_window(surface) if window is None else (float(window[0]), float(window[1]))
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise ValueError(

@@ -62,7 +62,7 @@ class ReportResult:
         Table 1 in long format (None before the fit).
     loso : pandas.DataFrame or None
         Out-of-sample validation, rho per held-out surface (computed by ``fit``,
-        :func:`fingerfriction.study.fitting.fit`; None if the fit did not validate).
+        :func:`fingerfriction.pipeline.fitting.fit`; None if the fit did not validate).
     blindspots : pandas.DataFrame
         One row per blind spot per surface.
     truth : dict of str to pandas.DataFrame

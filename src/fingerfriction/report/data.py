@@ -36,7 +36,7 @@ class TrialData:
         Per-position table (``x_mm, F_T_N, t_s``).
     model : pandas.DataFrame or None
         Fit output per position (``x_mm, F_T_N, F_hat_N, F_model_N, F_int_N, F_def_N``)
-        when :func:`fingerfriction.study.fitting.fit` has run.
+        when :func:`fingerfriction.pipeline.fitting.fit` has run.
     status : dict
         The trial's ``status.json`` (inputs, stage diagnostics under ``info``).
     """

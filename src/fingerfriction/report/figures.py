@@ -32,9 +32,9 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from .._atomic import atomic_write_bytes
-from ..blindspots import blind_spots, occupancy
+from ..model.blindspots import blind_spots, occupancy
+from ..model.stats import shape_label
 from ..regions import region_lengths
-from ..stats import shape_label
 from .data import ReportData, TrialData
 from .style import (
     BLIND_SPOT,

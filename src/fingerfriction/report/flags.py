@@ -1,14 +1,15 @@
 """Everything the report flags, per trial and per subject, with the reason.
 
-One record per finding, the same shape as the fit's flags (``fit/fit.json`` ``flags``):
-``{"level", "code", "subject", "trial", "model", "message"}`` with ``level`` one of
-``"error"`` (the trial has no result), ``"warning"`` (a result to look at before trusting
-it) or ``"info"`` (a known limit, said once). Sources:
+One :class:`~fingerfriction.flags.Flag` per finding, the type every stage raises (level,
+code, message, trial, subject, model; ``''`` where a flag is about something wider), with
+``level`` one of ``"error"`` (the trial has no result), ``"warning"`` (a result to look at
+before trusting it) or ``"info"`` (a known limit, said once). Flags stored by a stage keep
+their level here. Sources:
 
 * the analysis: a failed trial (``analysis-failed``), the force stage's flags
   (``status.json`` ``info.forces.flags``, e.g. ``extrapolated``, ``nan-filled``,
-  ``no-absolute``), gaps in x(t) inside the tracked span (``position-gap``), contact
-  regions cut by the edge of the field of view (``regions-clipped``, info);
+  ``no-absolute``, and the consistency stage's warnings), gaps in x(t) inside the tracked
+  span (``position-gap``), contact regions cut by the edge of the field of view (``regions-clipped``, info);
 * the fit: trials that could not be fitted or gave an unphysical fit (``fit-failed``),
   contact regions translated from the nearest frame where x(t) was extrapolated
   (``regions-translated``), mu at an end of its search grid (``mu-at-bound``), a failed
@@ -27,20 +28,18 @@ from collections import OrderedDict
 
 import numpy as np
 
+from ..flags import LEVELS, Flag
 from .data import ReportData, TrialData
 
 __all__ = ["LEVELS", "collect_flags", "comparison_notes", "flagged_trials", "group_flags", "position_gaps"]
-
-#: Levels, most serious first.
-LEVELS = ("error", "warning", "info")
 
 #: Minimum run of frames without x(t) inside the tracked span reported as a gap.
 MIN_GAP_FRAMES = 3
 
 
-def _flag(level, code, message, *, trial=None, subject=None, model=None) -> dict:
-    return {"level": level, "code": code, "subject": None if subject is None else str(subject),
-            "trial": trial, "model": model, "message": str(message)}
+def _flag(level, code, message, *, trial=None, subject=None, model=None) -> Flag:
+    return Flag(level, code, str(message), trial="" if trial is None else str(trial),
+                subject="" if subject is None else str(subject), model="" if model is None else str(model))
 
 
 def position_gaps(t: TrialData, *, min_frames: int = MIN_GAP_FRAMES) -> list[dict]:
@@ -76,15 +75,15 @@ def _gap_reasons(t: TrialData, first_row: int, n: int) -> str:
 def _trial_flags(t: TrialData) -> list[dict]:
     out = []
     missing = t.status.get("input_missing") or {}
-    if missing:  # analyze kept the last results of a trial whose files are gone (issue 22)
+    if missing:  # analyze kept the last results of a trial whose files are gone: say so
         out.append(_flag("warning", "input-missing",
                          f"{missing.get('reason', 'input files missing')} (since "
                          f"{missing.get('since', '?')}): these are the trial's last results, kept",
                          trial=t.id, subject=t.subject))
     info = t.status.get("info") or {}
+    # Flag records, their level kept (results written before: 'code: message' strings, warnings)
     for s in (info.get("forces") or {}).get("flags") or []:
-        code, _, msg = str(s).partition(": ")
-        out.append(_flag("warning", code.strip() or "forces", msg or s, trial=t.id, subject=t.subject))
+        out.append(Flag.from_dict(s if isinstance(s, dict) else str(s)).at(trial=t.id, subject=t.subject))
     for g in position_gaps(t):
         out.append(_flag("warning", "position-gap",
                          f"x(t) missing in {g['n']} frames from frame {g['frame']} (between x = "
@@ -107,10 +106,10 @@ def _trial_flags(t: TrialData) -> list[dict]:
     return out
 
 
-def collect_flags(data: ReportData) -> list[dict]:
+def collect_flags(data: ReportData) -> list[Flag]:
     """Every flag of the results, most serious first, then in trial order."""
     labels = {m["id"]: m for m in data.run.get("trials", [])}
-    flags: list[dict] = []
+    flags: list[Flag] = []
     for tid, reason in data.failed:
         flags.append(_flag("error", "analysis-failed", reason, trial=tid,
                            subject=labels.get(tid, {}).get("subject")))
@@ -148,13 +147,12 @@ def collect_flags(data: ReportData) -> list[dict]:
         flags.append(_flag("warning", "loso-failed", f"out-of-sample validation {msg}"))
     order = {lv: i for i, lv in enumerate(LEVELS)}
     trial_order = {m["id"]: i for i, m in enumerate(data.run.get("trials", []))}
-    flags.sort(key=lambda f: (order[f["level"]], f["trial"] is not None, trial_order.get(f["trial"], -1)))
+    flags.sort(key=lambda f: (order[f.level], bool(f.trial), trial_order.get(f.trial, -1)))
     return flags
 
 
-def comparison_notes(data: ReportData) -> list[dict]:
-    """The flags of the model variants fitted for comparison (not the one the fit used),
-    each ``{"level", "code", "subject", "trial", "model", "message"}``."""
+def comparison_notes(data: ReportData) -> list[Flag]:
+    """The flags of the model variants fitted for comparison (not the one the fit used)."""
     fit = data.fit or {}
     used = fit.get("model")
     if isinstance(fit.get("notes"), list):
@@ -167,26 +165,26 @@ def comparison_notes(data: ReportData) -> list[dict]:
             for f in recorded if isinstance(f, dict)]
 
 
-def flagged_trials(flags: list[dict], *, levels=("error", "warning")) -> list[str]:
+def flagged_trials(flags: list[Flag], *, levels=("error", "warning")) -> list[str]:
     """Trial ids with at least one flag of the given levels, first-seen order."""
     seen: dict[str, None] = {}
     for f in flags:
-        if f["trial"] and f["level"] in levels:
-            seen.setdefault(f["trial"], None)
+        if f.trial and f.level in levels:
+            seen.setdefault(f.trial, None)
     return list(seen)
 
 
-def group_flags(flags: list[dict]) -> list[dict]:
+def group_flags(flags: list[Flag]) -> list[dict]:
     """Flags grouped by (level, code): ``{"level", "code", "count", "trials", "example"}``,
     most serious first; ``trials`` counts distinct trials, ``example`` is the first flag."""
     groups: OrderedDict = OrderedDict()
     for f in flags:
-        g = groups.setdefault((f["level"], f["code"]), {"level": f["level"], "code": f["code"], "count": 0,
-                                                        "trials": set(), "example": f, "all": []})
+        g = groups.setdefault((f.level, f.code), {"level": f.level, "code": f.code, "count": 0,
+                                                  "trials": set(), "example": f, "all": []})
         g["count"] += 1
         g["all"].append(f)
-        if f["trial"]:
-            g["trials"].add(f["trial"])
+        if f.trial:
+            g["trials"].add(f.trial)
     out = []
     for g in groups.values():
         g["n_trials"] = len(g.pop("trials"))

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..stats import BOTH, blind_spot_table, correlation_table, shape_label
+from ..model.stats import BOTH, blind_spot_table, correlation_table, shape_label
 from .data import ReportData
 
 __all__ = ["table1", "blindspot_table", "fit_parameter_table", "truth_tables", "format_p", "P_COLUMNS",
@@ -56,7 +56,7 @@ logger = logging.getLogger(__name__)
 
 @dataclass(frozen=True, eq=False)
 class _Series:
-    """The minimal TrialFit-like record :func:`fingerfriction.stats.correlation_table` reads."""
+    """The minimal TrialFit-like record :func:`fingerfriction.model.stats.correlation_table` reads."""
 
     measured: np.ndarray
     estimate: np.ndarray
@@ -280,8 +280,8 @@ LOSO_COLUMNS = ("subject", "surface", "n_trials", "rho_in_sample", "rho_out_of_s
 def loso_table(data: ReportData) -> pd.DataFrame | None:
     """Out-of-sample validation next to Table 1: rho per held-out surface.
 
-    From ``fit/loso.csv`` (:func:`fingerfriction.predict.validate_results`, run by
-    :func:`fingerfriction.study.fitting.fit`): per subject (and both subjects) and held-out
+    From ``fit/loso.csv`` (:func:`fingerfriction.pipeline.validation.validate_results`, run by
+    :func:`fingerfriction.pipeline.fitting.fit`): per subject (and both subjects) and held-out
     surface, the in-sample rho (Table 1), the out-of-sample rho (fitted on the other
     surfaces, predicted from the surface's geometry alone) with its p-value, and rho with
     the held-out parameters on the video regions. None when the fit did not validate.

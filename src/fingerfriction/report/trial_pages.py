@@ -26,9 +26,9 @@ from matplotlib.figure import Figure
 
 from .._atomic import atomic_write_text
 from ..forces.signals import describe_history
+from ..pipeline.params import video_options
+from ..pipeline.trial import TrialInput
 from ..study.manifest import load_manifest
-from ..study.params import video_options
-from ..study.trial import TrialInput
 from ..video.overlay import write_results_overlay
 from .data import ReportData, TrialData
 from .figures import _label, _measured, region_events
@@ -73,8 +73,8 @@ def choose_pages(data: ReportData, flagged: list[str], sample: int | None) -> li
 
 
 def _svg(fig: Figure) -> str:
-    """The figure as base64 SVG (text kept as text): vector, and a third faster to write
-    than a PNG of these plots (measured: 0.17 against 0.24 s per page of three)."""
+    """The figure as base64 SVG (text kept as text): vector, and faster to write than a
+    PNG of these plots (``docs/study.md``)."""
     buf = io.BytesIO()
     with figure_style():
         fig.savefig(buf, format="svg")

@@ -7,6 +7,7 @@ import math
 from dataclasses import asdict, dataclass, fields
 
 from .._check import check_option
+from ..flags import Flag
 
 __all__ = [
     "LEVELS",
@@ -73,8 +74,15 @@ class Check:
         return self.level in ("error", "warning")
 
     def line(self) -> str:
-        """``'code: message'``, the form the force stage's flags take in ``status.json``."""
+        """``'code: message'``."""
         return f"{self.code}: {self.message}"
+
+    def to_flag(self) -> Flag:
+        """The finding as the package's :class:`~fingerfriction.flags.Flag`, level kept
+        (stored with the force stage's flags of the trial)."""
+        if not self.finding and self.level != "info":
+            raise ValueError(f"check {self.code!r} passed ('ok'): it is not a flag")
+        return Flag(self.level, self.code, self.message)
 
     def to_dict(self) -> dict:
         d = asdict(self)

@@ -114,9 +114,9 @@ class Camera:
     -----
     Coverage is exact along each pixel column (the fraction of the pixel's height below
     or above the outline at the column centre); frames are built in a transposed
-    ``(width, height)`` buffer so each column is a contiguous run (measured: ~2 ms per
-    frame against ~11 ms for full-frame floating-point coverage, and unlike
-    ``cv2.fillPoly(..., LINE_AA)``, whose edges are only placed to the nearest pixel).
+    ``(width, height)`` buffer so each column is a contiguous run (faster than full-frame
+    floating-point coverage, ``docs/worlds.md``; and unlike ``cv2.fillPoly(..., LINE_AA)``,
+    whose edges are only placed to the nearest pixel).
     """
 
     def __init__(self, surface: Surface, params: CameraParams | None = None):

@@ -278,12 +278,14 @@ class TrialSpec:
         return np.random.SeedSequence(seed, spawn_key=(zlib.crc32(self.id.encode("utf-8")),))
 
 
-def _rngs(spec: TrialSpec, seed: int):
+def trial_rngs(spec: TrialSpec, seed: int):
+    """The trial's three streams (kinematics, sensor, camera): the first three children of its
+    seed sequence (:meth:`TrialSpec.seed_sequence`), as ``numpy.random.Generator`` objects."""
     kin, sensor, camera = spec.seed_sequence(seed).spawn(3)
     return np.random.default_rng(kin), np.random.default_rng(sensor), np.random.default_rng(camera)
 
 
-def _realism_rng(spec: TrialSpec, seed: int) -> np.random.Generator:
+def realism_rng(spec: TrialSpec, seed: int) -> np.random.Generator:
     """A fourth stream of the trial for the realism draws: the first three (kinematics,
     sensor, camera) are the same as without it, so switching realism off changes nothing."""
     return np.random.default_rng(spec.seed_sequence(seed).spawn(4)[3])
@@ -295,7 +297,7 @@ def _realism_rng(spec: TrialSpec, seed: int) -> np.random.Generator:
 _STREAMS = {"world": 4, "participant": 5, "chain": 6}
 
 
-def _stream(spec: TrialSpec, seed: int, name: str) -> np.random.Generator:
+def trial_stream(spec: TrialSpec, seed: int, name: str) -> np.random.Generator:
     """The trial's stream ``name`` (:data:`_STREAMS`)."""
     k = _STREAMS[name]
     return np.random.default_rng(spec.seed_sequence(seed).spawn(k + 1)[k])

@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import __version__
 from .._atomic import atomic_write_text
+from .._mainguard import check_main_guard
 from ..regions import regions_from_mask
 from ..study import ForceInfo, Study, TrialRecord, VideoInfo, write_manifest
 from ..surfaces import Surface, surface_from_spec
@@ -37,7 +38,7 @@ from .camera import Camera
 from .chain import RealisticChain, couple_normal_force, draw_device, draw_trial_chain, speed_scaled_kinematics
 from .contact import ContactTable, SimFinger, build_table
 from .kinematics import Kinematics, simulate_kinematics
-from .options import VIDEO_EXT, SimOptions, TrialSpec, _realism_rng, _rngs, _stream
+from .options import VIDEO_EXT, SimOptions, TrialSpec, realism_rng, trial_rngs, trial_stream
 from .physics import SUBJECT_FORCE_LAWS, ForceLaw
 from .sensor import apply_sensor
 from .worlds import LoadSharing, TrialMotion
@@ -65,7 +66,7 @@ class TrialPlan:
 
 def plan_trial(spec: TrialSpec, opts: SimOptions) -> TrialPlan:
     """Draw the trial's kinematics and compute its manifest record (no files written)."""
-    rk, _, _ = _rngs(spec, opts.seed)
+    rk, _, _ = trial_rngs(spec, opts.seed)
     kparams = opts.kinematics
     if opts.chain_name == "realistic":  # motor noise grows with speed
         kparams = speed_scaled_kinematics(kparams, spec.speed_mm_s, opts.chain)
@@ -171,30 +172,30 @@ def _trial_forces(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: F
     truth)``, ``kin`` with the normal force on the plate, ``truth`` the chain's per-trial
     values (and ``mu_load_exponent``)."""
     spec, kin = plan.spec, plan.kin
-    _, rs, _ = _rngs(spec, opts.seed)
+    _, rs, _ = trial_rngs(spec, opts.seed)
     fs = opts.kinematics.fs_hz
     truth: dict = {}
     if opts.chain_name == "realistic":
-        rp = _stream(spec, opts.seed, "participant")
+        rp = trial_stream(spec, opts.seed, "participant")
         f_n, participant = couple_normal_force(kin, table, opts.chain, rp)
         kin = replace(kin, f_n=f_n)
         truth.update(participant)
     mu_scale, load_exp, f_ref = 1.0, 0.0, 0.3
     if opts.realism is not None:
-        mu_scale = opts.realism.trial_mu_scale(_realism_rng(spec, opts.seed))
+        mu_scale = opts.realism.trial_mu_scale(realism_rng(spec, opts.seed))
         load_exp, f_ref = opts.realism.mu_load_exponent, opts.realism.f_ref_n
     motion = TrialMotion(t=kin.t, x=kin.x, f_n=kin.f_n, sliding_distance=kin.sliding_distance,
                          in_contact=kin.in_contact, mean_speed=kin.mean_speed, f_target=kin.f_target,
                          t_slide_start=kin.t_slide_start)
     world = opts.world
     kw = {"law": law} if isinstance(world, LoadSharing) else {}
-    forces = world.trial_forces(table, motion, spec.subject, _stream(spec, opts.seed, "world"),
+    forces = world.trial_forces(table, motion, spec.subject, trial_stream(spec, opts.seed, "world"),
                                 mu_scale=mu_scale, load_exponent=load_exp, f_ref_n=f_ref, **kw)
     # friction follows contact length, not load, in the constant-pressure world
     truth["mu_load_exponent"] = 0.0 if world.name == "constant-pressure" else load_exp
     chain = None
     if opts.chain_name == "realistic":
-        chain = draw_trial_chain(_stream(spec, opts.seed, "chain"), kin.t.size, fs, opts.chain,
+        chain = draw_trial_chain(trial_stream(spec, opts.seed, "chain"), kin.t.size, fs, opts.chain,
                                  _device(opts.seed, opts.chain))
         truth.update(chain.truth(fs))
     F1, F2 = apply_sensor(kin.f_n, forces.f_t, rs, opts.sensor, chain=chain)
@@ -207,7 +208,7 @@ def _write_video(plan: TrialPlan, opts: SimOptions, table: ContactTable, kin: Ki
     ``x_finger_video``, ``has_finger``, ``regions_mech``, ``regions_geom``, ``field_mm``,
     ``regions_geom_clipped``)."""
     rec = plan.record
-    _, _, rc = _rngs(plan.spec, opts.seed)
+    _, _, rc = trial_rngs(plan.spec, opts.seed)
     cam = Camera(surf, opts.camera)
     tol = 3.0 * opts.camera.mm_per_px
     xi = table.xi
@@ -412,6 +413,8 @@ def simulate_study(out: str | os.PathLike, opts: SimOptions | None = None, *, wo
         workers = os.cpu_count() or 1
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if workers > 1:
+        check_main_guard("simulate_study", alternative="or pass workers=1")
     out = Path(out)
     header = _truth_header(opts)
     resume = _check_folder(out, header)

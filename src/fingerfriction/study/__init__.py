@@ -1,20 +1,15 @@
-"""A study and its results, in the order a trial flows through them.
+"""A study's data: what was recorded and what the analysis made of it.
 
-* :mod:`.manifest`: the study folder's ``manifest.json``, the only manifest parser and path
-  resolver (:func:`load_manifest`, :class:`Study`, :class:`TrialRecord`, ...);
+* :mod:`.manifest` (with :mod:`.records`, the fields of its trial entries): the study
+  folder's ``manifest.json``, the only manifest parser and path resolver
+  (:func:`load_manifest`, :class:`Study`, :class:`TrialRecord`, ...);
 * :mod:`.store`: the results folder, its only reader and writer (:class:`ResultsStore`);
-* :mod:`.params`: the analysis options (:class:`~.params.AnalysisParams`) and the one
-  definition of the pipeline's video options;
-* :mod:`.trial`: one trial through the video and force stages
-  (:func:`~.trial.process_trial`);
-* :mod:`.analyze`: every trial in parallel on Dask, resumable, with a run record
-  (:func:`~.analyze.analyze`);
-* :mod:`.fitting`: the friction model fitted to the analysed trials
-  (:func:`~.fitting.fit`).
+* :mod:`.init` and :mod:`.patterns`: a manifest built from a folder of lab recordings;
+* :mod:`.check`: every problem of a study listed at once.
 
-This package namespace holds the manifest and the store (the data layer); the stages are
-imported from their modules, e.g. ``from fingerfriction.study.analyze import analyze``.
-"""
+The stages that read and write these data (one trial, the parallel analysis, the fit, the
+validation) are in :mod:`fingerfriction.pipeline`. This package namespace holds the
+manifest and the store."""
 
 from __future__ import annotations
 

@@ -25,7 +25,15 @@ from pathlib import Path
 from ..forces.readers import read_force_file
 from ..video.readers import FPS_TOLERANCE, probe_video
 from .manifest import Study, TrialRecord, read_manifest_json
-from .records import MANIFEST_NAME, ForceInfo, ManifestError, Problem, VideoInfo, _problem, resolve_path
+from .records import (
+    MANIFEST_NAME,
+    ForceInfo,
+    ManifestError,
+    Problem,
+    VideoInfo,
+    problem_from_error,
+    resolve_path,
+)
 
 __all__ = ["CheckResult", "check_study", "check_files"]
 
@@ -122,7 +130,7 @@ def check_study(path: str | os.PathLike, *, files: bool | Iterable[str] = True) 
             try:
                 resolve_path(study.root, rel, where=f"{where}.{what}")
             except ManifestError as exc:
-                problems.append(_problem(exc, file=shown, trial=t.id))
+                problems.append(problem_from_error(exc, file=shown, trial=t.id))
                 bad = True
         if not bad:
             good.append(t)

@@ -37,18 +37,18 @@ from .records import (
     ForceInfo,
     ManifestError,
     Problem,
+    ProblemCollector,
     VideoInfo,
-    _check_relpath,
-    _Collect,
-    _fail,
-    _num,
-    _obj,
-    _problem,
-    _str,
-    _within,
+    build_within,
+    check_relpath,
+    fail,
     is_long_id,
+    mapping,
+    number,
+    problem_from_error,
     resolve_path,
     shown_id,
+    string,
     validate_id,
 )
 
@@ -116,22 +116,22 @@ class TrialRecord:
     def __post_init__(self) -> None:
         validate_id(self.id)
         if not isinstance(self.subject, str) or not self.subject:
-            raise _fail("subject", f"must be a non-empty string, got {self.subject!r}")
+            raise fail("subject", f"must be a non-empty string, got {self.subject!r}")
         if not isinstance(self.surface, str) or not self.surface:
-            raise _fail("surface", f"must be a non-empty string, got {self.surface!r}")
+            raise fail("surface", f"must be a non-empty string, got {self.surface!r}")
         d = {"speed_mm_s": self.speed_mm_s, "repetition": self.repetition}
-        object.__setattr__(self, "speed_mm_s", _num(d, "speed_mm_s", "trial", positive=True))
-        object.__setattr__(self, "repetition", _num(d, "repetition", "trial", positive=True, integer=True))
+        object.__setattr__(self, "speed_mm_s", number(d, "speed_mm_s", "trial", positive=True))
+        object.__setattr__(self, "repetition", number(d, "repetition", "trial", positive=True, integer=True))
         if not isinstance(self.video, VideoInfo):
-            raise _fail("video", f"must be a VideoInfo, got {type(self.video).__name__}")
+            raise fail("video", f"must be a VideoInfo, got {type(self.video).__name__}")
         if not isinstance(self.force, ForceInfo):
-            raise _fail("force", f"must be a ForceInfo, got {type(self.force).__name__}")
+            raise fail("force", f"must be a ForceInfo, got {type(self.force).__name__}")
         if self.calibration is not None:
-            cal = _obj(self.calibration, "calibration")
-            H = _num(cal, "surface_height_mm", "calibration", positive=True)
+            cal = mapping(self.calibration, "calibration")
+            H = number(cal, "surface_height_mm", "calibration", positive=True)
             object.__setattr__(self, "calibration", {**cal, "surface_height_mm": H})
         if self.truth is not None:
-            _check_relpath(self.truth, "truth")
+            check_relpath(self.truth, "truth")
 
     def to_dict(self) -> dict:
         d = {
@@ -152,8 +152,8 @@ class TrialRecord:
         mistake is appended as a :class:`Problem` and None returned for a bad entry, and
         with ``parts`` (a list) ``(id, VideoInfo or None, ForceInfo or None)`` is appended
         (what parsed of a bad entry, whose recordings can still be checked)."""
-        c = _Collect(problems)
-        d = c(_obj, d, where)
+        c = ProblemCollector(problems)
+        d = c(mapping, d, where)
         if d is None:
             if parts is not None:
                 parts.append((None, None, None))
@@ -170,16 +170,16 @@ class TrialRecord:
             c(_raise, f"{where}.subject", f"must be a non-empty string, got {subject!r}")
         truth = d.get("truth")
         if truth is not None:
-            c(_check_relpath, truth, f"{where}.truth")
+            c(check_relpath, truth, f"{where}.truth")
         cal = d.get("calibration")
         if cal is not None:
-            cal = c(_obj, cal, f"{where}.calibration")
+            cal = c(mapping, cal, f"{where}.calibration")
             if cal is not None:
-                c(_num, cal, "surface_height_mm", f"{where}.calibration", positive=True)
+                c(number, cal, "surface_height_mm", f"{where}.calibration", positive=True)
         kw = dict(
-            surface=c(_str, d, "surface", where),
-            speed_mm_s=c(_num, d, "speed_mm_s", where, positive=True),
-            repetition=c(_num, d, "repetition", where, positive=True, integer=True, default=1),
+            surface=c(string, d, "surface", where),
+            speed_mm_s=c(number, d, "speed_mm_s", where, positive=True),
+            repetition=c(number, d, "repetition", where, positive=True, integer=True, default=1),
         )
         sub = problems if problems is not None else None
         video = c(VideoInfo.from_dict, d.get("video"), f"{where}.video", sub, tid)
@@ -192,7 +192,7 @@ class TrialRecord:
 
 
 def _raise(where: str, msg: str):
-    raise _fail(where, msg)
+    raise fail(where, msg)
 
 
 def _surface_of_name(name: str) -> dict | None:
@@ -236,19 +236,19 @@ class Study:
     def __post_init__(self) -> None:
         object.__setattr__(self, "trials", tuple(self.trials))
         if not isinstance(self.surfaces, dict):
-            raise _fail("surfaces", f"must be a mapping of name -> spec, got {type(self.surfaces).__name__}")
+            raise fail("surfaces", f"must be a mapping of name -> spec, got {type(self.surfaces).__name__}")
         surfaces = dict(self.surfaces)
         seen: set[str] = set()
         for i, t in enumerate(self.trials):
             if not isinstance(t, TrialRecord):
-                raise _fail(f"trials[{i}]", f"must be a TrialRecord, got {type(t).__name__}")
+                raise fail(f"trials[{i}]", f"must be a TrialRecord, got {type(t).__name__}")
             if t.id in seen:
-                raise _fail(f"trials[{i}].id", f"duplicate trial id {t.id!r}")
+                raise fail(f"trials[{i}].id", f"duplicate trial id {t.id!r}")
             seen.add(t.id)
             if t.surface not in surfaces:
                 spec = _surface_of_name(t.surface)
                 if spec is None:
-                    raise _fail(f"trials[{i}].surface", _unknown_surface(t.surface, surfaces))
+                    raise fail(f"trials[{i}].surface", _unknown_surface(t.surface, surfaces))
                 surfaces[t.surface] = spec
         object.__setattr__(self, "surfaces", surfaces)
 
@@ -286,8 +286,8 @@ class Study:
         :class:`Problem` and the study returned holds the trials without mistakes (None if
         the manifest as a whole is unusable); ``parts``: see :meth:`TrialRecord.from_dict`,
         one item per entry of ``trials``."""
-        c = _Collect(problems)
-        d = c(_obj, d, "manifest")
+        c = ProblemCollector(problems)
+        d = c(mapping, d, "manifest")
         if d is None:
             return None
         fmt = d.get("format")
@@ -296,11 +296,11 @@ class Study:
         ver = d.get("schema_version")
         if ver != SCHEMA_VERSION:
             c(_raise, "schema_version", f"this version of fingerfriction reads schema 1, got {ver!r}")
-        surfaces = c(_obj, d.get("surfaces", {}), "surfaces") or {}
+        surfaces = c(mapping, d.get("surfaces", {}), "surfaces") or {}
         good_surfaces = {}
         for name, spec in surfaces.items():
             try:
-                surface_from_spec(_obj(spec, f"surfaces.{name}"))
+                surface_from_spec(mapping(spec, f"surfaces.{name}"))
                 good_surfaces[name] = spec
             except ManifestError as exc:
                 c(_raise, f"surfaces.{name}", str(exc).split(": ", 1)[-1])
@@ -310,8 +310,8 @@ class Study:
         if not isinstance(trials, list):
             c(_raise, "trials", f"must be a list, got {type(trials).__name__}")
             return None
-        description = c(_str, d, "description", "manifest", default="")
-        created_by = c(_str, d, "created_by", "manifest", default="")
+        description = c(string, d, "description", "manifest", default="")
+        created_by = c(string, d, "created_by", "manifest", default="")
         if c.failed and problems is None:
             return None
         recs, seen = [], {}
@@ -447,7 +447,7 @@ def complete_from_files(study: Study, problems: list | None = None) -> Study:
             if problems is None:
                 raise
             rel = t.video.path if ".video." in str(exc).split(":", 1)[0] else t.force.path
-            problems.append(_problem(exc, file=rel, trial=t.id, kind="file"))
+            problems.append(problem_from_error(exc, file=rel, trial=t.id, kind="file"))
     return dataclasses.replace(study, trials=tuple(out))
 
 
@@ -459,11 +459,11 @@ def _complete_trial(study: Study, i: int, t: TrialRecord) -> TrialRecord:
             info = probe_video(study.path(video.path, where=f"{where}.path"))
         except (ValueError, OSError) as exc:
             msg = f"not given, and the video cannot be read: {exc}"
-            raise _fail(f"{where}.{video.missing[0]}", msg) from None
+            raise fail(f"{where}.{video.missing[0]}", msg) from None
         found = {"fps": info.fps, "width": info.width, "height": info.height, "n_frames": info.n_frames}
         if found["fps"] is None and video.fps is None:
-            raise _fail(f"{where}.fps", f"not given, and {video.path} does not state its frame rate; give it")
-        video = _within(where, VideoInfo, **{**video.to_dict(), **{k: found[k] for k in video.missing}})
+            raise fail(f"{where}.fps", f"not given, and {video.path} does not state its frame rate; give it")
+        video = build_within(where, VideoInfo, **{**video.to_dict(), **{k: found[k] for k in video.missing}})
     if force.missing:
         where = f"trials[{i}].force"
         opts = force.reader_options()
@@ -472,13 +472,13 @@ def _complete_trial(study: Study, i: int, t: TrialRecord) -> TrialRecord:
                                     format=opts["format"], time=opts.get("time"),
                                     delimiter=opts.get("delimiter"))
         except (ValueError, OSError) as exc:
-            raise _fail(f"{where}.{force.missing[0]}", f"not given, and the force file cannot be read: "
-                                                       f"{' '.join(str(exc).split())}") from None
+            raise fail(f"{where}.{force.missing[0]}", f"not given, and the force file cannot be read: "
+                                                      f"{' '.join(str(exc).split())}") from None
         if force.fs_hz is None and info.fs_hz is None:
-            raise _fail(f"{where}.fs_hz", f"not given, and {force.path} does not state its sampling rate "
-                                          "(no time column, no TDMS/HDF5 rate); give it")
+            raise fail(f"{where}.fs_hz", f"not given, and {force.path} does not state its sampling rate "
+                                         "(no time column, no TDMS/HDF5 rate); give it")
         found = {"fs_hz": float(f"{info.fs_hz:.12g}") if info.fs_hz else None, "n_samples": info.n_samples}
-        force = _within(where, ForceInfo, **{**force.to_dict(), **{k: found[k] for k in force.missing}})
+        force = build_within(where, ForceInfo, **{**force.to_dict(), **{k: found[k] for k in force.missing}})
     if video is t.video and force is t.force:
         return t
     return dataclasses.replace(t, video=video, force=force)

@@ -71,7 +71,8 @@ def shown_id(trial_id: str) -> str:
     return trial_id if len(trial_id) <= 60 else f"{trial_id[:40]}...({len(trial_id)} characters)"
 
 
-def _fail(where: str, msg: str) -> ManifestError:
+def fail(where: str, msg: str) -> ManifestError:
+    """The :class:`ManifestError` of field ``where`` (``trials[3].video.fps``): ``"<where>: <msg>"``."""
     return ManifestError(f"{where}: {msg}")
 
 
@@ -89,7 +90,7 @@ def validate_id(trial_id: Any, *, where: str = "id") -> str:
     """
     if not isinstance(trial_id, str) or not _ID_RE.match(trial_id) or trial_id in (".", ".."):
         shown = repr(shown_id(trial_id)) if isinstance(trial_id, str) else repr(trial_id)[:80]
-        raise _fail(
+        raise fail(
             where, f"trial id must be letters, digits, '-', '_' or '.' (not '.' or '..'), got {shown}"
         )
     if len(trial_id) > MAX_ID_LENGTH:
@@ -99,15 +100,15 @@ def validate_id(trial_id: Any, *, where: str = "id") -> str:
     return trial_id
 
 
-def _check_relpath(path: Any, where: str) -> str:
+def check_relpath(path: Any, where: str) -> str:
     """A manifest path: relative, POSIX separators, no component ``..``."""
     if not isinstance(path, str) or not path:
-        raise _fail(where, f"must be a non-empty relative path string, got {path!r}")
+        raise fail(where, f"must be a non-empty relative path string, got {path!r}")
     if "\\" in path:
-        raise _fail(where, f"must use '/' separators, got {path!r}")
+        raise fail(where, f"must use '/' separators, got {path!r}")
     p = Path(path)
     if p.is_absolute() or path.startswith("/"):
-        raise _fail(where, f"must be relative to the study folder, got absolute path {path!r}")
+        raise fail(where, f"must be relative to the study folder, got absolute path {path!r}")
     if any(part == ".." for part in p.parts):
         raise ManifestError(f"{where} {path!r} escapes the study folder ('..' is not allowed)")
     return path
@@ -131,11 +132,11 @@ def resolve_path(root: str | os.PathLike, relpath: str, *, where: str = "path") 
         If ``relpath`` is absolute, contains ``..``, or resolves (through symbolic links)
         outside ``root``.
     """
-    _check_relpath(relpath, where)
+    check_relpath(relpath, where)
     base = Path(root).resolve()
     full = (base / relpath).resolve()
     if full != base and base not in full.parents:
-        raise _fail(where, f"path {relpath!r} resolves to {full}, outside the study folder {base}")
+        raise fail(where, f"path {relpath!r} resolves to {full}, outside the study folder {base}")
     return full
 
 
@@ -157,50 +158,66 @@ LIMITS = {
 }
 
 
-def _num(d: dict, key: str, where: str, *, positive: bool = False, integer: bool = False,
-         nonneg: bool = False, default: Any = ...) -> Any:
+def number(d: dict, key: str, where: str, *, positive: bool = False, integer: bool = False,
+           nonneg: bool = False, default: Any = ...) -> Any:
+    """Field ``key`` of manifest object ``d`` as a number, checked.
+
+    ``where`` names the object in messages (``<where>.<key>``). The value must be a finite
+    int or float (not a bool), within :data:`LIMITS` for its key (1e12 otherwise); with
+    ``positive`` above 0, with ``nonneg`` at least 0, with ``integer`` a whole number (returned
+    as int, else float). A missing key returns ``default`` when given, else raises.
+
+    Raises
+    ------
+    ManifestError
+        Naming ``<where>.<key>``, the value and what is allowed.
+    """
     if key not in d:
         if default is not ...:
             return default
-        raise _fail(f"{where}.{key}", "missing required field")
+        raise fail(f"{where}.{key}", "missing required field")
     v = d[key]
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise _fail(f"{where}.{key}", f"must be a number, got {str(v)[:40]!r}")
+        raise fail(f"{where}.{key}", f"must be a number, got {str(v)[:40]!r}")
     hi, unit = LIMITS.get(key, (1e12, ""))
     # before any conversion: an integer of 400 digits has no float
     if isinstance(v, int) and abs(v) > hi:
-        raise _fail(f"{where}.{key}", f"must be at most {hi:g}{' ' + unit if unit else ''}, got a number of "
-                                      f"{len(str(abs(v)))} digits")
+        raise fail(f"{where}.{key}", f"must be at most {hi:g}{' ' + unit if unit else ''}, got a number of "
+                                     f"{len(str(abs(v)))} digits")
     if integer and (not float(v).is_integer()):
-        raise _fail(f"{where}.{key}", f"must be an integer, got {v!r}")
+        raise fail(f"{where}.{key}", f"must be an integer, got {v!r}")
     if not math.isfinite(v):
-        raise _fail(f"{where}.{key}", f"must be finite, got {v!r}")
+        raise fail(f"{where}.{key}", f"must be finite, got {v!r}")
     if positive and v <= 0:
-        raise _fail(f"{where}.{key}", f"must be positive, got {v!r}")
+        raise fail(f"{where}.{key}", f"must be positive, got {v!r}")
     if nonneg and v < 0:
-        raise _fail(f"{where}.{key}", f"must be >= 0, got {v!r}")
+        raise fail(f"{where}.{key}", f"must be >= 0, got {v!r}")
     if abs(v) > hi:
-        raise _fail(f"{where}.{key}", f"must be at most {hi:g}{' ' + unit if unit else ''}, got {v!r}")
+        raise fail(f"{where}.{key}", f"must be at most {hi:g}{' ' + unit if unit else ''}, got {v!r}")
     return int(v) if integer else float(v)
 
 
-def _str(d: dict, key: str, where: str, *, allowed: tuple[str, ...] | None = None,
-         default: Any = ...) -> Any:
+def string(d: dict, key: str, where: str, *, allowed: tuple[str, ...] | None = None,
+           default: Any = ...) -> Any:
+    """Field ``key`` of manifest object ``d`` as a string, one of ``allowed`` when given; a
+    missing key returns ``default`` when given, else raises :class:`ManifestError` (naming
+    ``<where>.<key>``)."""
     if key not in d:
         if default is not ...:
             return default
-        raise _fail(f"{where}.{key}", "missing required field")
+        raise fail(f"{where}.{key}", "missing required field")
     v = d[key]
     if not isinstance(v, str):
-        raise _fail(f"{where}.{key}", f"must be a string, got {v!r}")
+        raise fail(f"{where}.{key}", f"must be a string, got {v!r}")
     if allowed is not None and v not in allowed:
-        raise _fail(f"{where}.{key}", f"must be one of {', '.join(allowed)}, got {v!r}")
+        raise fail(f"{where}.{key}", f"must be one of {', '.join(allowed)}, got {v!r}")
     return v
 
 
-def _obj(d: Any, where: str) -> dict:
+def mapping(d: Any, where: str) -> dict:
+    """``d`` itself when it is a JSON object (a dict), else a :class:`ManifestError` naming ``where``."""
     if not isinstance(d, dict):
-        raise _fail(where, f"must be a JSON object, got {type(d).__name__}")
+        raise fail(where, f"must be a JSON object, got {type(d).__name__}")
     return d
 
 
@@ -238,8 +255,8 @@ class Problem:
 _FIELD_RE = re.compile(r"^[A-Za-z_][\w.\[\]\-]*$")
 
 
-def _problem(exc: Exception, *, file: str = MANIFEST_NAME, trial: str | None = None,
-             kind: str = "manifest", field: str = "") -> Problem:
+def problem_from_error(exc: Exception, *, file: str = MANIFEST_NAME, trial: str | None = None,
+                       kind: str = "manifest", field: str = "") -> Problem:
     """A Problem from a ``'<field>: <message>'`` error."""
     text = " ".join(str(exc).split())
     head, sep, rest = text.partition(": ")
@@ -248,7 +265,7 @@ def _problem(exc: Exception, *, file: str = MANIFEST_NAME, trial: str | None = N
     return Problem(file=file, field=field, message=text, trial=trial, kind=kind)
 
 
-class _Collect:
+class ProblemCollector:
     """Runs parsing steps and keeps their :class:`ManifestError` instead of raising at the
     first one, so that ``fingerfriction check`` lists every problem of a manifest."""
 
@@ -264,7 +281,7 @@ class _Collect:
             if self.problems is None:
                 raise
             self.failed = True
-            self.problems.append(_problem(exc, trial=self.trial))
+            self.problems.append(problem_from_error(exc, trial=self.trial))
             return None
 
 
@@ -278,8 +295,8 @@ def _video_format(path: str, where: str) -> str:
     if not suffix:
         return "tiff"
     if suffix not in VIDEO_SUFFIXES:
-        raise _fail(f"{where}.format", f"not given, and the suffix {suffix!r} of {path!r} does not tell it; "
-                                       f"give one of {', '.join(VIDEO_FORMATS)}")
+        raise fail(f"{where}.format", f"not given, and the suffix {suffix!r} of {path!r} does not tell it; "
+                                      f"give one of {', '.join(VIDEO_FORMATS)}")
     return VIDEO_SUFFIXES[suffix]
 
 
@@ -319,21 +336,21 @@ class VideoInfo:
     calibration_frame: int = 0
 
     def __post_init__(self) -> None:
-        _check_relpath(self.path, "video.path")
+        check_relpath(self.path, "video.path")
         d = {k: getattr(self, k) for k in ("fps", "width", "height", "n_frames", "t0_s", "calibration_frame")}
         if self.fps is not None:
-            object.__setattr__(self, "fps", _num(d, "fps", "video", positive=True))
+            object.__setattr__(self, "fps", number(d, "fps", "video", positive=True))
         for k in ("width", "height", "n_frames"):
             if d[k] is not None:
-                object.__setattr__(self, k, _num(d, k, "video", positive=True, integer=True))
-        object.__setattr__(self, "t0_s", _num(d, "t0_s", "video"))
-        cf = _num(d, "calibration_frame", "video", integer=True, nonneg=True)
+                object.__setattr__(self, k, number(d, k, "video", positive=True, integer=True))
+        object.__setattr__(self, "t0_s", number(d, "t0_s", "video"))
+        cf = number(d, "calibration_frame", "video", integer=True, nonneg=True)
         if self.n_frames is not None and cf >= self.n_frames:
-            raise _fail("video.calibration_frame", f"must be < n_frames ({self.n_frames}), got {cf}")
+            raise fail("video.calibration_frame", f"must be < n_frames ({self.n_frames}), got {cf}")
         object.__setattr__(self, "calibration_frame", cf)
         fmt = _video_format(self.path, "video") if self.format is None else self.format
         if fmt not in VIDEO_FORMATS:
-            raise _fail("video.format", f"must be one of {', '.join(VIDEO_FORMATS)}, got {fmt!r}")
+            raise fail("video.format", f"must be one of {', '.join(VIDEO_FORMATS)}, got {fmt!r}")
         object.__setattr__(self, "format", fmt)
 
     @property
@@ -361,14 +378,14 @@ class VideoInfo:
         appended as a :class:`Problem` and None returned instead of raising at the first."""
         opt = {"default": None}
         return _parse(cls, d, where, problems, trial, lambda c, d: dict(
-            path=c(_check_relpath, d.get("path"), f"{where}.path"),
-            format=c(_str, d, "format", where, allowed=VIDEO_FORMATS, **opt),
-            fps=c(_num, d, "fps", where, positive=True, **opt),
-            width=c(_num, d, "width", where, positive=True, integer=True, **opt),
-            height=c(_num, d, "height", where, positive=True, integer=True, **opt),
-            n_frames=c(_num, d, "n_frames", where, positive=True, integer=True, **opt),
-            t0_s=c(_num, d, "t0_s", where, default=0.0),
-            calibration_frame=c(_num, d, "calibration_frame", where, integer=True, nonneg=True, default=0),
+            path=c(check_relpath, d.get("path"), f"{where}.path"),
+            format=c(string, d, "format", where, allowed=VIDEO_FORMATS, **opt),
+            fps=c(number, d, "fps", where, positive=True, **opt),
+            width=c(number, d, "width", where, positive=True, integer=True, **opt),
+            height=c(number, d, "height", where, positive=True, integer=True, **opt),
+            n_frames=c(number, d, "n_frames", where, positive=True, integer=True, **opt),
+            t0_s=c(number, d, "t0_s", where, default=0.0),
+            calibration_frame=c(number, d, "calibration_frame", where, integer=True, nonneg=True, default=0),
         ))
 
 
@@ -376,17 +393,17 @@ def _parse(cls, d: Any, where: str, problems: list | None, trial: str | None, fi
     """A manifest object ``d`` parsed into ``cls``: ``fields(c, d)`` gives the keyword
     arguments, each read through the collector ``c``; None once a mistake is collected
     (with ``problems``), else the first mistake raised."""
-    c = _Collect(problems, trial)
-    d = c(_obj, d, where)
+    c = ProblemCollector(problems, trial)
+    d = c(mapping, d, where)
     if d is None:
         return None
     kw = fields(c, d)
     if c.failed:
         return None
-    return c(_within, where, cls, **kw)
+    return c(build_within, where, cls, **kw)
 
 
-def _within(where: str, cls, **kw):
+def build_within(where: str, cls, **kw):
     """``cls(**kw)`` with the ``__post_init__`` field names put under ``where``."""
     try:
         return cls(**kw)
@@ -445,36 +462,37 @@ class ForceInfo:
     delimiter: str | None = None
 
     def __post_init__(self) -> None:
-        _check_relpath(self.path, "force.path")
+        check_relpath(self.path, "force.path")
         fmt = self.format
         if fmt is None:
             try:
                 fmt = infer_force_format(self.path)
             except ValueError:
-                raise _fail("force.format", f"not given, and the suffix of {self.path!r} does not tell it; "
-                                            f"give one of {', '.join(FORCE_FORMATS)}") from None
+                raise fail("force.format", f"not given, and the suffix of {self.path!r} does not tell it; "
+                                           f"give one of {', '.join(FORCE_FORMATS)}") from None
         if fmt not in FORCE_FORMATS:
-            raise _fail("force.format", f"must be one of {', '.join(FORCE_FORMATS)}, got {fmt!r}")
+            raise fail("force.format", f"must be one of {', '.join(FORCE_FORMATS)}, got {fmt!r}")
         object.__setattr__(self, "format", fmt)
         d = {"fs_hz": self.fs_hz, "n_samples": self.n_samples, "t0_s": self.t0_s}
         if self.fs_hz is not None:
-            object.__setattr__(self, "fs_hz", _num(d, "fs_hz", "force", positive=True))
+            object.__setattr__(self, "fs_hz", number(d, "fs_hz", "force", positive=True))
         if self.n_samples is not None:
-            object.__setattr__(self, "n_samples", _num(d, "n_samples", "force", positive=True, integer=True))
-        object.__setattr__(self, "t0_s", _num(d, "t0_s", "force"))
+            n = number(d, "n_samples", "force", positive=True, integer=True)
+            object.__setattr__(self, "n_samples", n)
+        object.__setattr__(self, "t0_s", number(d, "t0_s", "force"))
         ch = self.channels
         if not isinstance(ch, dict) or set(ch) != {"F1", "F2"} or not all(map(_channel_name, ch.values())):
-            raise _fail("force.channels", "must map exactly 'F1' and 'F2' to channel names (or CSV column "
-                                          f"indices), got {ch!r}")
+            raise fail("force.channels", "must map exactly 'F1' and 'F2' to channel names (or CSV column "
+                                         f"indices), got {ch!r}")
         object.__setattr__(self, "channels", {"F1": ch["F1"], "F2": ch["F2"]})
         try:
             channel_scale(self.units, self.sensitivity_n_per_v, self.gain_v_per_n)
         except ValueError as exc:
-            raise _fail("force.units" if str(exc).startswith("units") else "force", str(exc)) from None
+            raise fail("force.units" if str(exc).startswith("units") else "force", str(exc)) from None
         if self.time is not None and not _channel_name(self.time):
-            raise _fail("force.time", f"must be a channel name or a CSV column index, got {self.time!r}")
+            raise fail("force.time", f"must be a channel name or a CSV column index, got {self.time!r}")
         if self.delimiter is not None and (not isinstance(self.delimiter, str) or not self.delimiter):
-            raise _fail("force.delimiter", f"must be a non-empty string, got {self.delimiter!r}")
+            raise fail("force.delimiter", f"must be a non-empty string, got {self.delimiter!r}")
 
     @property
     def missing(self) -> tuple[str, ...]:
@@ -509,13 +527,13 @@ class ForceInfo:
         """Parse a manifest ``force`` object (``problems``: as :meth:`VideoInfo.from_dict`)."""
         opt = {"default": None}
         return _parse(cls, d, where, problems, trial, lambda c, d: dict(
-            path=c(_check_relpath, d.get("path"), f"{where}.path"),
-            format=c(_str, d, "format", where, allowed=FORCE_FORMATS, **opt),
-            fs_hz=c(_num, d, "fs_hz", where, positive=True, **opt),
-            n_samples=c(_num, d, "n_samples", where, positive=True, integer=True, **opt),
+            path=c(check_relpath, d.get("path"), f"{where}.path"),
+            format=c(string, d, "format", where, allowed=FORCE_FORMATS, **opt),
+            fs_hz=c(number, d, "fs_hz", where, positive=True, **opt),
+            n_samples=c(number, d, "n_samples", where, positive=True, integer=True, **opt),
             channels=d.get("channels", {"F1": "F1", "F2": "F2"}),
-            units=c(_str, d, "units", where, allowed=FORCE_UNITS, default="N"),
-            t0_s=c(_num, d, "t0_s", where, default=0.0),
+            units=c(string, d, "units", where, allowed=FORCE_UNITS, default="N"),
+            t0_s=c(number, d, "t0_s", where, default=0.0),
             sensitivity_n_per_v=d.get("sensitivity_n_per_v"),
             gain_v_per_n=d.get("gain_v_per_n"),
             time=d.get("time"),

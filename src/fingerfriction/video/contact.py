@@ -38,8 +38,8 @@ __all__ = ["contact_distance", "contact_regions", "smooth_outline"]
 def smooth_outline(rows: np.ndarray, window: int, order: int = 2) -> np.ndarray:
     """Savitzky-Golay smoothing of outline rows along the columns, NaN-aware.
 
-    Not in the paper. Each sub-pixel outline row carries its own noise (about 0.03-0.04
-    px on the simulated camera's shot noise); near a contact edge where the gap opens by
+    Not in the paper. Each sub-pixel outline row carries its own noise (a few hundredths
+    of a pixel, ``docs/video.md``); near a contact edge where the gap opens by
     only 1 px over 50-200 columns, that noise moves the 3 px crossing by several pixels.
     A local polynomial fit over ``window`` columns averages it while keeping curvature.
 
@@ -63,9 +63,8 @@ def smooth_outline(rows: np.ndarray, window: int, order: int = 2) -> np.ndarray:
     Orders 0-1 and 2-3 (which share their coefficients for a centred window) run in a
     compiled pass with running window sums (:func:`_sg_running`); others through
     :func:`scipy.signal.savgol_coeffs` and :func:`scipy.ndimage.correlate1d`. Why
-    compiled: ``correlate1d`` with 41 taps took 33-41 us per 1260-column frame, about a
-    third of the whole per-frame analysis, against ~3 us for the running sums
-    (measured; the two agree to ~1e-9 px, checked in the tests).
+    compiled: ``correlate1d`` with 41 taps was a large share of the whole per-frame
+    analysis (``docs/video.md``); the two agree to ~1e-9 px, checked in the tests.
     """
     rows = np.asarray(rows, dtype=float)
     if window <= 1:

@@ -249,10 +249,9 @@ def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tupl
     """Up to ``max_frames`` of the ``candidates`` frame indices, evenly spread, decoded.
 
     For a compressed video (PyAV) only key frames are decoded, each on its own: the
-    others would need every frame since the last key frame (FFV1 in the simulator's
-    files: one key frame in 12; decoding 74 key frames takes 0.12 s of CPU against
-    1.25 s for all 884 frames, measured). Random-access formats (TIFF, cine) read the
-    chosen frames directly.
+    others would need every frame since the last key frame (the cost of each:
+    ``docs/video.md``). Random-access formats (TIFF, cine) read the chosen frames
+    directly.
     """
     candidates = np.unique(np.asarray(candidates, dtype=np.int64))
     if candidates.size == 0:

@@ -29,8 +29,8 @@ from the previous one.
 Assembly: scikit-fem provides the mesh, the quadratic element, the quadrature and the
 degree-of-freedom maps; the element residuals and tangents of the neo-Hookean law are
 evaluated by vectorised numpy over all elements at once and summed into a fixed sparse
-pattern (``docs/mechanics-fe.md``: measured 10x faster than scikit-fem's generic form
-assembly for this law; ``tests/mechanics/test_fe.py`` checks the two agree).
+pattern (faster than scikit-fem's generic form assembly for this law, ``docs/mechanics-fe.md``;
+``tests/mechanics/test_fe.py`` checks the two agree).
 
 References
 ----------

@@ -1,0 +1,300 @@
+"""Calibrate a subject's finger from a results folder (``fingerfriction calibrate-finger``).
+
+A thin reader over :func:`fingerfriction.mechanics.calibrate.calibrate_finger`: it builds
+one :class:`~fingerfriction.mechanics.calibrate.CalibrationTrial` per analysed trial of
+the subject from what ``fingerfriction analyze`` wrote (``frames.parquet``: ``x_mm`` and
+the contact regions ``a1, b1, ...`` per frame; ``forces.parquet``: the absolute normal
+force ``F_N_abs_N`` on the 0.01 mm position grid; ``status.json``: the calibrated pixel
+size), and hands them to the calibration.
+
+Frames used: a finite ``x_mm``, no flag, no region cut by the field of view
+(``clipped``), at least one region, and a normal force at that position. The contact
+tolerance of a trial is its analysis' ``contact_tol_px`` (default 3 px) times its
+calibrated ``mm_per_px`` (0.070 mm when the status has none); its ``min_gap_px`` and
+``min_region_px`` (the video's cleanup) are applied to the model's regions as well.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..mechanics import FingerParams, get_subject
+from ..mechanics.bem import GEOMETRIC_TOL
+from ..mechanics.calibrate import (
+    CalibrationError,
+    CalibrationOptions,
+    CalibrationTrial,
+    FingerCalibration,
+    calibrate_finger,
+)
+from ..study.store import ResultsStore, regions_from_table
+from ..surfaces import surface_from_spec
+
+__all__ = ["trials_from_results", "calibrate_results", "HeldOutCalibration", "calibrate_held_out"]
+
+log = logging.getLogger(__name__)
+
+
+def _video_px(run: dict, name: str, default: float) -> float:
+    """A pixel setting of the run's video analysis (``run.json`` ``parameters.video``)."""
+    params = run.get("parameters") or {}
+    v = (params.get("video") or {}).get(name) if isinstance(params, dict) else None
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return default
+    return v if math.isfinite(v) and v >= 0 else default
+
+
+def _mm_per_px(status: dict) -> float | None:
+    info = status.get("info") or {}
+    for key in ("video", None):
+        d = info.get(key) if key else info
+        if isinstance(d, dict) and "mm_per_px" in d:
+            try:
+                v = float(d["mm_per_px"])
+            except (TypeError, ValueError):
+                return None
+            return v if math.isfinite(v) and v > 0 else None
+    return None
+
+
+def _trusted_positions(fr) -> np.ndarray:
+    """x(t) in mm from a per-frame table, NaN where the frame is flagged or a contact
+    region is clipped by the field of view."""
+    x = fr["x_mm"].to_numpy(float).copy()
+    bad = np.zeros(len(fr), dtype=bool)
+    if "flag" in fr.columns:
+        bad |= fr["flag"].fillna("").astype(str).to_numpy() != ""
+    if "clipped" in fr.columns:
+        bad |= fr["clipped"].to_numpy(bool)
+    x[bad] = np.nan
+    return x
+
+
+def _measured_load(fo, x: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """The absolute normal force in N at the positions ``x`` (mm), from a per-position
+    table; ``(None, why)`` when the trial has none."""
+    if "F_N_abs_N" not in fo.columns:
+        return None, ("forces.parquet has no F_N_abs_N (analysed by an older version: re-run analyze, "
+                      "or give a load)")
+    fx = fo["x_mm"].to_numpy(float)
+    fn = fo["F_N_abs_N"].to_numpy(float)
+    ok = np.isfinite(fx) & np.isfinite(fn)
+    if not ok.any():
+        return None, "no absolute normal force (F_N_abs_N is NaN): give a load"
+    return np.interp(x, fx[ok], fn[ok], left=np.nan, right=np.nan), ""
+
+
+def trials_from_results(results: str | os.PathLike, subject, *, load: float | None = None,
+                        surfaces=None) -> tuple[list[CalibrationTrial], list[tuple[str, str]]]:
+    """The subject's analysed trials as calibration inputs.
+
+    Parameters
+    ----------
+    results : path-like
+        Results folder of ``fingerfriction analyze``.
+    subject : str or int
+        Subject label as in the study's manifest.
+    load : float, optional
+        Assume this constant normal force (N) instead of the measured ``F_N_abs_N`` (for
+        studies without an absolute normal force; the modulus is then relative to it).
+    surfaces : iterable of str, optional
+        Use only these surfaces (e.g. five of six for leave-one-surface-out).
+
+    Returns
+    -------
+    trials : list of CalibrationTrial
+    skipped : list of (trial id, reason)
+        Trials of the subject that were not used, and why.
+
+    Raises
+    ------
+    ValueError
+        Not a results folder, or the subject has no trial in it (naming the subjects it has).
+    """
+    store = ResultsStore(results)
+    run = store.read_run()
+    label = str(subject)
+    known = sorted({str(m.get("subject")) for m in run.get("trials", [])})
+    mine = [m for m in run.get("trials", []) if str(m.get("subject")) == label]
+    if not mine:
+        raise ValueError(f"{os.fspath(results)!r}: no trial of subject {label!r}; the results have subjects "
+                         f"{', '.join(known) or 'none'}")
+    if load is not None and not (isinstance(load, (int, float)) and math.isfinite(load) and load > 0):
+        raise ValueError(f"load must be a positive normal force in N, got {load!r}")
+    keep = None if surfaces is None else {str(s) for s in surfaces}
+    specs = run.get("surfaces", {})
+    tol_px = _video_px(run, "contact_tol_px", 3.0) or 3.0
+    gap_px = _video_px(run, "min_gap_px", 0.0)
+    region_px = _video_px(run, "min_region_px", 0.0)
+    trials, skipped = [], []
+    for m in mine:
+        tid = str(m["id"])
+        if keep is not None and str(m.get("surface")) not in keep:
+            continue
+        st = store.status(tid) or {}
+        if st.get("status") != "ok":
+            why = f"{st.get('status', 'no status')}: {st.get('reason', '')}".strip(": ")
+            skipped.append((tid, f"not analysed ({why})"))
+            continue
+        try:
+            surf = surface_from_spec(specs[m["surface"]])
+            fr = store.read_frames(tid)
+            fo = store.read_forces(tid)
+            x = _trusted_positions(fr)
+            reg = regions_from_table(fr)
+            if load is not None:
+                F = np.full(x.size, float(load))
+            else:
+                F, why = _measured_load(fo, x)
+                if F is None:
+                    skipped.append((tid, why))
+                    continue
+            mmpp = _mm_per_px(st)
+            px = mmpp if mmpp is not None else GEOMETRIC_TOL / 3.0
+            tol = tol_px * mmpp if mmpp is not None else GEOMETRIC_TOL
+            t = CalibrationTrial(surface=surf, x=x, regions=reg, load=F, label=tid, tol=tol,
+                                 min_gap=gap_px * px, min_region=region_px * px)
+        except (KeyError, ValueError, OSError) as exc:
+            skipped.append((tid, f"unreadable: {' '.join(str(exc).split())}"))
+            continue
+        if not t.usable().any():
+            skipped.append((tid, "no usable frame (position, normal force and a contact region)"))
+            continue
+        trials.append(t)
+    for tid, why in skipped:
+        log.warning("trial %s not used for the calibration: %s", tid, why)
+    return trials, skipped
+
+
+def calibrate_results(results: str | os.PathLike, subject, *, initial: FingerParams | None = None,
+                      options: CalibrationOptions | None = None, load: float | None = None,
+                      surfaces=None) -> FingerCalibration:
+    """Calibrate the finger of ``subject`` from a results folder.
+
+    Parameters
+    ----------
+    results : path-like
+        Results folder of ``fingerfriction analyze``.
+    subject : str or int
+        Subject label.
+    initial : FingerParams, optional
+        Starting finger (default: the calibrated default of subject 1 or 2 when the label
+        is one of them, else subject 1's).
+    options : CalibrationOptions, optional
+    load : float, optional
+        Assumed constant normal force in N (default: the measured ``F_N_abs_N``); the
+        result is flagged.
+    surfaces : iterable of str, optional
+        Calibrate on these surfaces only.
+
+    Returns
+    -------
+    FingerCalibration
+
+    Raises
+    ------
+    CalibrationError
+        Too few usable trials or frames (the message names the skipped trials' reasons).
+    """
+    trials, skipped = trials_from_results(results, subject, load=load, surfaces=surfaces)
+    if initial is None:
+        try:
+            initial = get_subject(int(str(subject)))
+        except ValueError:
+            initial = get_subject(1)
+    try:
+        res = calibrate_finger(trials, initial, options=options)
+    except CalibrationError as exc:
+        why = ""
+        if skipped:
+            why = f"; skipped: {skipped[0][0]}: {skipped[0][1]}"
+            why += f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""
+        raise CalibrationError(f"subject {subject}: {exc}{why}") from None
+    res.finger = dataclasses.replace(res.finger, name=f"subject {subject} (calibrated)")
+    if load is not None:
+        res.flags.append(f"normal force assumed constant at {load:g} N (no measured F_N): the modulus is "
+                         "relative to that load")
+    if skipped:
+        res.flags.append(f"{len(skipped)} trial(s) of subject {subject} not used (first: {skipped[0][0]}: "
+                         f"{skipped[0][1]})")
+    return res
+
+
+@dataclass
+class HeldOutCalibration:
+    """Each subject's finger calibrated without each surface (:func:`calibrate_held_out`).
+
+    Attributes
+    ----------
+    calibrations : dict
+        ``(held-out surface, subject) -> FingerCalibration`` (on the other surfaces).
+    errors : dict
+        ``(held-out surface, subject) -> message`` where no finger could be calibrated.
+    """
+
+    calibrations: dict = field(default_factory=dict)
+    errors: dict = field(default_factory=dict)
+
+    def fingers(self) -> dict[str, dict[str, FingerParams]]:
+        """``{held-out surface: {subject: finger}}`` of the successful calibrations (the
+        ``calibrated_fingers`` of :func:`fingerfriction.pipeline.validation.validate_results`)."""
+        out: dict[str, dict[str, FingerParams]] = {}
+        for (surface, subject), res in self.calibrations.items():
+            if res.success:
+                out.setdefault(surface, {})[subject] = res.finger
+        return out
+
+
+def calibrate_held_out(results: str | os.PathLike, *, subjects=None,
+                       options: CalibrationOptions | None = None,
+                       progress: Callable[[int, int, str], None] | None = None) -> HeldOutCalibration:
+    """For leave-one-surface-out: each subject's finger calibrated on all surfaces but one.
+
+    Parameters
+    ----------
+    results : path-like
+        Results folder of ``fingerfriction analyze``.
+    subjects : iterable of str, optional
+        Default: every subject of the results.
+    options : CalibrationOptions, optional
+    progress : callable, optional
+        ``progress(done, total, label)`` after each calibration.
+
+    Returns
+    -------
+    HeldOutCalibration
+        A calibration that raises :class:`CalibrationError` or does not succeed is recorded
+        in ``errors`` / with ``success=False``, and the others go on.
+    """
+    run = ResultsStore(results).read_run()
+    by_subject: dict[str, set] = {}
+    for m in run.get("trials", []):
+        by_subject.setdefault(str(m.get("subject")), set()).add(str(m.get("surface")))
+    chosen = sorted(by_subject) if subjects is None else [str(s) for s in subjects]
+    for s in chosen:
+        if s not in by_subject:
+            raise ValueError(f"{os.fspath(results)!r}: no trial of subject {s!r}; the results have subjects "
+                             f"{', '.join(sorted(by_subject)) or 'none'}")
+    jobs = [(surf, s) for s in chosen for surf in sorted(by_subject[s])]
+    out = HeldOutCalibration()
+    for k, (surf, s) in enumerate(jobs, start=1):
+        others = sorted(by_subject[s] - {surf})
+        try:
+            res = calibrate_results(results, s, options=options, surfaces=others)
+            out.calibrations[(surf, s)] = res
+            if not res.success:
+                out.errors[(surf, s)] = res.message
+        except CalibrationError as exc:
+            out.errors[(surf, s)] = str(exc)
+        if progress is not None:
+            progress(k, len(jobs), f"subject {s} without {surf}")
+    return out

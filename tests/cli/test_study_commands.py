@@ -1,0 +1,67 @@
+"""The analyze / fit / report commands: thin, one-line errors, tables printed."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from fingerfriction.cli import app
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "report"))
+from report_synthetic import write_synthetic_results  # noqa: E402
+
+runner = CliRunner()
+
+
+def test_analyze_missing_study_is_one_line_error(tmp_path):
+    r = runner.invoke(app, ["analyze", str(tmp_path / "nope"), "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2
+    assert "does not exist" in r.output and "Traceback" not in r.output
+
+
+def test_analyze_bad_window_is_one_line_error(tmp_path):
+    r = runner.invoke(app, ["analyze", str(tmp_path), "--out", str(tmp_path / "out"), "--window-mm", "-3"])
+    assert r.exit_code == 2 and "--window-mm must be in [1, 100] mm" in r.output
+    assert "Traceback" not in r.output
+
+
+@pytest.mark.slow
+def test_fit_and_report_on_a_results_folder(tmp_path):
+    # the forward model's contact, forces of a constant pressure: a variant of that family
+    write_synthetic_results(tmp_path / "r", truth_dir=tmp_path / "study" / "truth", regions="forward")
+    r = runner.invoke(app, ["fit", str(tmp_path / "r")])
+    assert r.exit_code == 0, r.output
+    assert "fit: 16 trials, " in r.output and "model used (chosen by --model auto), mu 0." in r.output
+    assert "(subject 1)" in r.output and "model rejected" not in r.output
+    # Table 1 of the model used, titled with its name, then the comparison with a model column
+    i = r.output.index("Table 1 of the model used")
+    assert i < r.output.index("Which model the data support") and "every model" in r.output
+    r = runner.invoke(app, ["report", str(tmp_path / "r")])
+    assert r.exit_code == 0, r.output
+    assert "Table 1" in r.output and "blind spots" in r.output and "index.html" in r.output
+    assert (tmp_path / "r" / "report" / "index.html").is_file()
+
+
+def test_a_study_no_variant_explains_is_rejected_with_exit_status_1(tmp_path):
+    """Forces unrelated to the surface: every variant fails its bars, the study gets the
+    error 'model rejected', printed with its reason, and fit and report say so."""
+    write_synthetic_results(tmp_path / "r", regions="forward", force_law="unrelated")
+    r = runner.invoke(app, ["fit", str(tmp_path / "r")])
+    assert r.exit_code == 1, r.output
+    assert "error: model rejected: no variant passes the bars (load: " in " ".join(r.output.split())
+    assert "MODEL REJECTED" in r.output and "Traceback" not in r.output
+    r = runner.invoke(app, ["report", str(tmp_path / "r")])
+    assert r.exit_code == 0, r.output  # the report was written; the error is the fit's
+    assert "error: model rejected" in r.output
+    html = (tmp_path / "r" / "report" / "index.html").read_text()
+    assert html.index('id="model-rejected"') < html.index("<h2>Summary</h2>")
+
+
+def test_fit_on_a_folder_that_is_not_a_results_folder(tmp_path):
+    r = runner.invoke(app, ["fit", str(tmp_path)])
+    assert r.exit_code == 2 and "not a results folder" in r.output
+    r = runner.invoke(app, ["report", str(tmp_path)])
+    assert r.exit_code == 2 and "not a results folder" in r.output
