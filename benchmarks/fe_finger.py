@@ -17,7 +17,9 @@ Sections (each prints measured figures; nothing is asserted):
    worker processes from an empty cache, then again from the cache.
 
 Run: ``PYTHONPATH=src python benchmarks/fe_finger.py`` (about half an hour on 2 cores;
-``--quick`` runs coarser meshes). Outputs (the cache) go to ``benchmarks/out/fe``.
+``--only SECTION`` runs one section, ``--workers 1`` the tables in this process;
+``--quick`` runs coarser meshes; ``$FINGERFRICTION_FE_MESH`` sets the mesh of sections 3-4).
+Outputs (the cache) go to ``benchmarks/out/fe``.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from fingerfriction.mechanics.fe import (
     FEMeshParams,
     FEProvider,
 )
+from fingerfriction.mechanics.fe.provider import default_mesh
 from fingerfriction.mechanics.hertz import hertz_half_width, hertz_peak_pressure
 from fingerfriction.model.blindspots import blind_spots
 from fingerfriction.regions import regions_from_mask
@@ -180,17 +183,26 @@ def _one_table(args):
     prov = FEProvider(mesh=mesh, cache_dir=cache)
     t = time.process_time()
     tab = build_table(get_surface(name), "1", loads=(load,), step=0.1, provider=prov)
+    print(f"   table {name} {load} N: {time.process_time() - t:.1f} s CPU, {tab.positions.size} positions, "
+          f"{prov.failures} not converged", flush=True)
     return name, load, tab, time.process_time() - t, prov.failures
 
 
-def blind_spots_and_cost(quick: bool) -> None:
-    mesh = FEMeshParams(surface_cell=0.2) if quick else FEMeshParams()
+def _map(jobs, workers):
+    if workers == 1:
+        return [_one_table(j) for j in jobs]
+    with ProcessPoolExecutor(workers) as ex:
+        return list(ex.map(_one_table, jobs))
+
+
+def blind_spots_and_cost(quick: bool, workers: int = 2, loads=LOADS, surfaces=SURFACE_NAMES) -> None:
+    mesh = FEMeshParams(surface_cell=0.2) if quick else default_mesh()
+    print(f"   mesh: {mesh}")
     cache = OUT / "cache"
     shutil.rmtree(cache, ignore_errors=True)
-    jobs = [(n, f, mesh, cache) for n in SURFACE_NAMES for f in LOADS]
+    jobs = [(n, f, mesh, cache) for n in surfaces for f in loads]
     t = time.perf_counter()
-    with ProcessPoolExecutor(2) as ex:
-        out = list(ex.map(_one_table, jobs))
+    out = _map(jobs, workers)
     wall = time.perf_counter() - t
     cpu = sum(o[3] for o in out)
     fails = sum(o[4] for o in out)
@@ -203,20 +215,36 @@ def blind_spots_and_cost(quick: bool) -> None:
         surf = get_surface(name)
         mech, geo = _table_regions(tab, surf)
         print(f"   {name:14s} {_bs(geo):>22s} {_bs(mech):>22s} {PAPER.get(name, '-'):>13s}")
-    print("4. Cost of the contact tables of one finger (6 surfaces x 3 loads, 0.1 mm steps, 2 workers)")
+    print(f"4. Cost of the contact tables of one finger ({len(surfaces)} surfaces x {len(loads)} loads, "
+          f"0.1 mm steps, {workers} worker(s))")
+    for name, load, _, cpu_one, bad in out:
+        print(f"   {name:14s} {load:.2f} N: {cpu_one:6.1f} s CPU" + (f", {bad} not converged" if bad else ""))
     print(f"   from an empty cache: {wall / 60:.1f} min wall, {cpu / 60:.1f} min CPU in the workers "
           f"({fails} positions did not converge)")
-    t = time.perf_counter()
-    with ProcessPoolExecutor(2) as ex:
-        list(ex.map(_one_table, jobs))
-    print(f"   again, from the cache: {time.perf_counter() - t:.1f} s wall")
+    t, c = time.perf_counter(), time.process_time()
+    _map(jobs, workers)
+    print(f"   again, from the cache: {time.perf_counter() - t:.1f} s wall"
+          + (f", {time.process_time() - c:.1f} s CPU" if workers == 1 else ""))
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="coarser meshes (minutes)")
     ap.add_argument("--only", choices=("verify", "friction", "blindspots"), default=None)
+    ap.add_argument("--workers", type=int, default=2, help="processes for the tables of sections 3-4 "
+                    "(1: in this process; the CPU figure does not depend on it)")
+    ap.add_argument("--loads", default=",".join(map(str, LOADS)),
+                    help="normal loads in N of the tables of sections 3-4 (comma list; 0.3: the blind spots)")
+    ap.add_argument("--surfaces", default=",".join(SURFACE_NAMES),
+                    help="surfaces of sections 3-4 (comma list)")
     args = ap.parse_args()
+    loads = tuple(float(v) for v in args.loads.split(","))
+    surfaces = tuple(args.surfaces.split(","))
+    for n in surfaces:
+        if n not in SURFACE_NAMES:
+            ap.error(f"--surfaces: unknown surface {n!r}; known: {', '.join(SURFACE_NAMES)}")
+    if args.workers < 1:
+        ap.error(f"--workers must be >= 1, got {args.workers}")
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     OUT.mkdir(parents=True, exist_ok=True)
     if args.only in (None, "verify"):
@@ -224,7 +252,7 @@ def main() -> None:
     if args.only in (None, "friction"):
         friction(args.quick)
     if args.only in (None, "blindspots"):
-        blind_spots_and_cost(args.quick)
+        blind_spots_and_cost(args.quick, args.workers, loads, surfaces)
     print(f"   (peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB)")
 
 

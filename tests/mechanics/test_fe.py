@@ -6,6 +6,7 @@ Coarse meshes throughout; the converged figures are printed by benchmarks/fe_fin
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -209,6 +210,27 @@ def test_provider_flat_positions_are_translated_solutions(tmp_path):
     assert np.allclose(y[2], y[0] + surf.height, atol=1e-9)
 
 
+@pytest.mark.slow  # six coarse solves, ~4 s: the traction the FE studies carry
+def test_friction_shifts_the_patch_against_the_motion_on_any_path():
+    s = FEContactSolver(LITERATURE_FINGER, COARSE)
+    free, _ = s.solve(_flat, 0.0, load=0.3)
+    fr, _ = s.solve(_flat, 0.0, load=0.3, friction=0.55)
+    c0, c1 = (float(np.trapezoid(o.outline_pressure * o.outline_x, o.outline_x)
+                    / np.trapezoid(o.outline_pressure, o.outline_x)) for o in (free, fr))
+    assert abs(c0) < 0.01 and c1 < -0.1  # the finger moves to +x: the patch trails
+    assert free.success and fr.success
+    # a warm-started sliding sweep reaches the cold solve's state (one fixed point)
+    surf = RaisedCosine("bump", 4.0, height=0.2)
+    st = None
+    for xc in (-3.6, -3.3, -3.0):
+        warm, st = s.solve(surf, xc, load=0.3, warm=st, friction=0.55)
+    cold, _ = s.solve(surf, -3.0, load=0.3, friction=0.55)
+    assert warm.success and cold.success
+    assert np.allclose(warm.outline_y, cold.outline_y, atol=1e-5) and abs(warm.z - cold.z) < 1e-5
+    with pytest.raises(ValueError, match="friction must be a coefficient >= 0, got -0.1"):
+        s.solve(surf, 0.0, friction=-0.1)
+
+
 @pytest.mark.parametrize(("kw", "match"), [
     ({"radius": -1.0}, r"FEFingerParams.radius must be a finite positive number in mm, got -1.0"),
     ({"tissue_modulus": float("nan")}, r"tissue_modulus must be a finite positive number in MPa"),
@@ -258,3 +280,28 @@ def test_fe_finger_files_round_trip_and_one_line_errors(tmp_path):
     # an FE file where a half-space finger is needed
     with pytest.raises(ValueError, match="holds an FE finger"):
         read_finger_file(p)
+
+
+@pytest.mark.slow  # a coarse FE sweep of 11 positions, ~6 s
+def test_the_fe_finger_as_the_forward_model(tmp_path, monkeypatch):
+    from fingerfriction.mechanics.finger_file import read_finger_file, write_finger_file
+    from fingerfriction.predict.forward import FE_FORWARD_STEP, finger_for_label, forward_regions
+
+    monkeypatch.setenv("FINGERFRICTION_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("FINGERFRICTION_FE_MESH", json.dumps(COARSE.to_dict()))
+    surf = get_surface("bump-4mm")
+    x = np.arange(-6.0, -4.99, 0.05)  # finer than the FE step: nearest solved position
+    geo = forward_regions(surf, LITERATURE_FINGER, x, load=0.3)
+    mech = forward_regions(surf, LITERATURE_FINGER, x, load=0.3, contact="mechanical")
+    assert geo.shape[0] == x.size and FE_FORWARD_STEP == 0.1
+    assert np.array_equal(geo[0], geo[1], equal_nan=True)  # -6.0 and -5.95 share the -6.0 solve
+    w_geo = np.nansum(geo[..., 1] - geo[..., 0], axis=1)
+    w_mech = np.nansum(mech[..., 1] - mech[..., 0], axis=1)
+    assert np.all(w_geo > 6.0) and np.all(w_mech > 4.0) and np.all(w_geo > w_mech)  # 70 um is wider
+    assert len(list((tmp_path / "cache" / "fe").glob("*.npz"))) == 1  # one cached sweep, reused
+    forward_regions(surf, LITERATURE_FINGER, x, load=0.3)
+    assert len(list((tmp_path / "cache" / "fe").glob("*.npz"))) == 1
+    # an FE finger file is a subject's forward-model finger (validate --finger 1=fe.json)
+    path = write_finger_file(tmp_path / "fe.json", LITERATURE_FINGER)
+    f = read_finger_file(path, model="any")
+    assert f == LITERATURE_FINGER and finger_for_label("1", {"1": f}) == f

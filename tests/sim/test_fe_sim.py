@@ -42,6 +42,26 @@ def test_fe_options_provider_and_table_step():
         SimOptions(contact_model="fe", fingers={"1": {"radius": 8.0, "modulus": 0.1, "width": 10.0}})
 
 
+def test_fe_studies_carry_each_subjects_sliding_friction():
+    from fingerfriction.sim.physics import SUBJECT_FORCE_LAWS
+    from fingerfriction.surfaces import get_surface
+
+    p = SimOptions(contact_model="fe").provider()
+    surf, xs = get_surface("bump-2mm"), np.arange(-3.0, 3.0, 0.1)
+    for s in ("1", "2"):
+        assert p.mu(s) == SUBJECT_FORCE_LAWS[s].mu > 0 and p.finger_dict(s)["friction"] == p.mu(s)
+    # the traction is part of the cache key: a frictionless table is another entry
+    free = FEProvider(cache_dir=False)
+    assert free.mu("1") == 0.0 and free.cache_key(surf, "1", xs, 0.3) != p.cache_key(surf, "1", xs, 0.3)
+    assert FEProvider(friction={"1": 0.55}).mu("2") == 0.0
+    for bad in (-0.1, float("nan"), True, {"1": 9.0}):
+        with pytest.raises(ValueError, match="friction of subject"):
+            FEProvider(friction=bad)
+    # a truth finger (with its "friction" entry) reads back as a finger
+    got = study_fingers({"1": p.finger_dict("1")}, None, ("1",), "fe")
+    assert got["1"] == p.fingers["1"]
+
+
 def test_a_bad_fe_mesh_setting_is_a_one_line_error(monkeypatch):
     monkeypatch.setenv("FINGERFRICTION_FE_MESH", '{"surface_cel": 0.4}')
     with pytest.raises(ValueError, match="FINGERFRICTION_FE_MESH=.* is not a valid FE mesh"):

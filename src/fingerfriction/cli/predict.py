@@ -188,7 +188,8 @@ def validate_cmd(
                                callback=STEP_MM),
     finger: Annotated[
         list[str] | None,
-        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger); repeat."),
+        typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger, or an "
+                     "FE finger file: the layered FE finger as the forward model; use --step 0.1); repeat."),
     ] = None,
     calibrated: bool = typer.Option(False, "--calibrated-fingers", help="Also predict each held-out surface "
                                     "with each subject's finger calibrated on the other surfaces (slow)."),
@@ -198,7 +199,7 @@ def validate_cmd(
     from ..pipeline.finger_calibration import calibrate_held_out  # heavy (numba); likewise
     from ..pipeline.validation import validate_results  # heavy (the forward model); likewise
 
-    fingers = read_fingers(items=finger)
+    fingers = read_fingers(items=finger, model="any")  # half-space or FE finger files
     try:
         held = None
         if calibrated:

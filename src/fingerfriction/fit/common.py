@@ -155,6 +155,10 @@ class Trial:
     normal_abs : (n,) ndarray, optional
         Normal force ``F_N`` in N on the absolute footing; given together with
         ``force_abs``.
+    clipped : (n,) bool ndarray, optional
+        Positions whose contact the camera's field cut (a region ends at the edge of the
+        frame, ``frames.parquet`` ``clipped``): the regions there are shorter than the
+        contact that makes the force. None: none known.
 
     Raises
     ------
@@ -172,6 +176,7 @@ class Trial:
     labels: Mapping[str, str] = field(default_factory=dict)
     force_abs: np.ndarray | None = None
     normal_abs: np.ndarray | None = None
+    clipped: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         x = np.asarray(self.x, dtype=float)
@@ -226,6 +231,12 @@ class Trial:
                     f"Trial.{name} has a non-finite value {float(v[i])!r} at index {i} (x={x[i]:g} mm)"
                 )
             object.__setattr__(self, name, v)
+        if self.clipped is not None:
+            c = np.asarray(self.clipped)
+            if c.shape != x.shape or c.dtype != bool:
+                raise ValueError(f"Trial.clipped must be a bool array with one value per position, got "
+                                 f"dtype {c.dtype} and shape {c.shape} for {x.size} positions")
+            object.__setattr__(self, "clipped", c)
         object.__setattr__(self, "x", x)
         object.__setattr__(self, "force", f)
         object.__setattr__(self, "regions", r)
@@ -369,8 +380,9 @@ def _check_kernel(kernel) -> int:
 
 
 #: Levels of a fit's flags: ``'error'`` (the result must not be used: a failed or
-#: unphysical fit) and ``'warning'`` (usable, with a caveat).
-FLAG_LEVELS = ("error", "warning")
+#: unphysical fit), ``'warning'`` (usable, with a caveat) and ``'info'`` (what the fit did
+#: that a reader should know, e.g. a parameter held at its physical limit).
+FLAG_LEVELS = ("error", "warning", "info")
 
 #: The fit's flags are the package's one flag type (:class:`fingerfriction.flags.Flag`).
 FitFlag = Flag

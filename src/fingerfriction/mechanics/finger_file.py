@@ -166,7 +166,8 @@ def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
     if d.get("model") != "fe":
         raise ValueError(f"{where}: not an FE finger (expected \"model\": \"fe\", got "
                          f"{d.get('model', 'none')!r}); the FE finger model needs FE finger files")
-    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items() if k not in ("model", "mesh")}
+    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items()
+         if k not in ("model", "mesh", "friction")}  # a study truth's provider entries
     try:
         return FEFingerParams.from_dict(d)
     except (TypeError, ValueError) as exc:
@@ -175,7 +176,8 @@ def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
 
 def read_finger_file(path: str | os.PathLike, model: str = "halfspace"):
     """Read a finger JSON file (either form of the module notes) of the given ``model``
-    (``'halfspace'``: a :class:`FingerParams`; ``'fe'``: an :class:`FEFingerParams`).
+    (``'halfspace'``: a :class:`FingerParams`; ``'fe'``: an :class:`FEFingerParams`;
+    ``'any'``: the file's own model).
 
     Raises
     ------
@@ -190,6 +192,8 @@ def read_finger_file(path: str | os.PathLike, model: str = "halfspace"):
         raise ValueError(f"cannot read finger file {str(p)!r}: {exc.strerror or exc}") from None
     where = f"finger file {str(p)!r}"
     d = parse_json(text, where)
+    if model == "any":
+        model = finger_model(d)
     return fe_finger_from_mapping(d, where) if model == "fe" else finger_from_mapping(d, where)
 
 

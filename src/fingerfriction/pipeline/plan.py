@@ -225,7 +225,7 @@ def plan_analysis(study: str | os.PathLike, out: str | os.PathLike, *, params: A
 
     ``quick_resume=True`` (``analyze --quick-resume``) trusts an input whose fingerprint
     (size, modification and status-change times, inode:
-    :func:`~fingerfriction.study.store.input_fingerprint`) is the one recorded, instead of
+    :func:`~fingerfriction.study.digests.input_fingerprint`) is the one recorded, instead of
     hashing it; any write changes the status-change time, so an edit is still seen on
     local file systems, but not on one that does not keep that time. Hashing costs about
     1.5 s per GB of inputs (``benchmarks/integrity.py``).

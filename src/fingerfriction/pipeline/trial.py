@@ -158,7 +158,7 @@ class TrialResult:
     ----------
     trial_id : str
     frames : pandas.DataFrame
-        Per-frame table (:func:`fingerfriction.study.store.frames_table`).
+        Per-frame table (:func:`fingerfriction.study.tables.frames_table`).
     forces : pandas.DataFrame
         Per-position table: ``x_mm``, ``F_T_N``, ``F_N_N`` (paper's footing), ``F_T_abs_N``,
         ``F_N_abs_N`` (absolute footing, NaN when unavailable), ``n_samples``.

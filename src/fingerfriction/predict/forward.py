@@ -12,7 +12,8 @@ import math
 import numpy as np
 
 from ..mechanics import GEOMETRIC_TOL, SUBJECTS, FingerParams, sweep
-from ..regions import as_regions, region_lengths
+from ..mechanics.fe import FEFingerParams, FEProvider  # scikit-fem only when an FE solver is built
+from ..regions import as_regions, region_lengths, regions_from_mask
 from ..surfaces import SampledProfile, Surface
 
 __all__ = [
@@ -132,8 +133,8 @@ def sweep_window(surface: Surface) -> tuple[float, float]:
 
 
 def resolve_finger(subject):
-    """``(label, FingerParams)`` for a subject number or a FingerParams."""
-    if isinstance(subject, FingerParams):
+    """``(label, finger)`` for a subject number, a FingerParams or an FEFingerParams."""
+    if isinstance(subject, (FingerParams, FEFingerParams)):
         return (subject.name or "custom"), subject
     try:
         key = int(subject)
@@ -154,8 +155,10 @@ def forward_regions(surface: Surface, finger, positions, *, load: float = DEFAUL
     ----------
     surface : Surface
         The relief.
-    finger : FingerParams
-        The finger (:mod:`fingerfriction.mechanics`).
+    finger : FingerParams or FEFingerParams
+        The finger: the half-space finger (:mod:`fingerfriction.mechanics`) or the layered
+        finite-element finger (:mod:`fingerfriction.mechanics.fe`; frictionless, solved every
+        :data:`FE_FORWARD_STEP` mm, cached on disk, see ``docs/mechanics-fe.md``).
     positions : (n,) array_like
         Finger-centre positions in mm, increasing (the sweep warm-starts each from the
         previous one).
@@ -177,8 +180,44 @@ def forward_regions(surface: Surface, finger, positions, *, load: float = DEFAUL
     """
     if contact not in ("geometric", "mechanical"):
         raise ValueError(f"contact must be 'geometric' or 'mechanical', got {contact!r}")
+    if isinstance(finger, FEFingerParams):
+        return _fe_regions(surface, finger, np.asarray(positions, dtype=float), load, contact)
     res = sweep(surface, finger, np.asarray(positions, dtype=float), load=load)
     return _sweep_regions(res, contact)
+
+
+#: Finger step (mm) at which an FE finger is solved: finer requested positions take the
+#: regions of the nearest solved one (0.4 s or more a position at the default mesh).
+FE_FORWARD_STEP = 0.1
+
+
+def _fe_regions(surface: Surface, finger, x: np.ndarray, load: float, contact: str) -> np.ndarray:
+    """Regions of the layered FE finger (:class:`fingerfriction.mechanics.fe.FEProvider`,
+    frictionless, its tables cached on disk) at positions ``x``: solved every
+    :data:`FE_FORWARD_STEP` mm over the span of ``x`` (an FE sweep is warm-started), each
+    position taking the nearest solved one's regions."""
+    if x.ndim != 1 or x.size == 0 or not np.all(np.isfinite(x)):
+        raise ValueError("positions must be a non-empty 1-D array of finite finger positions in mm")
+    lo, hi = float(x.min()), float(x.max())
+    xs = lo + FE_FORWARD_STEP * np.arange(int(math.ceil((hi - lo) / FE_FORWARD_STEP - 1e-9)) + 1)
+    prov = FEProvider(fingers={"fe": finger})
+    y, p = prov.solve(surface, "fe", xs, float(load))
+    if prov.failures:
+        raise RuntimeError(f"the FE contact solver failed at {prov.failures} of {xs.size} finger positions "
+                           f"on {getattr(surface, 'name', 'the surface')}; no prediction is made from a "
+                           "partly failed sweep")
+    xi = prov.grid("fe")
+    rows = []
+    for i, xc in enumerate(xs):
+        xg = xc + xi
+        m = (y[i] - np.asarray(surface.h(xg), float) <= GEOM_TOL_MM) if contact == "geometric" else p[i] > 0
+        rows.append(regions_from_mask(xg, m)[0] if m.any() else np.full((1, 2), np.nan))
+    k = max(r.shape[0] for r in rows)
+    solved = np.full((xs.size, k, 2), np.nan)
+    for i, r in enumerate(rows):
+        solved[i, : r.shape[0]] = r
+    idx = np.clip(np.rint((x - lo) / FE_FORWARD_STEP).astype(int), 0, xs.size - 1)
+    return as_regions(solved[idx], name=f"{contact} regions")
 
 
 def _sweep_regions(res, contact: str) -> np.ndarray:
@@ -239,7 +278,7 @@ def finger_for_label(label: str, fingers):
         if label not in fingers:
             raise ValueError(f"no finger given for subject {label!r}; fingers has {sorted(fingers)}")
         f = fingers[label]
-        return f if isinstance(f, FingerParams) else resolve_finger(f)[1]
+        return f if isinstance(f, (FingerParams, FEFingerParams)) else resolve_finger(f)[1]
     digits = "".join(c for c in str(label) if c.isdigit())
     if digits and int(digits) in SUBJECTS:
         return SUBJECTS[int(digits)]

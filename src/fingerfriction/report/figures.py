@@ -474,9 +474,15 @@ def figS1_lengths(data: ReportData) -> Figure:
 
 def figS3_components(data: ReportData) -> Figure:
     """Fig. S3: model F_int (Eq. 2) and F_def (Eq. 3), mean +- 1 SD over all trials, for
-    each model variant side by side (a column per model, the fit's default first)."""
-    default = (data.fit or {}).get("model", "paper")
-    models = [default] + [m for m in ("load", "paper") if m != default]
+    the model variant the fit used and, beside it, each variant it fitted only to compare
+    with the paper (not selectable: the paper's Eq. 4 as printed)."""
+    fit = data.fit or {}
+    default = fit.get("model", "paper")
+    recorded = fit.get("models") or {}
+    models = [default] + [m for m, rec in recorded.items()
+                          if m != default and isinstance(rec, dict) and rec.get("selectable") is False]
+    if not any("selectable" in (rec or {}) for rec in recorded.values()):  # a fit of the two variants
+        models = [default] + [m for m in recorded if m != default]
     models = [m for m in models
               if any(t.model is not None and f"{m}_F_int_N" in t.model for t in data.trials)]
     if not models:  # a fit written before the two variants: its own columns
@@ -500,7 +506,7 @@ def figS3_components(data: ReportData) -> Figure:
                     drawn = True
                 if not drawn:
                     _empty(ax)
-                what = "" if m is None else (" - load-consistent" if m == "load" else " - paper's Eq. 4")
+                what = "" if m is None else f" - {(recorded.get(m) or {}).get('title') or m}"
                 ax.set_title(f"{_label(data, name)}{what}" + (" (default)" if m == default and len(models) > 1
                                                             else ""))
                 if j == 0:

@@ -26,7 +26,7 @@ biases the offset.
 
 The ratio of the clock rates is not fitted here: over the 0.1 s of the start it is not
 determined. The force clock is read against the mains instead (:mod:`.clock`), the video
-clock against its frames' time stamps (:func:`fingerfriction.video.readers.frame_rate`).
+clock against its frames' time stamps (:func:`fingerfriction.video.reader_base.frame_rate`).
 """
 
 from __future__ import annotations

@@ -329,12 +329,14 @@ def default_provider():
     return MechanicsProvider()
 
 
-def get_provider(name: str, *, fingers: dict | None = None):
+def get_provider(name: str, *, fingers: dict | None = None, friction: dict | None = None):
     """A contact provider by name: ``'mechanics-bem'``, ``'bridged-foundation'`` or ``'fe'``
     (the layered finite-element finger, :class:`fingerfriction.mechanics.fe.FEProvider`).
 
     ``fingers`` (subject label -> the model's finger parameters) overrides the provider's
     default fingers (``mechanics-bem``: ``FingerParams``; ``fe``: ``FEFingerParams``).
+    ``friction`` (subject label -> sliding friction coefficient) is the FE finger's contact
+    traction; the half-space providers are frictionless and ignore it.
     """
     if name == MechanicsProvider.name:
         return MechanicsProvider(fingers=fingers)
@@ -343,7 +345,7 @@ def get_provider(name: str, *, fingers: dict | None = None):
             raise ValueError("the bridged-foundation contact model takes no finger files")
         return BridgedFoundation()
     if name == FEProvider.name:
-        return FEProvider(fingers=fingers)
+        return FEProvider(fingers=fingers, friction=friction or 0.0)
     raise ValueError(
         f"unknown contact model {name!r}; known: {MechanicsProvider.name}, {BridgedFoundation.name}, fe"
     )

@@ -178,9 +178,13 @@ class SimOptions:
         return surface_from_spec(spec)
 
     def provider(self, subjects=None):
-        """The contact provider, with this study's fingers (:mod:`~fingerfriction.sim.fingers`)."""
-        fingers = study_fingers(self.fingers, self.finger_seed, subjects or self.subjects, self.contact_model)
-        return get_provider(self.contact_model, fingers=fingers)
+        """The contact provider, with this study's fingers (:mod:`~fingerfriction.sim.fingers`);
+        the FE finger's contact carries each subject's sliding friction (its force law's
+        ``mu``: the traction shifts the patch against the motion, ``docs/mechanics-fe.md``)."""
+        subjects = subjects or self.subjects
+        fingers = study_fingers(self.fingers, self.finger_seed, subjects, self.contact_model)
+        friction = {s: SUBJECT_FORCE_LAWS[s].mu for s in subjects if s in SUBJECT_FORCE_LAWS}
+        return get_provider(self.contact_model, fingers=fingers, friction=friction)
 
     def trial_specs(self) -> list[TrialSpec]:
         """The design in a fixed order: subject, surface, speed, repetition."""

@@ -12,7 +12,7 @@ Two kinds of problem, each one line naming the file and the field
   channel that is not in the file, another sample count or sampling rate, a time column
   that is not uniform. Fields the manifest leaves to the files are read from them here.
   A video's frame rate is its frames' time stamps' when it has them, its header's setting
-  otherwise (:func:`~fingerfriction.video.readers.frame_rate`, the rule ``init`` uses).
+  otherwise (:func:`~fingerfriction.video.reader_base.frame_rate`, the rule ``init`` uses).
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ class InitOptions:
         Video frame rate in Hz for files that do not state it (TIFF); for a file that
         states one, a confirmation: a file whose rate (its frames' time stamps when it has
         them, else its header's setting) differs by more than
-        :data:`~fingerfriction.video.readers.FPS_TOLERANCE` is a problem.
+        :data:`~fingerfriction.video.reader_base.FPS_TOLERANCE` is a problem.
     video_t0_s : float
         Time in s of frame 0 on the trial's common clock (the clock offset).
     calibration_frame : int
@@ -208,7 +208,7 @@ def _height(options: InitOptions, surface: str, default: float) -> float:
 
 def _read_video(root: Path, rel: str, options: InitOptions, notes: list) -> dict:
     """The manifest's ``video`` entry of one file; the frame rate by the readers' rule
-    (:func:`~fingerfriction.video.readers.frame_rate`: time stamps first), ``--fps`` being
+    (:func:`~fingerfriction.video.reader_base.frame_rate`: time stamps first), ``--fps`` being
     the rate of a file that states none or a confirmation of the one it states."""
     info = probe_video(root / rel)
     fps = info.fps

@@ -444,10 +444,12 @@ class ResultsStore:
             fn_abs = fo["F_N_abs_N"].to_numpy(float)[good]
             if np.all(np.isfinite(ft_abs)) and np.all(np.isfinite(fn_abs)):
                 absolute = {"force_abs": ft_abs, "normal_abs": fn_abs}
+        clipped = _clipped_on_grid(fr, x)
         trial = Trial(x=x[good], force=F[good], regions=reg[good], surface=surf,
                       subject=str(entry["subject"]),
                       labels={"trial": tid, "surface": entry["surface"],
-                              "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute)
+                              "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute,
+                      clipped=None if clipped is None else clipped[good])
         return trial, moved[good]
 
     # the analysis a fit used ----------------------------------------------------------
@@ -570,6 +572,23 @@ class ResultsStore:
         """``fit/loso.csv`` (subjects as text), or None when the fit did not validate."""
         p = self.loso_path
         return pd.read_csv(p, dtype={"subject": str}) if p.is_file() else None
+
+
+def _clipped_on_grid(frames: pd.DataFrame, x: np.ndarray) -> np.ndarray | None:
+    """The frames' ``clipped`` flag at each grid position: that of the tracked frame whose
+    x(t) is nearest, as :func:`~fingerfriction.regions.regions_on_grid` takes its regions
+    (None when the frames have no such column or fewer than two tracked frames)."""
+    if "clipped" not in frames.columns:
+        return None
+    xf = frames["x_mm"].to_numpy(float)
+    ok = np.isfinite(xf)
+    if ok.sum() < 2:
+        return None
+    order = np.argsort(xf[ok], kind="stable")
+    xs, cl = xf[ok][order], frames["clipped"].to_numpy(bool)[ok][order]
+    j = np.clip(np.searchsorted(xs, x), 1, xs.size - 1)
+    nearest = np.where(np.abs(x - xs[j - 1]) <= np.abs(xs[j] - x), j - 1, j)
+    return cl[nearest]
 
 
 def read_fit_table(fit_dir: str | os.PathLike) -> pd.DataFrame:

@@ -95,9 +95,12 @@ class FEProvider:
     cache_dir : path-like or None, optional
         Where solved sweeps are kept (default :func:`default_cache_dir`); ``False`` for no
         cache.
-    friction : float
-        Sliding friction coefficient of a tangential traction on the contact (default 0:
-        frictionless; ``benchmarks/fe_finger.py`` measures what it changes).
+    friction : float or dict, optional
+        Sliding friction coefficient of a tangential traction ``mu p`` on the contact,
+        opposing the finger's motion towards ``+x``: one for every subject, or a dict
+        subject label -> coefficient (default 0: frictionless). It shifts the contact patch
+        against the motion (``docs/mechanics-fe.md``); simulated studies pass each subject's
+        coefficient (:attr:`fingerfriction.sim.options.SimOptions.provider`).
     """
 
     name = "fe"
@@ -112,9 +115,12 @@ class FEProvider:
         if not (isinstance(grid_step, (int, float)) and math.isfinite(grid_step) and grid_step > 0):
             raise ValueError(f"grid_step must be a positive length in mm, got {grid_step!r}")
         self.grid_step = float(grid_step)
-        if not (isinstance(friction, (int, float)) and math.isfinite(friction) and friction >= 0):
-            raise ValueError(f"friction must be a coefficient >= 0, got {friction!r}")
-        self.friction = float(friction)
+        mus = friction if isinstance(friction, dict) else dict.fromkeys(self.fingers, friction)
+        for k, mu in mus.items():
+            ok = isinstance(mu, (int, float)) and not isinstance(mu, bool) and math.isfinite(mu)
+            if not (ok and 0 <= mu <= 5):
+                raise ValueError(f"friction of subject {k!r} must be a coefficient in [0, 5], got {mu!r}")
+        self.friction = {str(k): float(v) for k, v in mus.items()}
         self.cache_dir = None if cache_dir is False else Path(cache_dir or default_cache_dir())
         self.failures = 0
         self.computed = 0  # sweeps solved (not read from the cache), for tests and benchmarks
@@ -126,8 +132,14 @@ class FEProvider:
         except KeyError:
             raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
 
+    def mu(self, subject: str) -> float:
+        """The friction coefficient of the subject's contact traction (0: frictionless)."""
+        self._finger(subject)
+        return self.friction.get(str(subject), 0.0)
+
     def finger_dict(self, subject: str) -> dict:
-        return {"model": self.name, "mesh": self.mesh.to_dict(), **self._finger(subject).to_dict()}
+        return {"model": self.name, "mesh": self.mesh.to_dict(), "friction": self.mu(subject),
+                **self._finger(subject).to_dict()}
 
     def grid(self, subject: str) -> np.ndarray:
         f = self._finger(subject)
@@ -145,7 +157,7 @@ class FEProvider:
         xc = np.asarray(x_centres, float)
         return params_key("fe-table", CACHE_VERSION, self._finger(subject).to_dict(), self.mesh.to_dict(),
                           surface_key(surface), np.round(xc, 9).tolist(), round(float(load), 12),
-                          self.grid_step, self.friction)
+                          self.grid_step, self.mu(subject))
 
     def reach(self, subject: str, surface) -> float:
         """Offset (mm) from the finger centre beyond which the relief cannot touch: where the
@@ -199,7 +211,7 @@ class FEProvider:
         def flat_state(level):
             if level not in states:
                 sol, st = s.solve(lambda x: np.full_like(np.asarray(x, float), level), 0.0, load=load,
-                                  friction=self.friction)
+                                  friction=self.mu(subject))
                 if not sol.success:
                     self.failures += 1
                     log.warning("FE flat-ground solve did not converge (%s)", sol.message)
@@ -221,7 +233,7 @@ class FEProvider:
             state = FEState(u=st.u, z=st.z, x_c=x0 - step, P=st.P)
             bad = 0
             for i in order:
-                sol, new = s.solve(surface, xc[i], load=load, warm=state, friction=self.friction)
+                sol, new = s.solve(surface, xc[i], load=load, warm=state, friction=self.mu(subject))
                 if sol.success:
                     state = new
                 else:

@@ -519,6 +519,8 @@ class FEContactSolver:
         x_c = float(x_finger)
         if not math.isfinite(x_c):
             raise ValueError(f"x_finger must be a finite position in mm, got {x_finger!r}")
+        if not (math.isfinite(friction) and friction >= 0):
+            raise ValueError(f"friction must be a coefficient >= 0, got {friction!r}")
         hf = _surface_funcs(surface)
         P = F / self.finger.width
         total_it = 0
@@ -532,41 +534,61 @@ class FEContactSolver:
                 if not ok:
                     break
         else:
-            u, z, total_it, res, ok, msg = self._warm(warm, x_c, P, hf, tol, max_iter, depth=0)
-        if ok and friction:
-            if not (math.isfinite(friction) and friction > 0):
-                raise ValueError(f"friction must be a coefficient >= 0, got {friction!r}")
-            for _ in range(30):
-                f_ext = self._friction_force(u, z, x_c, hf, float(friction))
-                u0 = u
-                u, z, it, res, ok, msg = self._newton(u, z, x_c, P, hf, tol, max_iter, f_ext=f_ext)
+            f_ext = None
+            if friction and warm.x_c is not None:
+                # the previous position's traction: the move starts sheared, as the finger is
+                f_ext = self._friction_force(warm.u, warm.z, warm.x_c, hf, float(friction))
+            u, z, total_it, res, ok, msg = self._warm(warm, x_c, P, hf, tol, max_iter, depth=0, f_ext=f_ext)
+            if not ok and f_ext is not None:  # the move without traction, then the fixed point
+                u, z, it, res, ok, msg = self._warm(warm, x_c, P, hf, tol, max_iter, depth=0)
                 total_it += it
-                change = np.max(np.abs(self._friction_force(u, z, x_c, hf, float(friction)) - f_ext))
-                if not ok or (change < 1e-6 * P and np.max(np.abs(u - u0)) < 1e-6):
+        # a cold start ramps the traction too (a full one at once can stall Newton on a slope)
+        levels = friction * np.arange(1, ramp + 1) / ramp if warm is None else (friction,)
+        # each step is in equilibrium with the traction of the previous one; when a step's
+        # Newton fails (the active set cycles under the dead traction), the last converged
+        # state is kept: in equilibrium with a traction one fixed-point step old
+        for mu in levels if friction else ():
+            for _ in range(30):
+                if not ok:
+                    break
+                f_ext = self._friction_force(u, z, x_c, hf, float(mu))
+                u0, z0, res0 = u, z, res
+                u, z, it, res, ok1, msg1 = self._newton(u, z, x_c, P, hf, tol, max_iter, f_ext=f_ext)
+                total_it += it
+                if not ok1:
+                    log.debug("friction fixed point at x = %.4g mm: %s; keeping the last state", x_c, msg1)
+                    u, z, res = u0, z0, res0
+                    msg += "; friction fixed point stopped early (a traction step did not converge)"
+                    break
+                msg = msg1
+                change = np.max(np.abs(self._friction_force(u, z, x_c, hf, float(mu)) - f_ext))
+                if change < 1e-6 * P and np.max(np.abs(u - u0)) < 1e-6:
                     break
         sol = self._solution(u, z, x_c, F, P, hf, total_it, res, ok, msg)
         return sol, FEState(u=u, z=z, x_c=x_c, P=P)
 
-    def _warm(self, warm: FEState, x_c, P, hf, tol, max_iter, depth):
+    def _warm(self, warm: FEState, x_c, P, hf, tol, max_iter, depth, f_ext=None):
         """From a neighbouring state: first at the start's height (the outline adapts to
         the moved relief) when the move pushes it into the relief, then at the load; on
-        failure, the move is split in two."""
+        failure, the move is split in two. ``f_ext``: nodal forces held fixed (the
+        neighbour's friction traction)."""
         u, z = warm.u.copy(), float(warm.z)
         it1, ok, res, msg = 0, True, math.inf, ""
         if -self._gap_min(u, z, x_c, hf) > self.pin_above:
-            u, z, it1, res, ok, msg = self._newton(u, z, x_c, P, hf, max(tol, 1e-2), max_iter, pin=z)
+            u, z, it1, res, ok, msg = self._newton(u, z, x_c, P, hf, max(tol, 1e-2), max_iter, pin=z,
+                                                   f_ext=f_ext)
         it2 = 0
         if ok:
-            u, z, it2, res, ok, msg = self._newton(u, z, x_c, P, hf, tol, max_iter)
+            u, z, it2, res, ok, msg = self._newton(u, z, x_c, P, hf, tol, max_iter, f_ext=f_ext)
         if ok or depth >= self.max_split or warm.x_c is None or warm.P is None:
             return u, z, it1 + it2, res, ok, msg
         log.debug("split the move %.4g -> %.4g mm", warm.x_c, x_c)
         xm, Pm = 0.5 * (warm.x_c + x_c), 0.5 * (warm.P + P)
-        um, zm, ita, res, ok, msg = self._warm(warm, xm, Pm, hf, tol, max_iter, depth + 1)
+        um, zm, ita, res, ok, msg = self._warm(warm, xm, Pm, hf, tol, max_iter, depth + 1, f_ext)
         if not ok:
             return um, zm, it1 + it2 + ita, res, ok, msg
         mid = FEState(u=um, z=zm, x_c=xm, P=Pm)
-        u, z, itb, res, ok, msg = self._warm(mid, x_c, P, hf, tol, max_iter, depth + 1)
+        u, z, itb, res, ok, msg = self._warm(mid, x_c, P, hf, tol, max_iter, depth + 1, f_ext)
         return u, z, it1 + it2 + ita + itb, res, ok, msg
 
     def _solution(self, u, z, x_c, F, P, hf, it, res, ok, msg) -> FESolution:
