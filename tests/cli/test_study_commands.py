@@ -45,6 +45,7 @@ def test_fit_and_report_on_a_results_folder(tmp_path):
     assert (tmp_path / "r" / "report" / "index.html").is_file()
 
 
+@pytest.mark.slow
 def test_a_study_no_variant_explains_is_rejected_with_exit_status_1(tmp_path):
     """Forces unrelated to the surface: every variant fails its bars, the study gets the
     error 'model rejected', printed with its reason, and fit and report say so."""

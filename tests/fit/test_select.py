@@ -105,6 +105,7 @@ def test_auto_picks_the_variant_of_the_world(contact, world, family):
     assert sel.cross_validated and family in sel.reason
 
 
+@pytest.mark.slow
 def test_forces_unrelated_to_the_surface_are_refused(contact):
     from fingerfriction.pipeline.fitting import compare_variants
 
@@ -220,6 +221,7 @@ def test_deformation_split_by_slope_direction():
     assert "p1_down" not in LoadParams(0.5, 0.1).to_json()
 
 
+@pytest.mark.slow
 def test_the_constant_pressure_variant_leaves_out_where_the_camera_cut_the_contact(contact):
     """Near the window's ends the camera's field cuts the flat-ground contact: the regions
     seen are shorter than the contact that makes the force. The constant-pressure law (in
