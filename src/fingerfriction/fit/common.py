@@ -125,7 +125,7 @@ def _surface_labels(surface: Surface) -> tuple[str, str]:
     return surface.name, ""
 
 
-def _fit_labels(trial: Trial) -> dict:
+def fit_labels(trial: Trial) -> dict:
     """Labels carried by a TrialFit: the trial's, plus surface, shape and scale."""
     return {**trial.labels, "surface": trial.surface.name, "shape": trial.shape, "scale": trial.scale}
 
@@ -269,7 +269,7 @@ class Trial:
         return _surface_labels(self.surface)[1]
 
 
-def _by_subject(trials) -> dict[str, list[Trial]]:
+def by_subject(trials) -> dict[str, list[Trial]]:
     """The trials grouped by subject (in their order); raises for an empty sequence or an
     item that is not a :class:`Trial`."""
     trials = list(trials)
@@ -283,7 +283,7 @@ def _by_subject(trials) -> dict[str, list[Trial]]:
     return by
 
 
-def _one_subject(trials, *, caller: str, purpose: str, group: str) -> tuple[list[Trial], str]:
+def one_subject(trials, *, caller: str, purpose: str, group: str) -> tuple[list[Trial], str]:
     """The trials of one subject as a list, and that subject; the messages name the fitting
     function (``caller``), what it fits (``purpose``) and its every-subject form (``group``)."""
     trials = list(trials)
@@ -362,7 +362,7 @@ def median_filter(y, kernel: int) -> np.ndarray:
     values, so the ends are not pulled towards zero as with ``scipy.signal.medfilt``'s
     zero padding). ``kernel=1`` returns a copy.
     """
-    k = _check_kernel(kernel)
+    k = check_kernel(kernel)
     y = np.asarray(y, dtype=float)
     if k == 1:
         return y.copy()
@@ -370,7 +370,8 @@ def median_filter(y, kernel: int) -> np.ndarray:
     return ndimage.median_filter(y, size=size, mode="nearest")
 
 
-def _check_kernel(kernel) -> int:
+def check_kernel(kernel) -> int:
+    """The median filter's kernel as an int, checked odd and positive (samples); raises otherwise."""
     if isinstance(kernel, bool) or not isinstance(kernel, (int, np.integer)) or kernel < 1 or kernel % 2 == 0:
         raise ValueError(f"median kernel must be an odd positive integer (samples), got {kernel!r}")
     return int(kernel)

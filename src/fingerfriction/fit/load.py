@@ -55,15 +55,15 @@ from ..surfaces import Surface
 from .common import (
     FitFlag,
     Trial,
-    _by_subject,
-    _check_kernel,
-    _fit_labels,
-    _one_subject,
+    by_subject,
+    check_kernel,
     fit_flag,
+    fit_labels,
     flat_detrend,
     flat_segment_mask,
     median_filter,
     nmse,
+    one_subject,
 )
 from .mu import FlatGroundMu, flat_ground_mu
 from .weights import column_weights, hac_se, split_weights
@@ -154,7 +154,7 @@ class LoadFitOptions:
     search_trials: int = 36
 
     def __post_init__(self) -> None:
-        _check_kernel(self.median_kernel)
+        check_kernel(self.median_kernel)
         for name, what in (("inset", "a length >= 0 in mm"), ("kappa", "a rate >= 0 in 1/mm")):
             v = getattr(self, name)
             if isinstance(v, str):
@@ -434,7 +434,7 @@ class _LoadDesign:
 def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: float,
                 model_name: str = "load", *, wrong_sign: bool = False) -> LoadTrialFit:
     t = d.trial
-    labels = _fit_labels(t)
+    labels = fit_labels(t)
     tid = t.id
     flags: list[FitFlag] = []
     used, y, b, f_int, b_def, support = d.terms(mu, inset, kappa)
@@ -640,7 +640,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
         fit is unphysical; never a silent number.
     """
     options = options or LoadFitOptions()
-    trials, subject = _one_subject(trials, caller="fit_load_subject", purpose="fit a subject",
+    trials, subject = one_subject(trials, caller="fit_load_subject", purpose="fit a subject",
                                    group="fit_load_trials")
     models = {} if models is None else models
     name = "interlock" if split else "load"
@@ -708,7 +708,7 @@ def fit_load_trials(trials: Sequence[Trial], options: LoadFitOptions | None = No
     """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
     models: dict = {}
     return {s: fit_load_subject(ts, options, models=models, split=split)
-            for s, ts in sorted(_by_subject(trials).items())}
+            for s, ts in sorted(by_subject(trials).items())}
 
 
 def load_estimate(model: FrictionModel, regions: np.ndarray, f_n, params: LoadParams, *,

@@ -52,16 +52,16 @@ from ..surfaces import Surface
 from .common import (
     FitFlag,
     Trial,
-    _by_subject,
-    _check_kernel,
-    _fit_labels,
-    _one_subject,
+    by_subject,
+    check_kernel,
     fit_flag,
+    fit_labels,
     flat_detrend,
     flat_segment_mask,
     median_filter,
     nmse,
     nmse_eq5,
+    one_subject,
 )
 
 __all__ = [
@@ -125,7 +125,7 @@ class FitOptions:
     def __post_init__(self) -> None:
         if self.objective not in OBJECTIVES:
             raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
-        _check_kernel(self.median_kernel)
+        check_kernel(self.median_kernel)
         if self.median_on not in ("basis", "estimate"):
             raise ValueError(f"median_on must be 'basis' or 'estimate', got {self.median_on!r}")
         if not (math.isfinite(self.flat_margin) and self.flat_margin >= 0):
@@ -458,7 +458,7 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
     options = options or FitOptions()
     _check_method(method)
     FrictionParams(mu=mu, p0=0.0, p1=0.0)  # validates mu
-    return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, _fit_labels(trial))
+    return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, fit_labels(trial))
 
 
 def _checked_grid(grid) -> np.ndarray:
@@ -522,7 +522,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     """
     options = options or FitOptions()
     _check_method(method)
-    trials, subject = _one_subject(trials, caller="fit_subject", purpose="fit a subject's mu",
+    trials, subject = one_subject(trials, caller="fit_subject", purpose="fit a subject's mu",
                                    group="fit_trials")
     mus = _checked_grid(grid)
     if method == "lstsq" and options.objective != "nmse":
@@ -545,7 +545,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     if refine and 0 < j < mus.size - 1 and np.all(np.isfinite(curve[j - 1 : j + 2])):
         mu = _parabola_vertex(mus[j - 1 : j + 2], curve[j - 1 : j + 2])
     fits = tuple(
-        _fit_one(d, mu, method, options, t.subject, _fit_labels(t))
+        _fit_one(d, mu, method, options, t.subject, fit_labels(t))
         for d, t in zip(designs, trials, strict=True)
     )
     n_bad = sum(not f.success for f in fits)
@@ -579,7 +579,7 @@ def fit_trials(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
                options: FitOptions | None = None, refine: bool = False) -> dict[str, SubjectFit]:
     """:func:`fit_subject` for every subject present in ``trials`` (keyed by subject)."""
     return {s: fit_subject(ts, grid=grid, method=method, options=options, refine=refine)
-            for s, ts in sorted(_by_subject(trials).items())}
+            for s, ts in sorted(by_subject(trials).items())}
 
 
 def paper_flags(fit: SubjectFit) -> list[FitFlag]:

@@ -51,12 +51,12 @@ from ..model import FrictionModel, T_matrix
 from .common import (
     FitFlag,
     Trial,
-    _by_subject,
-    _fit_labels,
-    _one_subject,
+    by_subject,
     fit_flag,
+    fit_labels,
     median_filter,
     nmse,
+    one_subject,
 )
 from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit
 from .mu import flat_ground_mu
@@ -75,7 +75,7 @@ def _failed(t: Trial, mu: float, mu_flat: float, flags: list, msg: str,
                         mu_flat=mu_flat, objective=math.inf, success=False, message=msg,
                         footing="absolute" if t.has_absolute else "flat", used=np.zeros(t.n, bool),
                         measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=nan,
-                        subject=t.subject, labels=_fit_labels(t), flags=tuple(flags))
+                        subject=t.subject, labels=fit_labels(t), flags=tuple(flags))
 
 
 def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, options: LoadFitOptions, *,
@@ -145,7 +145,7 @@ def _fit_trial(t: Trial, model: FrictionModel, mu: float, mu_flat: float, option
         objective=float(nmse(meas[used], est[used])) if used.sum() >= 3 else math.inf, success=success,
         message="; ".join(parts), footing="absolute", used=used, measured=meas, estimate=est,
         interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, f_def, np.nan),
-        pressure=np.where(contact, p0, np.nan), subject=t.subject, labels=_fit_labels(t), flags=tuple(flags))
+        pressure=np.where(contact, p0, np.nan), subject=t.subject, labels=fit_labels(t), flags=tuple(flags))
 
 
 def fit_pressure_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
@@ -170,7 +170,7 @@ def fit_pressure_subject(trials: Sequence[Trial], options: LoadFitOptions | None
         ``flags``) when ``mu`` cannot be measured or a trial fit is unphysical.
     """
     options = options or LoadFitOptions()
-    trials, subject = _one_subject(trials, caller="fit_pressure_subject", purpose="fit a subject",
+    trials, subject = one_subject(trials, caller="fit_pressure_subject", purpose="fit a subject",
                                    group="fit_pressure_trials")
     models = {} if models is None else models
     try:
@@ -206,4 +206,4 @@ def fit_pressure_trials(trials: Sequence[Trial],
     """:func:`fit_pressure_subject` for every subject present in ``trials`` (keyed by subject)."""
     models: dict = {}
     return {s: fit_pressure_subject(ts, options, models=models)
-            for s, ts in sorted(_by_subject(trials).items())}
+            for s, ts in sorted(by_subject(trials).items())}
