@@ -214,4 +214,4 @@ def test_a_rejected_model_is_an_error_at_the_top_of_the_report(tmp_path):
     assert "Error: model rejected" in got["rejected_text"]
     assert "no variant passes the bars" in got["rejected_text"]
     assert got["warnings"] and "model-rejected" in got["warnings_text"]
-    _screenshot(exe, rep.html, tmp_path / "p2", "report_rejected_top.png")
+    _screenshot(exe, rep.html, tmp_path / "p2", tmp_path, "report_rejected_top.png")
