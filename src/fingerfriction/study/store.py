@@ -84,7 +84,7 @@ from ..regions import regions_on_grid
 from ..surfaces import Surface, surface_from_spec
 from .digests import input_fingerprint, params_digest, sha256_file, sha256_input
 from .manifest import validate_id
-from .tables import atomic_write_parquet, frames_table, regions_from_table
+from .tables import atomic_write_parquet, clipped_on_grid, frames_table, regions_from_table
 
 __all__ = [
     "RESULTS_FORMAT",
@@ -444,7 +444,7 @@ class ResultsStore:
             fn_abs = fo["F_N_abs_N"].to_numpy(float)[good]
             if np.all(np.isfinite(ft_abs)) and np.all(np.isfinite(fn_abs)):
                 absolute = {"force_abs": ft_abs, "normal_abs": fn_abs}
-        clipped = _clipped_on_grid(fr, x)
+        clipped = clipped_on_grid(fr, x)
         trial = Trial(x=x[good], force=F[good], regions=reg[good], surface=surf,
                       subject=str(entry["subject"]),
                       labels={"trial": tid, "surface": entry["surface"],
@@ -572,23 +572,6 @@ class ResultsStore:
         """``fit/loso.csv`` (subjects as text), or None when the fit did not validate."""
         p = self.loso_path
         return pd.read_csv(p, dtype={"subject": str}) if p.is_file() else None
-
-
-def _clipped_on_grid(frames: pd.DataFrame, x: np.ndarray) -> np.ndarray | None:
-    """The frames' ``clipped`` flag at each grid position: that of the tracked frame whose
-    x(t) is nearest, as :func:`~fingerfriction.regions.regions_on_grid` takes its regions
-    (None when the frames have no such column or fewer than two tracked frames)."""
-    if "clipped" not in frames.columns:
-        return None
-    xf = frames["x_mm"].to_numpy(float)
-    ok = np.isfinite(xf)
-    if ok.sum() < 2:
-        return None
-    order = np.argsort(xf[ok], kind="stable")
-    xs, cl = xf[ok][order], frames["clipped"].to_numpy(bool)[ok][order]
-    j = np.clip(np.searchsorted(xs, x), 1, xs.size - 1)
-    nearest = np.where(np.abs(x - xs[j - 1]) <= np.abs(xs[j] - x), j - 1, j)
-    return cl[nearest]
 
 
 def read_fit_table(fit_dir: str | os.PathLike) -> pd.DataFrame:
