@@ -81,8 +81,8 @@ def main() -> None:
     ap.add_argument("--top", type=int, default=5, help="How many of the longest modules to print.")
     args = ap.parse_args()
     modules, long_fns, fn_imports = measure(args.src)
-    over = [m for m in modules if m[0] > 800]
-    print(f"modules: {len(modules)}; over 800 lines: {len(over)}")
+    over = [m for m in modules if m[0] > 600]
+    print(f"modules: {len(modules)}; over 600 lines: {len(over)}")
     for n, rel in modules[: max(args.top, len(over))]:
         print(f"  {n:5d}  {rel}")
     print(f"functions over 80 lines: {len(long_fns)} (all lines; "

@@ -1,8 +1,10 @@
-"""The fit's science: every figure from one run.
+"""The fit's science: every figure of the load-consistent variant on the default world, from
+one run.
 
-A. **Default model on the seed-0 virtual study** (``fingerfriction simulate --out full
-   --seed 0``, ``analyze``): ``fingerfriction.study.fit`` with both variants and the
-   leave-one-surface-out validation. Prints mu per subject with its 95 % CI beside the
+A. **Default model on the seed-0 virtual study** (``fingerfriction simulate --seed 0``,
+   ``analyze``): ``fingerfriction.study.fit`` with every variant, the leave-one-surface-out
+   validation and ``--model auto``'s choice (on this world, the load-sharing one, the
+   load-consistent variant must be chosen). Prints mu per subject with its 95 % CI beside the
    truth (the mean of the trials' simulated ``mu``), the count of failed or unphysical
    trial fits, Table 1 of both variants with bootstrap CIs, leave-one-surface-out rho
    per held-out surface for both, and the CPU time of each variant's fit.
@@ -121,10 +123,11 @@ def loso_side_by_side(loso: pd.DataFrame, floor: float) -> dict:
 
 
 def unphysical(summary, model: str) -> tuple[int, dict]:
-    """Trial fits of ``model`` that failed or are unphysical, and the error flags by code."""
+    """Trial fits of ``model`` that failed or are unphysical, and the error flags by code
+    (the variant used: its flags; the others: their notes)."""
     codes: dict = {}
     trials = set()
-    for f in summary.flags:
+    for f in (*summary.flags, *summary.notes):
         if f.model == model and f.level == "error":
             codes[f.code] = codes.get(f.code, 0) + 1
             if f.trial:
@@ -136,8 +139,10 @@ def run_fit(results: Path, tmp: Path, name: str, **kw):
     work = copy_results(results, tmp, name)
     c0, w0 = time.process_time(), time.perf_counter()
     summary = fit_study(work, progress=False, **kw)
-    print(f"  fit with both variants and leave-one-surface-out: {time.process_time() - c0:.1f} s CPU, "
+    print(f"  fit with every variant and leave-one-surface-out: {time.process_time() - c0:.1f} s CPU, "
           f"{time.perf_counter() - w0:.1f} s wall")
+    print(f"  --model auto chose: {summary.model}{' (MODEL REJECTED)' if summary.rejected else ''}; "
+          f"{summary.selection.reason}")
     return work, summary
 
 
@@ -148,14 +153,18 @@ def part_a(results: Path, study: Path, tmp: Path) -> tuple[bool, object, Path]:
     print("\nA. Default (load-consistent) model on the seed-0 study")
     truth, _ = truth_mu(study)
     work, s = run_fit(results, tmp, "a")
-    ok = print_mu(s, truth, 0.01)
+    good = s.model == "load" and not s.rejected
+    print(f"  the load-sharing world's own variant chosen by --model auto: {verdict(good)}")
+    ok = good
+    ok &= print_mu(s, truth, 0.01)
     n_bad, codes = unphysical(s, "load")
     good = n_bad == 0
     ok &= good
     print(f"  trial fits failed or unphysical: {n_bad} of {s.n_trials} (error flags {codes or 'none'}): "
           f"{verdict(good)}")
     warn = sorted({f.code for f in s.flags if f.model == "load" and f.level == "warning"})
-    print(f"  load-model warnings: {warn}")
+    info = sorted({f.code for f in s.flags if f.model == "load" and f.level == "info"})
+    print(f"  load-model warnings: {warn}; information: {info}")
     t1 = table1_side_by_side(s.table1, 0.75)
     good = t1["load"][1] == t1["load"][2]
     ok &= good
@@ -212,9 +221,10 @@ def part_c(s) -> None:
     print(f"  trial fits failed or unphysical: {n_bad} of {s.n_trials} (error flags {codes})")
     t = s.table1[(s.table1.model == "paper") & (s.table1.scale == "2 mm") & (s.table1["shape"] == "Bump")]
     print("  Bump 2 mm rho: " + ", ".join(f"{r.subject} {r.rho:.2f}" for r in t.itertuples()))
-    subj = sorted({f.subject for f in s.flags if f.model == "paper" and f.subject})
+    notes = [*s.flags, *s.notes]
+    subj = sorted({f.subject for f in notes if f.model == "paper" and f.subject})
     for sub in subj:
-        fl = sorted({f.code for f in s.flags if f.model == "paper" and f.subject == sub and not f.trial})
+        fl = sorted({f.code for f in notes if f.model == "paper" and f.subject == sub and not f.trial})
         print(f"  subject {sub}: subject-level flags {fl}")
 
 

@@ -1,9 +1,12 @@
 """The `demo` command: simulate -> analyze -> fit -> report, tables printed, resumable."""
 
+import re
+
 import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
+from fingerfriction.fit.variants import get
 
 
 @pytest.mark.slow
@@ -13,7 +16,14 @@ def test_demo_small_design_end_to_end_and_resumed(tmp_path):
     r = CliRunner().invoke(app, args)
     assert r.exit_code == 0, r.output
     assert "Table 1" in r.output and "Tactile blind spots" in r.output
-    assert "demo: 1 trial," in r.output and "load model: mu 0." in r.output  # the summary line
+    # as a new user reads it: the first Table 1 names its model, the one the fit chose
+    text = " ".join(r.output.split())
+    first = re.search(r"Table 1 of the model used, (.+?) \((\w+)\): Pearson rho", text)
+    assert first and text.index("Table 1") == first.start(), text[:2000]
+    assert first.group(1) == get(first.group(2)).title
+    assert "demo: 1 trial," in text and f"{first.group(2)} model: mu 0." in text  # the summary line
+    # why that model, after the tables: one surface, so no comparison out of sample
+    assert f"model: {first.group(2)} (" in text and "not cross-validated: too few surfaces" in text
     assert "1 computed, 0 already done, 0 failed" in r.output
     assert (tmp_path / "demo" / "results" / "report" / "index.html").is_file()
     assert (tmp_path / "demo" / "study" / "manifest.json").is_file()

@@ -30,14 +30,35 @@ def test_analyze_bad_window_is_one_line_error(tmp_path):
 
 @pytest.mark.slow
 def test_fit_and_report_on_a_results_folder(tmp_path):
-    write_synthetic_results(tmp_path / "r", truth_dir=tmp_path / "study" / "truth")
+    # the forward model's contact, forces of a constant pressure: a variant of that family
+    write_synthetic_results(tmp_path / "r", truth_dir=tmp_path / "study" / "truth", regions="forward")
     r = runner.invoke(app, ["fit", str(tmp_path / "r")])
     assert r.exit_code == 0, r.output
-    assert "fit: 16 trials, both models, load the default, mu 0." in r.output and "(subject 1)" in r.output
+    assert "fit: 16 trials, " in r.output and "model used (chosen by --model auto), mu 0." in r.output
+    assert "(subject 1)" in r.output and "model rejected" not in r.output
+    # Table 1 of the model used, titled with its name, then the comparison with a model column
+    i = r.output.index("Table 1 of the model used")
+    assert i < r.output.index("Which model the data support") and "every model" in r.output
     r = runner.invoke(app, ["report", str(tmp_path / "r")])
     assert r.exit_code == 0, r.output
     assert "Table 1" in r.output and "blind spots" in r.output and "index.html" in r.output
     assert (tmp_path / "r" / "report" / "index.html").is_file()
+
+
+@pytest.mark.slow
+def test_a_study_no_variant_explains_is_rejected_with_exit_status_1(tmp_path):
+    """Forces unrelated to the surface: every variant fails its bars, the study gets the
+    error 'model rejected', printed with its reason, and fit and report say so."""
+    write_synthetic_results(tmp_path / "r", regions="forward", force_law="unrelated")
+    r = runner.invoke(app, ["fit", str(tmp_path / "r")])
+    assert r.exit_code == 1, r.output
+    assert "error: model rejected: no variant passes the bars (load: " in " ".join(r.output.split())
+    assert "MODEL REJECTED" in r.output and "Traceback" not in r.output
+    r = runner.invoke(app, ["report", str(tmp_path / "r")])
+    assert r.exit_code == 0, r.output  # the report was written; the error is the fit's
+    assert "error: model rejected" in r.output
+    html = (tmp_path / "r" / "report" / "index.html").read_text()
+    assert html.index('id="model-rejected"') < html.index("<h2>Summary</h2>")
 
 
 def test_fit_on_a_folder_that_is_not_a_results_folder(tmp_path):

@@ -14,7 +14,7 @@ from fingerfriction.fit import (
     fit_load_trials,
     flat_ground_mu,
 )
-from fingerfriction.fit.load import _hac_se
+from fingerfriction.fit.weights import hac_se
 from fingerfriction.surfaces import SURFACE_NAMES
 from fingerfriction.testing import synthetic_trial
 
@@ -182,7 +182,7 @@ def test_hac_standard_error_matches_the_scatter_of_p1():
         y = 0.2 * b + 0.05 * rng.normal(size=b.size)
         p1 = float(b @ y / (b @ b))
         p1s.append(p1)
-        ses.append(_hac_se(b, y - p1 * b, 20))
+        ses.append(hac_se(b, y - p1 * b, 20))
     assert np.mean(ses) == pytest.approx(np.std(p1s), rel=0.15)
 
 

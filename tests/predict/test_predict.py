@@ -452,8 +452,11 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     df = pd.read_csv(root / "fit" / "loso.csv", dtype={"subject": str})
     with open(root / "fit" / "loso.png", "rb") as fh:
         assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
-    assert len(df) == 2 * 2 * 3 and set(df["surface"]) == {"bump-2mm", "step-down-4mm"}
-    assert list(dict.fromkeys(df["model"])) == ["load", "paper"]
+    from fingerfriction.fit.variants import MODELS
+
+    # every variant of the registry, validated on the same trials
+    assert len(df) == len(MODELS) * 2 * 3 and set(df["surface"]) == {"bump-2mm", "step-down-4mm"}
+    assert list(dict.fromkeys(df["model"])) == list(MODELS)
     df = df[df["model"] == "paper"]
     assert np.all(np.isfinite(df["rho_in_sample"])) and np.all(np.isfinite(df["rho_out_of_sample"]))
     # in-sample rho is the study's Table 1 (same grid and options as the recorded fit)

@@ -32,13 +32,34 @@ def _regions(x: np.ndarray, gap: tuple[float, float]) -> np.ndarray:
     return reg
 
 
+def _forward(sname: str, subj: str, xg: np.ndarray) -> np.ndarray:
+    """The forward model's geometric regions of the subject's default finger on the grid."""
+    from fingerfriction.mechanics import SUBJECTS as FINGERS
+    from fingerfriction.predict import forward_regions
+
+    key = (sname, subj)
+    if key not in _FORWARD:
+        _FORWARD[key] = forward_regions(get_surface(sname), FINGERS[int(subj)], xg)
+    return _FORWARD[key]
+
+
+_FORWARD: dict = {}
+
+
 def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: dict | None = None,
-                            transient_mm: float | None = None) -> dict:
+                            transient_mm: float | None = None, regions: str = "toy",
+                            force_law: str = "eq4") -> dict:
     """Write a results folder; return the true per-trial parameters and blind spots.
 
     ``subjects`` (subject -> mu) defaults to :data:`SUBJECTS`. ``transient_mm``: add to the
     absolute tangential force the start transient real slides show (a friction ratio 0.15
-    higher at the window's start, decaying over this length in mm).
+    higher at the window's start, decaying over this length in mm). ``regions``: ``'toy'``
+    (contact [x - 4, x + 4] mm with a gap never touched: the blind spots of ``truth``) or
+    ``'forward'`` (the forward contact model's, with the subject's default finger, so that
+    the leave-one-surface-out prediction from geometry sees the same contact as the fit:
+    a study whose model passes the fit's bars). ``force_law``: ``'eq4'`` (Eq. 4 with known
+    parameters) or ``'unrelated'`` (the flat-ground level of Eq. 4 plus a slow random
+    force that has nothing to do with the surface: no variant explains it).
     """
     rng = np.random.default_rng(seed)
     rng_abs = np.random.default_rng(seed + 1000)  # the absolute footing's own draws
@@ -57,16 +78,24 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
                     t = np.arange(0.0, 34.0 / v, 1e-3)
                     x = -17.0 + v * t
                     x[0] = np.nan  # calibration frame: no finger
-                    reg = _regions(np.nan_to_num(x, nan=-17.0), gap)
+                    xg = np.round(np.arange(-13.0, 13.0 + 1e-9, 0.01), 2)
+                    if regions == "forward":
+                        near = np.clip(np.rint((np.nan_to_num(x, nan=-17.0) + 13.0) / 0.01).astype(int), 0,
+                                       xg.size - 1)
+                        reg = _forward(sname, subj, xg)[near]
+                    else:
+                        reg = _regions(np.nan_to_num(x, nan=-17.0), gap)
                     reg[0] = np.nan
                     flags = ["no finger"] + [""] * (t.size - 1)
                     frames = frames_table(t, x, reg, flags)
                     p = FrictionParams(mu, 0.05 * (1 + 0.1 * rng.standard_normal()), 0.3)
                     truth["p"][tid] = p
-                    xg = np.round(np.arange(-13.0, 13.0 + 1e-9, 0.01), 2)
                     xv, rv = x[1:], reg[1:]
                     idx = np.clip(np.searchsorted(xv, xg), 0, xv.size - 1)
                     F_abs = friction_force(surf, rv[idx], p).total
+                    if force_law == "unrelated":
+                        walk = np.convolve(rng.standard_normal(xg.size + 400), np.hanning(401), "valid")
+                        F_abs = F_abs[:200].mean() + 0.02 * walk / walk.std()
                     F = F_abs - F_abs[:200].mean() + 0.002 * rng.standard_normal(xg.size)
                     import pandas as pd
 

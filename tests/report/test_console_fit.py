@@ -34,34 +34,70 @@ def failing(tmp_path_factory):
     return root
 
 
-def _fit(results: Path, *args: str) -> list[str]:
+def _fit(results: Path, *args: str) -> tuple[list[str], list[str], int]:
+    """(stdout lines, stderr lines, exit status) of `fingerfriction fit`."""
     env = {"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin", "COLUMNS": "200"}
     r = subprocess.run([sys.executable, "-m", "fingerfriction.cli", "fit", str(results), *args],
                        capture_output=True, text=True, env=env, timeout=600)
-    assert r.returncode == 1, r.stdout + r.stderr  # 8 trials' fits failed: status 1, all else written
-    return [ln for ln in (r.stdout + r.stderr).splitlines() if ln.strip()]
+    assert r.returncode in (0, 1), r.stdout + r.stderr
+    out = [ln for ln in r.stdout.splitlines() if ln.strip()]
+    return out, [ln for ln in r.stderr.splitlines() if ln.strip()], r.returncode
 
 
 @pytest.mark.slow
 def test_fit_console_one_warning_per_subject_and_one_summary(failing):
-    lines = _fit(failing)
-    warnings = [ln for ln in lines if ln.startswith("warning:")]
-    summary = [ln for ln in lines if ln.startswith("fit:")]
-    assert len(summary) == 1 and len(lines) == len(warnings) + 1, lines
-    assert 1 <= len(warnings) <= len(SUBJECTS), lines
+    # the paper's variant forced: its flags are the study's
+    out, err, status = _fit(failing, "--model", "paper")
+    warnings = [ln for ln in err if ln.startswith("warning:")]
+    summary = [ln for ln in out if ln.startswith("fit:")]
+    assert len(summary) == 1 and len(warnings) == len(SUBJECTS), err
     for subj in SUBJECTS:  # each subject's failed fits: counted by kind, with one example
         line = next(ln for ln in warnings if ln.startswith(f"warning: subject {subj}:"))
         assert "paper model negative-p0 in 4 trials (e.g. s" in line and "unphysical" in line
         assert line.count("negative-p0") == 1
+    # a study half of whose forces are upside down: no variant passes, exit status 1, the
+    # error with its reason on its own line, and the summary says it
+    assert status == 1 and [ln for ln in err if ln.startswith("error: model rejected: no variant passes")]
     # the summary: counts, time, where the output is, the logged warnings grouped by kind
     s = summary[0]
     assert "16 trials" in s and "8 failed" in s and " s; output in " in s and str(failing / "fit") in s
+    assert "paper model used (forced, MODEL REJECTED)" in s
     kinds = s.split("logged warning")[-1]
     for k in ("leave-one-surface-out", "out-of-sample validation failed"):  # each kind once
         assert kinds.count(f"'{k}'") <= 1
+    # the tables: Table 1 of the model used, titled with it, before the comparison
+    text = "\n".join(out)
+    assert text.index("Table 1 of The paper's Eq. 4 (paper)") < text.index("Which model the data support")
     # quiet: the summary line alone; verbose: every failed trial on its own line
-    quiet = _fit(failing, "--quiet")
-    assert len(quiet) == 1 and quiet[0].startswith("fit: 16 trials")
-    verbose = _fit(failing, "--verbose")
-    assert sum(ln.startswith("warning: error negative-p0 (paper model) s") for ln in verbose) == 8
-    assert len(verbose) > len(lines)
+    out_q, err_q, status_q = _fit(failing, "--quiet", "--model", "paper")
+    assert out_q == summary[:1] or (len(out_q) == 1 and out_q[0].startswith("fit: 16 trials"))
+    assert err_q == [] and status_q == 1
+    out_v, err_v, _ = _fit(failing, "--verbose", "--model", "paper")
+    assert sum(ln.startswith("warning: error negative-p0 (paper model) s") for ln in err_v) == 8
+    assert len(err_v) > len(err)
+
+
+@pytest.mark.slow
+def test_fit_console_by_default_the_comparison_variants_flags_are_notes(failing):
+    out, err, _ = _fit(failing)
+    # the paper variant's unphysical p0 is a note on the comparison, not a warning of the study
+    assert not any("paper model" in ln for ln in err if ln.startswith("warning:"))
+    notes = [ln for ln in out if ln.startswith("notes on the comparison variants")]
+    assert len(notes) == 1 and "paper negative-p0 x8" in notes[0]
+
+
+def test_the_comparison_prints_when_a_column_is_unknown_in_every_variant(capsys):
+    """fit.json writes NaN as null: a study without two trials per surface has no residual
+    structure in any variant, a column of nulls; the console shows '-' (it crashed)."""
+    from fingerfriction.cli.study import _print_fit_tables
+    from fingerfriction.report import comparison_frame
+
+    rows = [{"model": m, "title": m, "family": m, "verdict": v, "why": "", "n_trials": 2, "n_unphysical": 0,
+             "table1_cells_ok": 2, "table1_cells": 2, "loso_cells_ok": None, "loso_cells": None,
+             "cv_rho_mean": None, "residual_structure": None}
+            for m, v in (("load", "chosen"), ("paper", "comparison only"))]
+    comp = comparison_frame(rows)
+    assert comp["residual_structure"].dtype.kind == "f" and comp["model"].tolist() == ["load", "paper"]
+    _print_fit_tables("load", None, None, comp)
+    out = capsys.readouterr().out
+    assert "Which model the data support" in out and "* load" in out and "Traceback" not in out

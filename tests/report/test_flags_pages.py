@@ -54,10 +54,11 @@ def test_failed_trials_and_fit_failures_are_flagged_and_get_a_page(results):
     store.write_failure(tid, "ValueError: video truncated at frame 12", {})
     from fingerfriction.pipeline.fitting import fit
 
-    fit(results, progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # mu at its bound
+    # the paper's variant forced, its mu at the edge of its grid
+    fit(results, progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05), model="paper")
     rep = make_report(results, sample=0)
     codes = {(f["level"], f["code"]) for f in rep.flags}
-    # the fit records its own flags (fit.json): mu at the edge of the paper model's grid
+    # the fit records the flags of the variant it used (fit.json): mu at the edge of the grid
     assert ("error", "analysis-failed") in codes and ("error", "mu-at-grid-edge") in codes
     assert rep.flags[0]["level"] == "error"  # most serious first
     assert flagged_trials(rep.flags) == [tid]  # mu-at-grid-edge is about a subject, not a trial
@@ -68,6 +69,14 @@ def test_failed_trials_and_fit_failures_are_flagged_and_get_a_page(results):
     assert f'href="trials/{tid}.html"' in html  # from the warnings block and the failed-trials table
     groups = {g["code"]: g for g in group_flags(rep.flags)}
     assert groups["mu-at-grid-edge"]["count"] == 2 and groups["mu-at-grid-edge"]["n_trials"] == 0
+    # chosen by --model auto, a variant on the absolute footing is used: the paper variant's
+    # flags are notes on the comparison, not flags of the study
+    fit(results, progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))
+    rep = make_report(results, sample=0)
+    assert rep.model != "paper" and "mu-at-grid-edge" not in {f["code"] for f in rep.flags}
+    assert {(n["model"], n["code"]) for n in rep.notes} >= {("paper", "mu-at-grid-edge")}
+    html = rep.html.read_text()
+    assert html.index('id="comparison-notes"') > html.index('id="model-choice"')
 
 
 @pytest.mark.slow

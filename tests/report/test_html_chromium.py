@@ -46,8 +46,15 @@ window.addEventListener('load', function () {
       function (i) { return i.naturalWidth > 0; });
   var anim = document.getElementById('animation');
   var warn = document.getElementById('warnings');
+  var rej = document.getElementById('model-rejected');
+  var heads = Array.prototype.slice.call(document.querySelectorAll('h2'));
+  var summary = heads.filter(function (h) { return h.innerText.trim() === 'Summary'; })[0];
   var out = {images_total: imgs.length, images_decoded: ok.length, links: links,
              warnings: !!warn, warnings_text: warn ? warn.innerText : '',
+             rejected: !!rej, rejected_text: rej ? rej.innerText : '',
+             rejected_above_summary: !!(rej && summary && rej.getBoundingClientRect().top
+                                        < summary.getBoundingClientRect().top),
+             rejected_visible: !!(rej && rej.getBoundingClientRect().height > 0),
              plots_decoded: plots.length,
              animation: anim ? {w: anim.naturalWidth, h: anim.naturalHeight, src: anim.src.slice(0, 20)}
                              : null};
@@ -160,11 +167,13 @@ def test_demo_report_in_headless_chromium(demo_report, tmp_path):
 def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp_path):
     exe = _chromium()
     results, _ = demo_report
-    # a fit the fit itself flags: mu's grid stops below the subject's minimum (mu at its bound)
+    # a fit the fit itself flags: the paper's variant forced, its mu grid stopping below the
+    # subject's minimum (mu at its bound)
     flagged = tmp_path / "flagged"
     shutil.copytree(results, flagged)
-    r = CliRunner().invoke(app, ["fit", str(flagged), "--mu-min", "0.30", "--mu-max", "0.32"])
-    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(app, ["fit", str(flagged), "--mu-min", "0.30", "--mu-max", "0.32",
+                                 "--model", "paper"])
+    assert r.exit_code in (0, 1), r.output  # 1: every variant rejected (a study-level error)
     rep = make_report(flagged, sample=0, animations=False)
     got = _probe(exe, rep.html, tmp_path / "p1")
     assert got["warnings"] and "mu-at-grid-edge" in got["warnings_text"]
@@ -175,10 +184,34 @@ def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp
     from fingerfriction.pipeline.fitting import fit
 
     clean = tmp_path / "clean"
-    write_synthetic_results(clean, transient_mm=0.8)
+    write_synthetic_results(clean, transient_mm=0.8, regions="forward")
     fit(clean, progress=False)
     rep = make_report(clean, sample=0, animations=False)
     assert not [f for f in rep.flags if f["level"] != "info"], rep.flags
+    # the comparison variants' flags, if any, are notes, not warnings (the console test shows some)
+    assert not rep.rejection and all(n["model"] != rep.model for n in rep.notes)
     got = _probe(exe, rep.html, tmp_path / "p2")
-    assert got["warnings"] is False
+    assert got["warnings"] is False and got["rejected"] is False
     assert got["images_decoded"] == got["images_total"] == len(FIGURES) + 1
+
+
+@pytest.mark.slow
+def test_a_rejected_model_is_an_error_at_the_top_of_the_report(tmp_path):
+    """Forces no variant explains: the fit rejects every variant (exit status 1), and the
+    report opens with the error and its reason, above the summary, in the browser."""
+    exe = _chromium()
+    from report_synthetic import write_synthetic_results
+
+    results = tmp_path / "rejected"
+    write_synthetic_results(results, regions="forward", force_law="unrelated")
+    r = CliRunner().invoke(app, ["fit", str(results)])
+    assert r.exit_code == 1 and "error: model rejected:" in r.output, r.output
+    rep = make_report(results, sample=0, animations=False)
+    assert rep.rejection.startswith("no variant passes the bars")
+    assert [(f["level"], f["code"]) for f in rep.flags][0] == ("error", "model-rejected")
+    got = _probe(exe, rep.html, tmp_path / "p1")
+    assert got["rejected"] and got["rejected_visible"] and got["rejected_above_summary"]
+    assert "Error: model rejected" in got["rejected_text"]
+    assert "no variant passes the bars" in got["rejected_text"]
+    assert got["warnings"] and "model-rejected" in got["warnings_text"]
+    _screenshot(exe, rep.html, tmp_path / "p2", tmp_path, "report_rejected_top.png")

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from fingerfriction.fit.variants import MODELS
 from fingerfriction.report import make_report
 from fingerfriction.report.data import load_report_data
 from fingerfriction.report.figures import FIGURES
@@ -60,17 +61,20 @@ def test_table1_and_truth_tables(report):
     rep, results, truth = report
     t1 = rep.table1
     assert t1 is not None
-    # both models, the default (load-consistent) first; per model 2 subjects + both, x 2
-    # surfaces; forces are Eq. (4) plus 2 mN noise: strong correlation.
-    assert list(dict.fromkeys(t1["model"])) == ["load", "paper"]
+    # every variant, the one used first; per variant 2 subjects + both, x 2 surfaces; forces
+    # are Eq. (4) plus 2 mN noise: strong correlation for the variants of Eq. (4) that
+    # represent them (here the normal force is the load of a constant pressure, so the
+    # load-consistent variant is the paper's)
+    assert list(dict.fromkeys(t1["model"])) == [rep.model, *[m for m in MODELS if m != rep.model]]
     for _, m in t1.groupby("model"):
         assert len(m) == 6
-    assert (t1["rho"] > 0.9).all() and t1["significant"].all()
+    good = t1[t1["model"].isin(["load", "pressure", "paper"])]
+    assert (good["rho"] > 0.9).all() and good["significant"].all()
     assert (t1["rho_lo"] <= t1["rho"]).all() and (t1["rho"] <= t1["rho_hi"]).all()
     for ext in ("csv", "md", "tex"):
         assert (results / "report" / f"table1.{ext}").stat().st_size > 0
     mu = rep.truth["mu"]
-    assert list(dict.fromkeys(mu["model"])) == ["load", "paper"]
+    assert list(dict.fromkeys(mu["model"])) == [rep.model, *[m for m in MODELS if m != rep.model]]
     mu = mu.set_index(["model", "subject"])
     assert mu.loc[("load", "1"), "mu_true"] == 0.55 and mu.loc[("load", "2"), "mu_true"] == 0.60
     assert np.all(np.abs(mu["error"]) <= 0.03)
@@ -133,9 +137,10 @@ def test_out_of_sample_validation_next_to_table1(report):
     rep, results, _ = report
     loso = rep.loso
     assert loso is not None
-    # both models; per model 2 subjects + both subjects pooled, x 2 held-out surfaces
-    assert list(dict.fromkeys(loso["model"])) == ["load", "paper"]
-    assert len(loso) == 12 and set(loso["surface"]) == {"bump-2mm", "step-down-4mm"}
+    # every variant, the one used first; per variant 2 subjects + both subjects pooled, x 2
+    # held-out surfaces
+    assert list(dict.fromkeys(loso["model"])) == [rep.model, *[m for m in MODELS if m != rep.model]]
+    assert len(loso) == 6 * len(MODELS) and set(loso["surface"]) == {"bump-2mm", "step-down-4mm"}
     assert set(loso["subject"]) == {"1", "2", "Both subjects"}
     assert np.isfinite(loso["rho_out_of_sample"]).all() and np.isfinite(loso["rho_in_sample"]).all()
     # the CSV next to the report is the fit's table (3 significant digits)
@@ -150,7 +155,7 @@ def test_out_of_sample_validation_next_to_table1(report):
         ref = t1[row.model, row.subject, shapes[row.surface]]
         assert row.rho_in_sample == pytest.approx(ref, abs=1e-6), row
     html = rep.html.read_text()
-    i, j = html.index("Table 1"), html.index("leave one surface out")
+    i, j = html.index("<h2>Table 1"), html.index("<h2>Out of sample - leave one surface out")
     assert i < j < html.index("Tactile blind spots")
     assert f"{fit_csv['rho_out_of_sample'].iloc[0]:.3g}" in html[j:]
 
@@ -234,11 +239,13 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
     from fingerfriction.pipeline.fitting import fit
 
     write_synthetic_results(tmp_path / "r")
-    fit(tmp_path / "r", progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05))  # truth 0.55, 0.60
+    # the paper's variant forced: its mu is the study's (truth 0.55, 0.60)
+    fit(tmp_path / "r", progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05), model="paper")
     rep = make_report(tmp_path / "r")
     html = rep.html.read_text()
     summary = html[html.index("<h2>Summary</h2>"):html.index("</ul>", html.index("<h2>Summary</h2>"))]
-    assert summary.count("at the end of the search grid [0.3, 0.5]") == 2
+    assert summary.count("is at the end of the grid [0.30, 0.50]") == 2
+    assert "forced by <code>fit --model paper</code>" in summary
     # and in the warnings block at the top, once per subject
     assert [f["subject"] for f in rep.flags if f["code"] == "mu-at-grid-edge"] == ["1", "2"]  # the fit's flag
     assert html.index('id="warnings"') < html.index("<h2>Summary</h2>")

@@ -25,6 +25,7 @@ from ._common import (
     console,
     csv_list,
     echo,
+    err_console,
     fail,
     finish,
     grouped_failures,
@@ -287,8 +288,9 @@ def _sync_fact(sync: dict) -> str:
 
 def fit_cmd(
     results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
-    model: str = typer.Option("load", help="Default model, load (load-consistent Eq. 4) or paper (as "
-                                           "printed); both are fitted, this one is used downstream."),
+    model: str = typer.Option("auto", help="auto (the variant the data support, or none: exit status 1), or "
+                                           "a variant to use: load, pressure, interlock or paper; every "
+                                           "variant is fitted and compared."),
     method: str = typer.Option("lstsq", help="Paper model's p0, p1 fit: lstsq or nelder-mead (the paper's)."),
     mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid.",
                                  callback=bounded(0.0, 5.0)),
@@ -302,7 +304,9 @@ def fit_cmd(
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
-    """Both model variants: mu per subject, per-trial parameters, Table 1 with CIs, flags."""
+    """Every model variant: mu per subject, per-trial parameters, Table 1 with CIs, the
+    out-of-sample comparison, the variant the data support (or its rejection), flags.
+    Exit status 1 when every variant is rejected."""
     from ..pipeline.fitting import fit  # heavy (scipy, the forward model); imported when the command runs
     from ..study.store import ResultsStore  # heavy (pandas, scipy); imported when the command runs
 
@@ -316,9 +320,12 @@ def fit_cmd(
         fail(str(exc))
     store = ResultsStore(results)
     _fit_warnings(res, store, verbosity)
+    if verbosity >= 0:
+        _print_fit_tables(res.model, res.table1, res.loso, res.selection.comparison, res.notes, res.rejected)
+    _print_choice(res.selection, res.requested, verbosity)
     print_summary(summary_line("fit", _fit_facts(res), elapsed_s=time.perf_counter() - t0,
                           output=str(store.fit_dir), log=log))
-    finish(res.n_failed == 0)
+    finish(res.n_failed == 0 and not res.rejected)
 
 
 def _holding(results: str, command: str):
@@ -348,16 +355,20 @@ def _fit_facts(res) -> list[str]:
     """The fit's summary: trials, models, mu per subject with its CI, flags, validation."""
     n_err = sum(f.level == "error" for f in res.flags)
     mu = _mu_text(res)
+    n_warn = sum(f.level == "warning" for f in res.flags)
     val = ("validated (leave one surface out)" if res.loso is not None
            else f"not validated: {res.loso_message}")
-    return [plural(res.n_trials, "trial"), f"both models, {res.model} the default", f"mu {mu}",
-            f"{res.n_failed} failed", f"{n_err} error flags, {len(res.flags) - n_err} warnings", val]
+    how = ("MODEL REJECTED" if res.rejected else "chosen by --model auto") if res.requested == "auto" \
+        else f"forced{', MODEL REJECTED' if res.rejected else ''}"
+    return [plural(res.n_trials, "trial"), f"{res.model} model used ({how})", f"mu {mu}",
+            f"{res.n_failed} failed", f"{n_err} error flags, {n_warn} warnings", val]
 
 
 def _fit_warnings(res, store, verbosity: int) -> None:
-    """One warning line per subject: its flags of both models grouped by kind, each with a
-    count and one example (with --verbose: each subject's and model's summary line and every
-    flag); trials that could not be prepared for the fit, one line."""
+    """One warning line per subject: the flags of the variant used, grouped by kind, each
+    with a count and one example (with --verbose: each subject's and model's summary line and
+    every flag, the comparison variants' as notes); trials that could not be prepared for the
+    fit, one line. Flags of level 'info' and the study-level rejection are printed elsewhere."""
     if verbosity < 0:
         return
     unread = [(t, r) for t, r in res.failures if not any(f.trial == t for f in res.flags)]
@@ -366,7 +377,11 @@ def _fit_warnings(res, store, verbosity: int) -> None:
             echo(line)
         for f in res.flags:
             where = f.trial or (f"subject {f.subject}" if f.subject else "study")
-            warn(f"{f.level} {f.code} ({f.model} model) {where}: {one_line(f.message, 300)}")
+            warn(f"{f.level} {f.code} ({f.model or 'study'} model) {where}: {one_line(f.message, 300)}")
+        for f in res.notes:
+            where = f.trial or (f"subject {f.subject}" if f.subject else "study")
+            echo(f"note on the comparison: {f.level} {f.code} ({f.model} model) {where}: "
+                 f"{one_line(f.message, 300)}")
         for tid, reason in unread:
             warn(f"not fitted: {tid}: {one_line(reason, 300)}")
         return
@@ -375,7 +390,7 @@ def _fit_warnings(res, store, verbosity: int) -> None:
              f"{one_line(unread[0][1], 100)})")
     by_subject: dict = {}
     for f in res.flags:
-        if f.level in ("error", "warning"):
+        if f.level in ("error", "warning") and f.code != "model-rejected":
             by_subject.setdefault(f.subject or "", {}).setdefault((f.model, f.code), []).append(f)
     for subj, groups in by_subject.items():
         parts = []
@@ -388,25 +403,75 @@ def _fit_warnings(res, store, verbosity: int) -> None:
         warn((f"subject {subj}: " if subj else "") + "; ".join(parts))
 
 
-def _print_tables(rep) -> None:
+def _print_rejection(reason: str, verbosity: int = 0) -> None:
+    """The study-level error of a fit that rejects every model variant, in red (with
+    ``--quiet`` the summary line alone says it)."""
+    if reason and verbosity >= 0:
+        err_console.print(f"[bold red]error: model rejected:[/] {escape(reason)}", highlight=False,
+                          soft_wrap=True)
+
+
+def _print_choice(selection, requested: str = "auto", verbosity: int = 0) -> None:
+    """Why ``--model auto`` used the variant it used (one paragraph, after the tables); the
+    error of a rejection instead (:func:`_print_rejection`)."""
+    if selection.rejected:
+        _print_rejection(selection.reason, verbosity)
+    elif requested == "auto" and verbosity >= 0:
+        console.print(f"model: {escape(selection.reason)}", highlight=False, soft_wrap=True)
+
+
+def _print_fit_tables(model, table1, loso, comparison, notes=(), rejected: bool = False) -> None:
+    """Table 1 of the variant used, titled with its name; the leave-one-surface-out table of
+    every variant (a model column); the comparison of the variants, with the notes of those
+    not used."""
+    from ..fit.variants import get  # the registry's titles
     from ..report.tables import format_p, table1_display  # heavy (matplotlib); when a table is printed
 
-    if rep.table1 is not None:
-        wide = table1_display(rep.table1)
-        t = Table(title="Table 1: Pearson rho, measured vs model (* p < 0.01)")
+    if table1 is not None and model is not None:
+        own = table1[table1["model"] == model] if "model" in table1.columns else table1
+        wide = table1_display(own)
+        what = (f"Table 1 of {get(model).title} ({model}), REJECTED, shown for reference" if rejected
+                else f"Table 1 of the model used, {get(model).title} ({model})")
+        t = Table(title=f"{what}: Pearson rho, measured vs model (* p < 0.01)")
         for c in wide.columns:
             t.add_column(str(c))
         for row in wide.itertuples(index=False):
             t.add_row(*[str(v) for v in row])
         console.print(t)
-    if getattr(rep, "loso", None) is not None:
-        t = Table(title="Out of sample (leave one surface out): rho per held-out surface")
-        for c in ("subject", "held-out surface", "trials", "rho in sample", "rho out of sample", "p out"):
+    if loso is not None:
+        t = Table(title="Out of sample (leave one surface out): rho per held-out surface, every model")
+        for c in ("model", "subject", "held-out surface", "trials", "rho in sample", "rho out of sample",
+                  "p out"):
             t.add_column(c)
-        for r in rep.loso.itertuples(index=False):
-            t.add_row(str(r.subject), str(r.surface), str(r.n_trials), f"{r.rho_in_sample:.2f}",
-                      f"{r.rho_out_of_sample:.2f}", format_p(r.p_out_of_sample))
+        for r in loso.itertuples(index=False):
+            t.add_row(str(getattr(r, "model", "")), str(r.subject), str(r.surface), str(r.n_trials),
+                      f"{r.rho_in_sample:.2f}", f"{r.rho_out_of_sample:.2f}", format_p(r.p_out_of_sample))
         console.print(t)
+    if comparison is not None and len(comparison):
+        t = Table(title="Which model the data support (every variant fitted to the same trials)")
+        for c in ("model", "unphysical", "Table 1 >= 0.75", "held out >= 0.70", "mean held-out rho",
+                  "systematic misfit", "verdict"):
+            t.add_column(c)
+        for r in comparison.itertuples(index=False):
+            cells = f"{int(r.loso_cells_ok)} of {int(r.loso_cells)}" if r.loso_cells == r.loso_cells else "-"
+            t.add_row(("* " if r.model == model else "") + r.model, f"{r.n_unphysical} of {r.n_trials}",
+                      f"{r.table1_cells_ok} of {r.table1_cells}", cells,
+                      "-" if r.cv_rho_mean != r.cv_rho_mean else f"{r.cv_rho_mean:.3f}",
+                      "-" if r.residual_structure != r.residual_structure else f"{r.residual_structure:.3f}",
+                      str(r.verdict))
+        console.print(t)
+    if notes:
+        groups: dict = {}
+        for f in notes:
+            model_, code = (f.model, f.code) if hasattr(f, "code") else (f["model"], f["code"])
+            groups.setdefault((model_, code), []).append(f)
+        parts = [f"{m} {code} x{len(fs)}" for (m, code), fs in groups.items()]
+        console.print("notes on the comparison variants (not about the study): " + ", ".join(parts),
+                      highlight=False, soft_wrap=True)
+
+
+def _print_tables(rep) -> None:
+    _print_fit_tables(rep.model, rep.table1, rep.loso, rep.comparison, rep.notes, bool(rep.rejection))
     t = Table(title="Tactile blind spots (all trials pooled)")
     for c in ("surface", "trials", "start (mm)", "end (mm)", "width (mm)"):
         t.add_column(c)
@@ -450,6 +515,7 @@ def report_cmd(
         _print_tables(rep)
         for note in rep.notices:  # e.g. not fitted: said before the path, as at the top of the page
             console.print(f"[bold yellow]note:[/] {escape(note)}", highlight=False, soft_wrap=True)
+    _print_rejection(rep.rejection, verbosity)
     kinds: dict = {}
     for f in rep.flags:
         if f["level"] != "info":
@@ -509,12 +575,14 @@ def demo(
     _fit_warnings(f, ResultsStore(res.results), verbosity)
     if verbosity >= 0:
         _print_tables(res.report)
+    _print_choice(f.selection, f.requested, verbosity)
     t = res.elapsed_s
     print_summary(summary_line(
         "demo", [plural(a.n_trials, "trial"), f"simulate {t['simulate']:.0f} s",
                  f"analyze {t['analyze']:.0f} s ({a.n_computed} computed, {a.n_skipped} already done, "
                  f"{a.n_failed} failed)",
-                 f"fit {t['fit']:.0f} s ({f.n_failed} failed, {f.model} model: mu {_mu_text(f)})",
+                 f"fit {t['fit']:.0f} s ({f.n_failed} failed, {f.model} model"
+                 f"{' REJECTED' if f.rejected else ''}: mu {_mu_text(f)})",
                  f"report {t['report']:.0f} s ({plural(len(res.report.pages), 'trial page')})"],
         elapsed_s=sum(t.values()), output=str(res.report.html), log=log))
-    finish(a.success and f.n_failed == 0)
+    finish(a.success and f.n_failed == 0 and not f.rejected)

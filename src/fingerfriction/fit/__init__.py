@@ -1,28 +1,37 @@
 """Fitting the friction model of Janko, Wiertlewski & Visell 2018 to trials.
 
-Two variants of Eq. (4) (:mod:`fingerfriction.model`), selected by name (:data:`MODELS`):
+Variants of Eq. (4) (:mod:`fingerfriction.model`), one object each in the registry of
+:mod:`fingerfriction.fit.variants` (:data:`MODELS`):
 
-``'load'`` (the default): the load-consistent Eq. (4)
-    The pressure at each position comes from the measured normal force; ``mu`` per
-    subject from flat-ground Coulomb friction with a bootstrap confidence interval, the
+``'load'``: the load-consistent Eq. (4)
+    The pressure at each position carries the measured normal force; ``mu`` per subject
+    from flat-ground Coulomb friction with a bootstrap confidence interval, the
     load-bearing inset of the contact regions per subject, ``p1`` per trial with a
     standard error, on the absolute forces (:mod:`fingerfriction.fit.load`).
+``'pressure'``: Eq. (4) as printed on the absolute footing
+    One constant pressure per trial, from the flat ground's load; ``mu`` from flat ground
+    as above; ``p1`` per trial (:mod:`fingerfriction.fit.pressure`).
+``'interlock'``: the load-consistent Eq. (4), deformation split by slope direction
+    ``p1`` on ascending slopes and ``p1_down`` on descending ones, per trial
+    (:func:`fit_load_trials` with ``split=True``).
 ``'paper'``: Eq. (4) as printed
     Constant ``p0`` and ``p1`` per trial, ``mu`` per subject by grid search, on the paper's
     flat-segment footing (:mod:`fingerfriction.fit.paper`). Kept to reproduce the paper's
     procedure; its ``mu`` is not identifiable from forces alone and its fits can turn
-    unphysical, which :func:`paper_flags` reports.
+    unphysical, which :func:`paper_flags` reports; never chosen by ``--model auto``.
 
-Both return per-trial results with ``measured``/``estimate`` series (for Table 1,
-:mod:`fingerfriction.model.stats`) and :class:`FitFlag` objects for everything unphysical or
-doubtful; nothing here reads or writes files.
+:mod:`fingerfriction.fit.select` chooses the variant the data support out of sample, or
+rejects every one. All return per-trial results with ``measured``/``estimate`` series (for
+Table 1, :mod:`fingerfriction.model.stats`) and :class:`FitFlag` objects for everything
+unphysical or doubtful; nothing here reads or writes files.
 """
 
-from ..model import MODELS
 from .common import FitFlag, Trial, flat_detrend, flat_segment_mask, median_filter, nmse, nmse_eq5
 from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit, fit_load_subject, fit_load_trials
 from .mu import FlatGroundMu, flat_ground_mu
 from .paper import FitOptions, SubjectFit, TrialFit, fit_subject, fit_trial, fit_trials, mu_grid, paper_flags
+from .pressure import fit_pressure_subject, fit_pressure_trials
+from .variants import MODELS, SELECTABLE, FitSettings, get
 
 __all__ = [
     "MODELS",
@@ -48,4 +57,9 @@ __all__ = [
     "flat_ground_mu",
     "fit_load_subject",
     "fit_load_trials",
+    "fit_pressure_subject",
+    "fit_pressure_trials",
+    "FitSettings",
+    "SELECTABLE",
+    "get",
 ]

@@ -125,7 +125,7 @@ def _surface_labels(surface: Surface) -> tuple[str, str]:
     return surface.name, ""
 
 
-def _fit_labels(trial: Trial) -> dict:
+def fit_labels(trial: Trial) -> dict:
     """Labels carried by a TrialFit: the trial's, plus surface, shape and scale."""
     return {**trial.labels, "surface": trial.surface.name, "shape": trial.shape, "scale": trial.scale}
 
@@ -155,6 +155,10 @@ class Trial:
     normal_abs : (n,) ndarray, optional
         Normal force ``F_N`` in N on the absolute footing; given together with
         ``force_abs``.
+    clipped : (n,) bool ndarray, optional
+        Positions whose contact the camera's field cut (a region ends at the edge of the
+        frame, ``frames.parquet`` ``clipped``): the regions there are shorter than the
+        contact that makes the force. None: none known.
 
     Raises
     ------
@@ -172,6 +176,7 @@ class Trial:
     labels: Mapping[str, str] = field(default_factory=dict)
     force_abs: np.ndarray | None = None
     normal_abs: np.ndarray | None = None
+    clipped: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         x = np.asarray(self.x, dtype=float)
@@ -226,6 +231,12 @@ class Trial:
                     f"Trial.{name} has a non-finite value {float(v[i])!r} at index {i} (x={x[i]:g} mm)"
                 )
             object.__setattr__(self, name, v)
+        if self.clipped is not None:
+            c = np.asarray(self.clipped)
+            if c.shape != x.shape or c.dtype != bool:
+                raise ValueError(f"Trial.clipped must be a bool array with one value per position, got "
+                                 f"dtype {c.dtype} and shape {c.shape} for {x.size} positions")
+            object.__setattr__(self, "clipped", c)
         object.__setattr__(self, "x", x)
         object.__setattr__(self, "force", f)
         object.__setattr__(self, "regions", r)
@@ -258,7 +269,7 @@ class Trial:
         return _surface_labels(self.surface)[1]
 
 
-def _by_subject(trials) -> dict[str, list[Trial]]:
+def by_subject(trials) -> dict[str, list[Trial]]:
     """The trials grouped by subject (in their order); raises for an empty sequence or an
     item that is not a :class:`Trial`."""
     trials = list(trials)
@@ -272,7 +283,7 @@ def _by_subject(trials) -> dict[str, list[Trial]]:
     return by
 
 
-def _one_subject(trials, *, caller: str, purpose: str, group: str) -> tuple[list[Trial], str]:
+def one_subject(trials, *, caller: str, purpose: str, group: str) -> tuple[list[Trial], str]:
     """The trials of one subject as a list, and that subject; the messages name the fitting
     function (``caller``), what it fits (``purpose``) and its every-subject form (``group``)."""
     trials = list(trials)
@@ -351,7 +362,7 @@ def median_filter(y, kernel: int) -> np.ndarray:
     values, so the ends are not pulled towards zero as with ``scipy.signal.medfilt``'s
     zero padding). ``kernel=1`` returns a copy.
     """
-    k = _check_kernel(kernel)
+    k = check_kernel(kernel)
     y = np.asarray(y, dtype=float)
     if k == 1:
         return y.copy()
@@ -359,7 +370,8 @@ def median_filter(y, kernel: int) -> np.ndarray:
     return ndimage.median_filter(y, size=size, mode="nearest")
 
 
-def _check_kernel(kernel) -> int:
+def check_kernel(kernel) -> int:
+    """The median filter's kernel as an int, checked odd and positive (samples); raises otherwise."""
     if isinstance(kernel, bool) or not isinstance(kernel, (int, np.integer)) or kernel < 1 or kernel % 2 == 0:
         raise ValueError(f"median kernel must be an odd positive integer (samples), got {kernel!r}")
     return int(kernel)
@@ -369,8 +381,9 @@ def _check_kernel(kernel) -> int:
 
 
 #: Levels of a fit's flags: ``'error'`` (the result must not be used: a failed or
-#: unphysical fit) and ``'warning'`` (usable, with a caveat).
-FLAG_LEVELS = ("error", "warning")
+#: unphysical fit), ``'warning'`` (usable, with a caveat) and ``'info'`` (what the fit did
+#: that a reader should know, e.g. a parameter held at its physical limit).
+FLAG_LEVELS = ("error", "warning", "info")
 
 #: The fit's flags are the package's one flag type (:class:`fingerfriction.flags.Flag`).
 FitFlag = Flag

@@ -45,27 +45,32 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import optimize
 
-from ..model import FrictionModel, load_terms
+from ..model import FrictionModel, LoadParams, load_terms
 from ..surfaces import Surface
 from .common import (
     FitFlag,
     Trial,
-    _by_subject,
-    _check_kernel,
-    _fit_labels,
-    _one_subject,
+    by_subject,
     fit_flag,
+    fit_labels,
     flat_detrend,
     flat_segment_mask,
     median_filter,
     nmse,
+    one_subject,
 )
-from .mu import FlatGroundMu, flat_ground_mu
+from .load_results import (
+    MU_PER,  # noqa: F401 (re-exported: moved to load_results)
+    LoadFitOptions,
+    LoadSubjectFit,
+    LoadTrialFit,
+)
+from .mu import flat_ground_mu
+from .weights import column_weights, hac_se, split_weights
 
 __all__ = [
     "LoadFitOptions",
@@ -73,252 +78,24 @@ __all__ = [
     "LoadSubjectFit",
     "fit_load_subject",
     "fit_load_trials",
+    "load_estimate",
 ]
 
-MU_PER = ("subject", "trial")
 #: Position stride of the search for the inset and kappa (see _LoadDesign).
 SEARCH_STRIDE = 3
-
-
-@dataclass(frozen=True)
-class LoadFitOptions:
-    """How the load-consistent model is fitted (see the module notes).
-
-    Parameters
-    ----------
-    median_kernel : int
-        Median filter window, in positions, on the per-position integrals ``S, K, Q``
-        (odd; 1 = off; default 11 as the paper variant).
-    inset : 'fit' or float
-        Inset in mm of the geometric regions giving the load-bearing contact: fitted per
-        subject (default), or fixed (0 = the geometric regions as they are).
-    inset_max : float
-        Upper bound in mm of the fitted inset (default 1 mm).
-    kappa : 'fit' or float
-        Rise of a region's pressure with its mean height, in 1/mm: fitted per subject
-        (default), or fixed (0 = one uniform pressure over the whole contact, the paper's).
-    kappa_max : float
-        Upper bound in 1/mm of the fitted rise (default 8: a region 0.125 mm higher than
-        another carries e times its pressure).
-    transient : bool
-        Model a static-to-sliding transient in the flat-ground ratio (default True).
-    transient_max_mm : float
-        Upper bound in mm of the transient's decay length (default 3 mm).
-    mu_per : {'trial', 'subject'}
-        The ``mu`` each trial's model uses: the trial's own flat-ground value (default; the
-        subject's where the trial has too little flat ground) or the subject's, as the
-        paper. Friction varies from trial to trial (skin hydration): with a per-trial
-        scatter of ``mu`` the subject's ``mu`` pushes each trial's friction error into the
-        contact search, which then collapses, and many trials get ``p1 < 0``; without
-        scatter the two agree (``docs/fit.md``).
-    n_boot : int
-        Bootstrap resamples of the confidence interval of ``mu`` (default 2000).
-    seed : int
-        Seed of the bootstrap's ``numpy.random.Generator``.
-    level : float
-        Confidence level (default 0.95).
-    nominal_load : float
-        Normal force in N used for trials without absolute forces (default 0.3 N, the
-        paper's prescribed load).
-    min_load : float
-        Positions where the measured ``F_N`` is below this (N) are left out (finger
-        lifting or not yet loaded; default 0.05 N); 0 keeps every position.
-    min_flat_mm : float
-        Least flat-ground travel in mm for a trial's own ``mu`` (default 1 mm).
-    hac_mm : float
-        Bandwidth in mm of the Newey-West standard error of ``p1`` (default 1 mm).
-    search_trials : int
-        At most this many of a subject's trials, spread evenly over its surfaces, are used
-        to find its load-bearing contact (default 36: 6 per surface of the paper's design;
-        the two parameters are the finger's, so more trials change them little while the
-        search's cost grows with them; ``docs/fit.md``).
-    """
-
-    median_kernel: int = 11
-    inset: float | str = "fit"
-    inset_max: float = 1.0
-    kappa: float | str = "fit"
-    kappa_max: float = 8.0
-    transient: bool = True
-    transient_max_mm: float = 3.0
-    mu_per: str = "trial"
-    n_boot: int = 2000
-    seed: int = 0
-    level: float = 0.95
-    nominal_load: float = 0.3
-    min_load: float = 0.05
-    min_flat_mm: float = 1.0
-    hac_mm: float = 1.0
-    search_trials: int = 36
-
-    def __post_init__(self) -> None:
-        _check_kernel(self.median_kernel)
-        for name, what in (("inset", "a length >= 0 in mm"), ("kappa", "a rate >= 0 in 1/mm")):
-            v = getattr(self, name)
-            if isinstance(v, str):
-                if v != "fit":
-                    raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
-            elif isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
-        for name in ("inset_max", "kappa_max", "transient_max_mm", "nominal_load", "min_flat_mm",
-                     "hac_mm"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
-        m = self.min_load
-        if not (isinstance(m, (int, float)) and math.isfinite(m) and m >= 0):
-            raise ValueError(f"min_load must be a force >= 0 in N, got {self.min_load!r}")
-        if self.mu_per not in MU_PER:
-            raise ValueError(f"mu_per must be one of {MU_PER}, got {self.mu_per!r}")
-        if isinstance(self.n_boot, bool) or not isinstance(self.n_boot, int) or self.n_boot < 100:
-            raise ValueError(f"n_boot must be an integer >= 100, got {self.n_boot!r}")
-        if not (isinstance(self.level, float) and 0.5 < self.level < 1):
-            raise ValueError(f"level must be a confidence level in (0.5, 1), got {self.level!r}")
-        if isinstance(self.search_trials, bool) or not isinstance(self.search_trials, int) \
-                or self.search_trials < 1:
-            raise ValueError(f"search_trials must be an integer >= 1, got {self.search_trials!r}")
-        if not isinstance(self.transient, bool):
-            raise TypeError(f"transient must be True or False, got {self.transient!r}")
-
-
-@dataclass(frozen=True, eq=False)
-class LoadTrialFit:
-    """Result of fitting ``p1`` of the load-consistent Eq. (4) to one trial.
-
-    Attributes
-    ----------
-    mu : float
-        Friction coefficient used (fixed during the fit).
-    p1, p1_se : float
-        Deformation weight in N/mm and its standard error (Newey-West).
-    inset : float
-        Inset in mm of the load-bearing contact.
-    kappa : float
-        Rise of a region's pressure with its height, 1/mm.
-    p0_mean : float
-        The trial's pressure in N/mm, ``sum F_N / sum (K - mu S)`` over the compared
-        positions (the counterpart of the paper's constant ``p0``).
-    mu_flat : float
-        The trial's own flat-ground ``mu`` (NaN when it has too little flat ground).
-    objective : float
-        Conventional NMSE of the compared series.
-    objective_name, method : str
-        ``'nmse'`` and ``'lstsq'``.
-    success : bool
-        False for a fit that must not be used (unphysical ``p1 < 0``, nothing to compare).
-    message : str
-    footing : {'absolute', 'flat'}
-        The footing of the compared series: absolute forces, or the paper's flat-segment
-        footing for a trial without absolute forces.
-    used : (n,) bool ndarray
-        Positions compared (load-bearing contact and ``F_N >= min_load``).
-    measured, estimate : (n,) ndarray
-        Measured ``F_T`` and the model, in N, on ``footing`` (NaN where not ``used``).
-    interfacial, deformation, pressure : (n,) ndarray
-        ``F_int`` (Eq. 2) and ``F_def`` (Eq. 3) in N and ``p0(x)`` in N/mm.
-    subject : str
-    labels : dict
-    flags : tuple of FitFlag
-    """
-
-    mu: float
-    p1: float
-    p1_se: float
-    inset: float
-    kappa: float
-    p0_mean: float
-    mu_flat: float
-    objective: float
-    success: bool
-    message: str
-    footing: str
-    used: np.ndarray
-    measured: np.ndarray
-    estimate: np.ndarray
-    interfacial: np.ndarray
-    deformation: np.ndarray
-    pressure: np.ndarray
-    subject: str = ""
-    labels: dict = field(default_factory=dict)
-    flags: tuple = ()
-    objective_name: str = "nmse"
-    method: str = "lstsq"
-
-    def compared(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(measured, estimate)`` over the compared positions, in N (for Table 1)."""
-        return self.measured[self.used], self.estimate[self.used]
-
-
-@dataclass(frozen=True, eq=False)
-class LoadSubjectFit:
-    """Result of the load-consistent fit of one subject.
-
-    Attributes
-    ----------
-    subject : str
-    mu : float
-        Flat-ground ``mu`` (see ``flat``).
-    flat : FlatGroundMu or None
-        How ``mu`` was measured (None when no trial has absolute forces).
-    inset : float
-        Load-bearing inset in mm (fitted or given).
-    kappa : float
-        Rise of a region's pressure with its height in 1/mm (fitted or given).
-    fitted : tuple of str
-        Which of ``'inset'`` and ``'kappa'`` were fitted.
-    trials : tuple of LoadTrialFit
-        In the order of the input trials.
-    flags : tuple of FitFlag
-        Subject-level and trial-level flags.
-    success : bool
-        False when ``mu`` could not be measured or a trial fit failed.
-    message : str
-    model : str
-        ``'load'``.
-    """
-
-    subject: str
-    mu: float
-    flat: FlatGroundMu | None
-    inset: float
-    kappa: float
-    fitted: tuple
-    trials: tuple
-    flags: tuple
-    success: bool
-    message: str
-    model: str = "load"
-
-    @property
-    def mu_ci(self) -> tuple[float, float]:
-        """Confidence interval of ``mu`` (NaN when unavailable)."""
-        return self.flat.ci if self.flat is not None else (math.nan, math.nan)
 
 
 # ------------------------------------------------------------------------ per-trial design
 
 
-def _hac_se(b: np.ndarray, e: np.ndarray, lags: int) -> float:
-    """Newey-West standard error of the slope of ``y = p1 b + e`` (Bartlett kernel)."""
-    g = b * e
-    n = g.size
-    lags = int(min(max(lags, 0), n - 1))
-    # autocovariances of g up to `lags` through the FFT (O(n log n))
-    m = 1 << int(math.ceil(math.log2(2 * n)))
-    f = np.fft.rfft(g, m)
-    acov = np.fft.irfft(f * np.conj(f), m)[: lags + 1]
-    w = 1.0 - np.arange(lags + 1) / (lags + 1.0)
-    s = acov[0] + 2.0 * float(np.sum(w[1:] * acov[1:]))
-    bb = float(b @ b)
-    return math.sqrt(max(s, 0.0)) / bb if bb > 0 else math.nan
-
-
 class _LoadDesign:
-    """One trial's data and cached integrals for the load-consistent fit."""
+    """One trial's data and cached integrals for the load-consistent fit; with ``split``,
+    the deformation term has one column per slope direction (ascending, descending)."""
 
-    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel):
+    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel, *, split: bool = False):
         self.trial = trial
         self.model = model
+        self.split = bool(split)
         self.k = options.median_kernel
         self.absolute = trial.has_absolute
         if self.absolute:
@@ -366,12 +143,27 @@ class _LoadDesign:
             R = self._cache[key] = self.model._region_integrals(self.trial.regions[window], inset)
         return R
 
+    def _up(self, inset: float, window: slice) -> np.ndarray:
+        """The ascending parts ``[S_up, Q_up]`` over ``window`` at ``inset`` (kept as
+        :meth:`_integrals` keeps its own)."""
+        self._integrals(inset, window)  # resets the cache at a new inset
+        key = ("up", float(inset), window.start, window.stop, window.step)
+        U = self._cache.get(key)
+        if U is None:
+            U = self._cache[key] = self.model._region_up(self.trial.regions[window], inset)
+        return U
+
     def parts(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
         """``(g, b_def, support)`` of :func:`fingerfriction.model.load_terms` over the
         positions ``window``, median-filtered along them like the paper's model estimate
-        (NaN where undefined)."""
+        (NaN where undefined); with ``split``, ``b_def`` is ``(n, 2)``: the ascending and
+        descending parts (:meth:`fingerfriction.model.FrictionModel.deformation_parts`)."""
         R = self._integrals(inset, window)
         g, b, support = load_terms(R, mu, kappa)
+        if self.split:
+            U = self._up(inset, window)
+            up = U[:, 1] + mu * U[:, 0]
+            b = np.stack([up, b - up], axis=1)
         ok = np.isfinite(g)
         k = self.k if window.step in (None, 1) else self.k_search
         if k > 1 and ok.any():
@@ -405,10 +197,15 @@ class _LoadDesign:
 
     def solve(self, mu: float, inset: float, kappa: float, *, full: bool = False) -> tuple[float, float]:
         """``(p1, residual)`` by least squares, over the positions near the feature (the
-        search's) or, with ``full``, every position as the trial's own fit uses them."""
+        search's) or, with ``full``, every position as the trial's own fit uses them (with
+        ``split``, ``p1`` is the ascending slopes' weight, the one bounded below by 0)."""
         used, y, b, *_ = self.terms(mu, inset, kappa, slice(None) if full else self.search)
         if y is None or y.size == 0:
             return 0.0, 0.0
+        if self.split:
+            p, _ = column_weights(b, y)
+            r = y - b @ p
+            return float(p[0]), float(r @ r)
         bb = float(b @ b)
         p1 = float(b @ y) / bb if bb > 0 else 0.0
         r = y - p1 * b
@@ -418,7 +215,7 @@ class _LoadDesign:
 def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: float,
                 model_name: str = "load", *, wrong_sign: bool = False) -> LoadTrialFit:
     t = d.trial
-    labels = _fit_labels(t)
+    labels = fit_labels(t)
     tid = t.id
     flags: list[FitFlag] = []
     used, y, b, f_int, b_def, support = d.terms(mu, inset, kappa)
@@ -438,12 +235,17 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
                             footing=footing, used=used,
                             measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=pressure,
                             subject=t.subject, labels=labels, flags=tuple(flags))
-    bb = float(b @ b)
     success, parts = True, ["closed-form least squares"]
-    if bb > 0:
-        p1 = float(b @ y) / bb
-        p1_se = _hac_se(b, y - p1 * b, d.lags)
+    if d.split:
+        p1, p1_se, p1_down, p1_down_se, identified = split_weights(b, y, d.lags)
     else:
+        p1_down = p1_down_se = math.nan
+        bb = float(b @ b)
+        identified = bb > 0
+        if identified:
+            p1 = float(b @ y) / bb
+            p1_se = hac_se(b, y - p1 * b, d.lags)
+    if not identified:
         p1, p1_se = 0.0, math.nan
         flags.append(fit_flag("warning", "p1-not-identified", t.subject, tid, model_name,
                              "the load-bearing contact never reaches a slope: p1 is not identified "
@@ -472,7 +274,8 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
     # the trial's pressure: total load over total vertical support (a ratio of sums stays
     # unbiased under noise in F_N, a mean of the pointwise pressure would not)
     p0_mean = float(np.sum(d.FN[used]) / np.sum(support[used]))
-    est = np.where(used, f_int + p1 * b_def, np.nan)
+    f_def = b_def @ np.array([p1, 0.0 if math.isnan(p1_down) else p1_down]) if d.split else p1 * b_def
+    est = np.where(used, f_int + f_def, np.nan)
     meas = np.full(n, np.nan)
     if d.absolute:
         meas[used] = d.F[used]
@@ -483,8 +286,9 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
         mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset), kappa=float(kappa),
         p0_mean=p0_mean, mu_flat=float(mu_flat), objective=float(obj),
         success=success, message="; ".join(parts), footing=footing, used=used, measured=meas, estimate=est,
-        interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, p1 * b_def, np.nan),
+        interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, f_def, np.nan),
         pressure=pressure, subject=t.subject, labels=labels, flags=tuple(flags),
+        p1_down=p1_down, p1_down_se=p1_down_se,
     )
 
 
@@ -578,20 +382,21 @@ def _fit_contact(designs, mu_of, options: LoadFitOptions) -> tuple[float, float,
 # ------------------------------------------------------------------------ subject fit
 
 
-def _at_bound_flags(subject: str, fitted, inset: float, kappa: float, options: LoadFitOptions) -> list:
+def _at_bound_flags(subject: str, fitted, inset: float, kappa: float, options: LoadFitOptions,
+                    model: str = "load") -> list:
     """A warning for each fitted contact parameter that ended within 2 % of its bound."""
     flags = []
     bounds = (("inset", inset, options.inset_max), ("kappa", kappa, options.kappa_max))
     for name, value, bound in bounds:
         if name in fitted and value > 0.98 * bound:
             what = "load-bearing inset" if name == "inset" else "rise of the pressure with height"
-            flags.append(fit_flag("warning", f"{name}-at-bound", subject, "", "load",
+            flags.append(fit_flag("warning", f"{name}-at-bound", subject, "", model,
                                  f"the {what} reached its bound {bound:g}"))
     return flags
 
 
 def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
-                     models: dict | None = None) -> LoadSubjectFit:
+                     models: dict | None = None, split: bool = False) -> LoadSubjectFit:
     """Fit the load-consistent Eq. (4) to one subject's trials (see the module notes).
 
     Parameters
@@ -602,6 +407,11 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     options : LoadFitOptions, optional
     models : dict, optional
         Surface -> FrictionModel cache shared between calls.
+    split : bool
+        Split the deformation term by slope direction, one weight per trial for the
+        ascending slopes (``p1``, >= 0 as Eq. 3's) and one for the descending ones
+        (``p1_down``, either sign): the ``'interlock'`` variant (the finger's leading side
+        pushing against a rising feature, little on the way down).
 
     Returns
     -------
@@ -611,24 +421,25 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
         fit is unphysical; never a silent number.
     """
     options = options or LoadFitOptions()
-    trials, subject = _one_subject(trials, caller="fit_load_subject", purpose="fit a subject",
+    trials, subject = one_subject(trials, caller="fit_load_subject", purpose="fit a subject",
                                    group="fit_load_trials")
     models = {} if models is None else models
+    name = "interlock" if split else "load"
     designs = []
     for t in trials:
         key: Surface = t.surface
         if key not in models:
             models[key] = FrictionModel(key)
-        designs.append(_LoadDesign(t, options, models[key]))
+        designs.append(_LoadDesign(t, options, models[key], split=split))
     try:
         flat = flat_ground_mu(trials, transient=options.transient, transient_max_mm=options.transient_max_mm,
                               min_load=options.min_load, min_flat_mm=options.min_flat_mm,
-                              n_boot=options.n_boot, seed=options.seed, level=options.level)
+                              n_boot=options.n_boot, seed=options.seed, level=options.level, model=name)
     except ValueError as exc:
         msg = str(exc)
-        flag = fit_flag("error", "mu-unavailable", subject, "", "load", msg)
+        flag = fit_flag("error", "mu-unavailable", subject, "", name, msg)
         return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
-                              fitted=(), trials=(), flags=(flag,), success=False, message=msg)
+                              fitted=(), trials=(), flags=(flag,), success=False, message=msg, model=name)
     mu = flat.mu
     flags = list(flat.flags)
 
@@ -650,13 +461,15 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                                                options={"xatol": 1e-3})
                 inset = float(res.x)
                 kappa = _physical_kappa(absolute, mu_of, inset, kappa)
-            flags.append(fit_flag("warning", "kappa-limited", subject, "", "load",
+            # info, not a warning: the limit is the physics the fit imposes, and it holds
+            # on clean studies too (both subjects of the simulated default study)
+            flags.append(fit_flag("info", "kappa-limited", subject, "", name,
                                  f"the pressure's rise with height is limited to {kappa:.2f}/mm, where every "
                                  f"trial's deformation weight p1 stays >= 0 (the residual alone would take "
                                  f"{best:.2f}/mm)"))
-    flags += _at_bound_flags(subject, fitted, inset, kappa, options)
+    flags += _at_bound_flags(subject, fitted, inset, kappa, options, name)
     wrong_sign = {f.trial for f in flat.flags if f.code == "negative-mu"}
-    fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan),
+    fits = tuple(_fit_design(d, mu_of(d), inset, kappa, flat.mu_trials.get(d.trial.id, math.nan), name,
                              wrong_sign=d.trial.id in wrong_sign) for d in designs)
     for f in fits:
         flags.extend(f.flags)
@@ -667,11 +480,52 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     if n_bad:
         parts.append(f"{n_bad} of {len(fits)} trial fits failed or unphysical")
     return LoadSubjectFit(subject=subject, mu=mu, flat=flat, inset=inset, kappa=kappa, fitted=fitted,
-                          trials=fits, flags=tuple(flags), success=n_bad == 0, message="; ".join(parts))
+                          trials=fits, flags=tuple(flags), success=n_bad == 0, message="; ".join(parts),
+                          model=name)
 
 
-def fit_load_trials(trials: Sequence[Trial],
-                    options: LoadFitOptions | None = None) -> dict[str, LoadSubjectFit]:
+def fit_load_trials(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
+                    split: bool = False) -> dict[str, LoadSubjectFit]:
     """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
     models: dict = {}
-    return {s: fit_load_subject(ts, options, models=models) for s, ts in sorted(_by_subject(trials).items())}
+    return {s: fit_load_subject(ts, options, models=models, split=split)
+            for s, ts in sorted(by_subject(trials).items())}
+
+
+def load_estimate(model: FrictionModel, regions: np.ndarray, f_n, params: LoadParams, *,
+                  median_kernel: int = 11) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The load-consistent Eq. (4) for fixed parameters, processed as the fit processes its
+    model (the median filter on the load-independent parts).
+
+    Parameters
+    ----------
+    model : FrictionModel
+        The surface's model.
+    regions : (n, n_max, 2) ndarray
+        Geometric contact regions in mm (video or forward model); inset by ``params.inset``.
+    f_n : float or (n,) array_like
+        Normal force in N (the nominal load for a prediction, or a measured one).
+    params : LoadParams
+        With ``p1_down`` the deformation term split by slope direction (``'interlock'``).
+    median_kernel : int
+        Median filter window in positions, as the fit's.
+
+    Returns
+    -------
+    total, interfacial, deformation : (n,) ndarray
+        ``F_T``, ``F_int`` (Eq. 2) and ``F_def`` (Eq. 3) in N; NaN where the load-bearing
+        contact is empty.
+    """
+    R = model.region_integrals(regions, inset=params.inset)
+    g, b, _ = load_terms(R, params.mu, params.kappa)
+    if params.asymmetric:
+        b = model.deformation_parts(regions, params.mu, inset=params.inset)
+    ok = np.isfinite(g)
+    if median_kernel > 1 and ok.any():
+        idx = np.arange(g.size)
+        g = np.where(ok, median_filter(np.interp(idx, idx[ok], g[ok]), median_kernel), np.nan)
+        b = median_filter(b, median_kernel)
+    f_int = np.broadcast_to(np.asarray(f_n, dtype=float), g.shape) * g
+    f_def = b @ np.array([params.p1, params.p1_down]) if params.asymmetric else params.p1 * b
+    f_def = np.where(ok, f_def, np.nan)
+    return f_int + f_def, f_int, f_def

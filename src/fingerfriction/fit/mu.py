@@ -99,20 +99,20 @@ def _t_statistic(v: np.ndarray) -> float:
     return float(np.mean(v)) / (sd / math.sqrt(v.size)) if sd > 0 else math.nan
 
 
-def _flat_segments(trials, subject: str, min_load: float, min_flat_mm: float):
+def _flat_segments(trials, subject: str, min_load: float, min_flat_mm: float, model: str = "load"):
     """``(data, ids, flags)``: each usable trial's flat segment ``(u, F_T, F_N)``; trials
     with too little flat ground or a wrong-signed force are flagged and left out."""
     data, ids, flags = [], [], []
     for t in trials:
         d = _flat_data(t, min_load, min_flat_mm)
         if d is None:
-            flags.append(fit_flag("warning", "short-flat", subject, t.id, "load",
+            flags.append(fit_flag("warning", "short-flat", subject, t.id, model,
                                  f"less than {min_flat_mm:g} mm of flat ground before the feature: "
                                  "the trial takes no part in mu"))
             continue
         ratio = float(d[1].sum() / d[2].sum())
         if not ratio > 0:
-            flags.append(fit_flag("error", "negative-mu", subject, t.id, "load",
+            flags.append(fit_flag("error", "negative-mu", subject, t.id, model,
                                  f"flat-ground friction ratio F_T / F_N = {ratio:.3g} <= 0: the tangential "
                                  "force has the wrong sign (sensor axis or sliding direction?); the trial "
                                  "takes no part in mu"))
@@ -150,7 +150,7 @@ def _fit_transient(data, hi: float) -> tuple[float, np.ndarray, bool]:
 
 def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient_max_mm: float = 3.0,
                    min_load: float = 0.05, min_flat_mm: float = 1.0, n_boot: int = 2000, seed: int = 0,
-                   level: float = 0.95) -> FlatGroundMu:
+                   level: float = 0.95, model: str = "load") -> FlatGroundMu:
     """Coulomb friction of one subject from the flat ground before the feature.
 
     Parameters
@@ -171,6 +171,9 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
         Seed of the bootstrap's ``numpy.random.Generator``.
     level : float
         Confidence level.
+    model : str
+        The model variant the flags are raised for (every variant on the absolute footing
+        measures ``mu`` here).
 
     Returns
     -------
@@ -199,11 +202,11 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
         raise ValueError("no trial with absolute forces: mu cannot be measured on flat ground "
                          "(fit the paper's model instead)")
     subject = subjects[0]
-    data, ids, flags = _flat_segments(trials, subject, min_load, min_flat_mm)
+    data, ids, flags = _flat_segments(trials, subject, min_load, min_flat_mm, model)
     if transient:
         lam, mus, at_bound = _fit_transient(data, float(transient_max_mm))
         if at_bound:
-            flags.append(fit_flag("warning", "transient-at-bound", subject, "", "load",
+            flags.append(fit_flag("warning", "transient-at-bound", subject, "", model,
                                  f"the start transient's decay length reached its bound "
                                  f"{transient_max_mm:g} mm: the flat-ground ratio drifts over the whole "
                                  "flat segment"))
@@ -218,7 +221,7 @@ def flat_ground_mu(trials: Sequence[Trial], *, transient: bool = True, transient
         se = float(np.std(boots, ddof=1))
     else:
         ci, se = (math.nan, math.nan), math.nan
-        flags.append(fit_flag("warning", "mu-ci-unavailable", subject, "", "load",
+        flags.append(fit_flag("warning", "mu-ci-unavailable", subject, "", model,
                              "mu comes from a single trial: no confidence interval"))
     return FlatGroundMu(subject=subject, mu=mu, ci=ci, se=se, level=level,
                         mu_trials=dict(zip(ids, (float(m) for m in mus), strict=True)),

@@ -41,8 +41,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 
 import numpy as np
 from scipy import optimize
@@ -52,16 +51,21 @@ from ..surfaces import Surface
 from .common import (
     FitFlag,
     Trial,
-    _by_subject,
-    _check_kernel,
-    _fit_labels,
-    _one_subject,
+    by_subject,
     fit_flag,
+    fit_labels,
     flat_detrend,
     flat_segment_mask,
     median_filter,
     nmse,
     nmse_eq5,
+    one_subject,
+)
+from .paper_results import (
+    OBJECTIVES,  # noqa: F401 (re-exported: moved to paper_results)
+    FitOptions,
+    SubjectFit,
+    TrialFit,
 )
 
 __all__ = [
@@ -77,147 +81,10 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-OBJECTIVES = ("nmse", "nmse_eq5")
 METHODS = ("lstsq", "nelder-mead")
 
 
-# ------------------------------------------------------------------------ options & results
-
-
-@dataclass(frozen=True)
-class FitOptions:
-    """How measurement and model are compared (see the module docstring).
-
-    Parameters
-    ----------
-    objective : {'nmse', 'nmse_eq5'}
-        Conventional NMSE (default) or Eq. (5) as printed.
-    median_kernel : int
-        Median filter window in samples (odd; 1 = off). Default 11 (0.11 mm on the
-        paper's 0.01 mm grid).
-    median_on : {'basis', 'estimate'}
-        Filter the per-frame integrals (default; keeps the model linear) or the combined
-        estimate (the literal reading of Methods; nonlinear).
-    flat_margin : float
-        Clearance in mm between the flat segment and the feature start (default 0).
-    detrend : bool
-        Apply the same flat-segment linear detrend to model and measurement (default True:
-        the right choice for drift-corrected measurements, see point 1 above). False
-        compares absolute forces, for data whose flat-ground level is real (no drift
-        correction, e.g. a simulated or DC-coupled sensor): the flat level ``p0 mu L`` then
-        pins ``p0`` directly and per-trial estimates are several times tighter.
-    xatol, fatol : float
-        Nelder-Mead tolerances on the *relative* parameters (default 1e-6) and on the
-        objective (default 1e-10).
-    maxiter : int
-        Nelder-Mead iteration limit.
-    """
-
-    objective: str = "nmse"
-    median_kernel: int = 11
-    median_on: str = "basis"
-    flat_margin: float = 0.0
-    detrend: bool = True
-    xatol: float = 1e-6
-    fatol: float = 1e-10
-    maxiter: int = 2000
-
-    def __post_init__(self) -> None:
-        if self.objective not in OBJECTIVES:
-            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
-        _check_kernel(self.median_kernel)
-        if self.median_on not in ("basis", "estimate"):
-            raise ValueError(f"median_on must be 'basis' or 'estimate', got {self.median_on!r}")
-        if not (math.isfinite(self.flat_margin) and self.flat_margin >= 0):
-            raise ValueError(f"flat_margin must be >= 0 mm, got {self.flat_margin!r}")
-        for name in ("xatol", "fatol"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if int(self.maxiter) < 1:
-            raise ValueError(f"maxiter must be >= 1, got {self.maxiter!r}")
-
-
-@dataclass(frozen=True, eq=False)
-class TrialFit:
-    """Result of fitting ``p0, p1`` to one trial at a given ``mu``.
-
-    Attributes
-    ----------
-    mu : float
-        Friction coefficient used (fixed during the fit).
-    p0, p1 : float
-        Fitted parameters in N/mm (D absorbed; Eq. 4).
-    objective : float
-        Value of the objective (``objective_name``) at the solution, on the exact
-        compared series (detrended measurement vs detrended, median-filtered model).
-    objective_name : str
-    method : str
-        'lstsq' or 'nelder-mead'.
-    success : bool
-    message : str
-        Why the fit failed, or a short description of what converged.
-    n_iter, n_fev : int
-        Iterations and objective evaluations (0 for the closed form).
-    measured : (n,) ndarray
-        Measurement as compared (N): drift-corrected again over the flat segment.
-    estimate : (n,) ndarray
-        Model as compared (N): Eq. (4), median-filtered, detrended over the flat segment.
-    subject : str
-    labels : dict
-    """
-
-    mu: float
-    p0: float
-    p1: float
-    objective: float
-    objective_name: str
-    method: str
-    success: bool
-    message: str
-    n_iter: int
-    n_fev: int
-    measured: np.ndarray
-    estimate: np.ndarray
-    subject: str = ""
-    labels: Mapping[str, str] = field(default_factory=dict)
-
-    @property
-    def params(self) -> FrictionParams:
-        """The fitted parameters (raises ``ValueError`` if they are unphysical, p0 < 0)."""
-        return FrictionParams(mu=self.mu, p0=self.p0, p1=self.p1)
-
-
-@dataclass(frozen=True, eq=False)
-class SubjectFit:
-    """Result of the per-subject grid search for ``mu``.
-
-    Attributes
-    ----------
-    subject : str
-    mu : float
-        Grid value minimising the summed objective.
-    grid : (m,) ndarray
-        The ``mu`` values tried.
-    curve : (m,) ndarray
-        Sum over the subject's trials of each trial's minimal objective at each ``mu``.
-    trials : tuple of TrialFit
-        Per-trial fits at the selected ``mu`` (same order as the input trials).
-    success : bool
-        False if any trial fit failed or the minimum is at an end of the grid (the true
-        optimum may lie outside it).
-    message : str
-    method : str
-    """
-
-    subject: str
-    mu: float
-    grid: np.ndarray
-    curve: np.ndarray
-    trials: tuple[TrialFit, ...]
-    success: bool
-    message: str
-    method: str
+# ------------------------------------------------------------------------ the mu grid
 
 
 def mu_grid(start: float = 0.30, stop: float = 0.90, step: float = 0.01) -> np.ndarray:
@@ -458,7 +325,7 @@ def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",
     options = options or FitOptions()
     _check_method(method)
     FrictionParams(mu=mu, p0=0.0, p1=0.0)  # validates mu
-    return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, _fit_labels(trial))
+    return _fit_one(_Design(trial, options), float(mu), method, options, trial.subject, fit_labels(trial))
 
 
 def _checked_grid(grid) -> np.ndarray:
@@ -522,7 +389,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     """
     options = options or FitOptions()
     _check_method(method)
-    trials, subject = _one_subject(trials, caller="fit_subject", purpose="fit a subject's mu",
+    trials, subject = one_subject(trials, caller="fit_subject", purpose="fit a subject's mu",
                                    group="fit_trials")
     mus = _checked_grid(grid)
     if method == "lstsq" and options.objective != "nmse":
@@ -545,7 +412,7 @@ def fit_subject(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
     if refine and 0 < j < mus.size - 1 and np.all(np.isfinite(curve[j - 1 : j + 2])):
         mu = _parabola_vertex(mus[j - 1 : j + 2], curve[j - 1 : j + 2])
     fits = tuple(
-        _fit_one(d, mu, method, options, t.subject, _fit_labels(t))
+        _fit_one(d, mu, method, options, t.subject, fit_labels(t))
         for d, t in zip(designs, trials, strict=True)
     )
     n_bad = sum(not f.success for f in fits)
@@ -579,7 +446,7 @@ def fit_trials(trials: Sequence[Trial], *, grid=None, method: str = "lstsq",
                options: FitOptions | None = None, refine: bool = False) -> dict[str, SubjectFit]:
     """:func:`fit_subject` for every subject present in ``trials`` (keyed by subject)."""
     return {s: fit_subject(ts, grid=grid, method=method, options=options, refine=refine)
-            for s, ts in sorted(_by_subject(trials).items())}
+            for s, ts in sorted(by_subject(trials).items())}
 
 
 def paper_flags(fit: SubjectFit) -> list[FitFlag]:

@@ -93,13 +93,12 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.integrate import cumulative_simpson
+from scipy.integrate import cumulative_simpson, cumulative_trapezoid
 
 from ..regions import as_regions
 from ..surfaces import Surface
 
 __all__ = [
-    "MODELS",
     "FrictionParams",
     "LoadParams",
     "ModelForces",
@@ -108,10 +107,6 @@ __all__ = [
     "load_terms",
     "T_matrix",
 ]
-
-#: The model variants: ``'load'`` (load-consistent Eq. 4, the default) and ``'paper'``
-#: (Eq. 4 as printed, constant pressure).
-MODELS = ("load", "paper")
 
 #: Smallest vertical support ``K - mu S`` (mm) of the load-bearing contact for which the
 #: load-consistent pressure is defined; below it (no load-bearing contact) it is NaN.
@@ -174,16 +169,24 @@ class LoadParams:
     kappa : float
         Rise of the pressure with the mean height of a region, in 1/mm (>= 0; 0 = one
         uniform pressure over the whole contact, the paper's assumption).
+    p1_down : float or None
+        Weight in N/mm of the deformation term on descending slopes (``dh/dx < 0``), where
+        ``p1`` then weighs the ascending ones (:meth:`FrictionModel.deformation_parts`:
+        interlocking, the finger's leading side pushing against a rising feature); None
+        (default) = the same weight ``p1`` on every slope, Eq. (3) as printed.
     """
 
     mu: float
     p1: float
     inset: float = 0.0
     kappa: float = 0.0
+    p1_down: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("mu", "p1", "inset", "kappa"):
+        for name in ("mu", "p1", "inset", "kappa", "p1_down"):
             v = getattr(self, name)
+            if name == "p1_down" and v is None:
+                continue
             if not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
                 raise ValueError(f"LoadParams.{name} must be a finite number, got {v!r}")
             object.__setattr__(self, name, float(v))
@@ -194,13 +197,22 @@ class LoadParams:
         if self.kappa < 0:
             raise ValueError(f"LoadParams.kappa (1/mm) must be >= 0, got {self.kappa!r}")
 
+    @property
+    def asymmetric(self) -> bool:
+        """True when the deformation weight differs between ascending and descending slopes."""
+        return self.p1_down is not None
+
     def to_json(self) -> str:
-        return json.dumps({"model": "load", **asdict(self)})
+        d = asdict(self)
+        if d["p1_down"] is None:
+            del d["p1_down"]
+        return json.dumps({"model": "interlock" if self.asymmetric else "load", **d})
 
     @classmethod
     def from_json(cls, text: str) -> LoadParams:
         d = json.loads(text)
-        return cls(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0), kappa=d.get("kappa", 0.0))
+        return cls(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0), kappa=d.get("kappa", 0.0),
+                   p1_down=d.get("p1_down"))
 
 
 @dataclass(frozen=True)
@@ -318,6 +330,13 @@ class FrictionModel:
         self._Q = cumulative_simpson(s * s * c, x=x, initial=0.0)  # int s sin(alpha) dx
         h = np.asarray(surface.h(x), dtype=float)
         self._H = cumulative_simpson(h, x=x, initial=0.0)  # int h dx (mean heights of regions)
+        # The ascending parts (dh/dx > 0) of int sin(alpha) and int s sin(alpha), for the
+        # deformation term split by slope direction (:meth:`deformation_parts`); the
+        # trapezoid rule, as the integrand jumps where the slope changes sign.
+        up = s > 0
+        self._up = np.stack([cumulative_trapezoid(np.where(up, s * c, 0.0), x=x, initial=0.0),
+                             cumulative_trapezoid(np.where(up, s * s * c, 0.0), x=x, initial=0.0)],
+                            axis=-1)
         self._h_ends = (float(h[0]), float(h[-1]))
         # Outside the table the surface is flat: sin = 0, cos = 1, s sin = 0.
         self._end_slope = (float(s[0]), float(s[-1]))
@@ -397,6 +416,52 @@ class FrictionModel:
         out[..., 4] = np.where(valid, b - a, 0.0)
         return out
 
+    def _region_up(self, arr: np.ndarray, inset: float) -> np.ndarray:
+        """``(n_frames, 2)``: the ascending parts ``[S_up, Q_up]`` of ``S`` and ``Q`` summed over
+        the (inset) regions of an already validated regions array."""
+        a = arr[..., 0] + inset
+        b = arr[..., 1] - inset
+        valid = b > a
+        n = self._up.shape[0]
+
+        def at(x):
+            u = np.clip((np.where(valid, x, self._x0) - self._x0) / self._dx, 0.0, n - 1.0)
+            i = np.minimum(u.astype(np.intp), n - 2)
+            t = (u - i)[..., None]
+            return self._up[i] * (1.0 - t) + self._up[i + 1] * t  # flat beyond the table
+
+        return np.where(valid[..., None], at(b) - at(a), 0.0).sum(axis=1)
+
+    def deformation_parts(self, regions, mu: float, *, inset: float = 0.0) -> np.ndarray:
+        """The deformation integral of Eq. (3), ``Q + mu S``, split by slope direction.
+
+        Parameters
+        ----------
+        regions : (n_frames, n_max, 2) array_like
+            Contact regions in mm.
+        mu : float
+            Coefficient of friction.
+        inset : float
+            Integrate over each region shortened by ``inset`` mm at both ends.
+
+        Returns
+        -------
+        (n_frames, 2) ndarray
+            ``[b_up, b_down]`` in mm: ``sum_i int_{C_i} dh/dx (sin alpha + mu cos alpha) dx``
+            over the ascending (``dh/dx > 0``) and the descending parts of the regions;
+            ``b_up + b_down = Q + mu S``. ``b_up >= 0``; ``b_down`` is the descending slopes'
+            ``Q_down - mu |S_down|``, negative where friction outweighs the slope's normal push.
+        """
+        d = float(inset)
+        if not (math.isfinite(d) and d >= 0):
+            raise ValueError(f"inset must be a finite length >= 0 in mm, got {inset!r}")
+        arr = as_regions(regions)
+        total = self._region_integrals(arr, d).sum(axis=1)
+        up = self._region_up(arr, d)
+        b = total[:, 2] + mu * total[:, 0]
+        b_up = up[:, 1] + mu * up[:, 0]
+        return np.stack([b_up, b - b_up], axis=1)
+
     def basis(self, regions, mu: float) -> np.ndarray:
         """Per-frame integrals multiplying p0 and p1 in Eq. (4).
 
@@ -451,7 +516,12 @@ class FrictionModel:
         g, b_def, support = load_terms(R, params.mu, params.kappa)
         fn = np.broadcast_to(np.asarray(f_n, dtype=float), g.shape)
         f_int = fn * g
-        f_def = np.where(np.isfinite(g), params.p1 * b_def, np.nan)
+        if params.asymmetric:
+            up, down = self.deformation_parts(regions, params.mu, inset=params.inset).T
+            b_def = params.p1 * up + params.p1_down * down
+            f_def = np.where(np.isfinite(g), b_def, np.nan)
+        else:
+            f_def = np.where(np.isfinite(g), params.p1 * b_def, np.nan)
         return ModelForces(total=f_int + f_def, interfacial=f_int, deformation=f_def, pressure=fn / support)
 
 

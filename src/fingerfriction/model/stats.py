@@ -165,8 +165,9 @@ def correlation_table(fits, *, alpha: float = 0.01, n_boot: int | None = 1000, l
     -------
     pandas.DataFrame
         Long format, one row per condition, columns ``subject, scale, shape, rho, rho_lo,
-        rho_hi, p, significant, n_trials, n_samples``; subjects in sorted order then "Both
-        subjects", scales and shapes in the paper's order.
+        rho_hi, p, significant, n_trials, n_samples`` (a trial fit with fewer than 3
+        compared samples, a failed one, is left out; a condition without any: NaN); subjects
+        in sorted order then "Both subjects", scales and shapes in the paper's order.
     """
     trial_fits = _flatten(fits)
     groups: dict[tuple[str, str, str], list] = {}
@@ -183,7 +184,13 @@ def correlation_table(fits, *, alpha: float = 0.01, n_boot: int | None = 1000, l
 
     rows = []
     for k in sorted(groups, key=key):
-        series = [_compared(t) for t in groups[k]]
+        # a trial fit with fewer than 3 compared samples failed (its fit says why): left out
+        series = [sr for sr in (_compared(t) for t in groups[k]) if np.asarray(sr[0]).size >= 3]
+        if not series:
+            rows.append({"subject": k[0], "scale": k[1], "shape": k[2], "rho": math.nan, "rho_lo": math.nan,
+                         "rho_hi": math.nan, "p": math.nan, "significant": False, "n_trials": 0,
+                         "n_samples": 0})
+            continue
         meas, est = [m for m, _ in series], [e for _, e in series]
         rho, p, n = ensemble_correlation(meas, est)
         lo = hi = math.nan

@@ -1,26 +1,21 @@
-"""The fit stage of the study pipeline: both variants of the friction model of Janko et al.
-2018 (:mod:`fingerfriction.fit`) fitted to the analysed trials of a results store, Table 1
-for each with bootstrap confidence intervals, the flags of everything unphysical or doubtful,
-then the out-of-sample validation (leave one surface out,
-:func:`fingerfriction.pipeline.validation.validate_results`).
+"""The fit stage of the study pipeline: every variant of the friction model of Janko et al.
+2018 (:mod:`fingerfriction.fit.variants`) fitted to the analysed trials of a results store,
+Table 1 for each with bootstrap confidence intervals, the out-of-sample validation of each
+(leave one surface out, :func:`fingerfriction.pipeline.validation.validate_models`), and the choice of
+the variant the data support, or the refusal of all (:mod:`fingerfriction.fit.select`).
 
-* ``'load'`` (the default model): the load-consistent Eq. (4), ``mu`` per subject from
-  flat-ground Coulomb friction with a confidence interval, the load-bearing contact
-  (inset, pressure rise with height) per subject, ``p1`` per trial, on the absolute forces;
-* ``'paper'``: Eq. (4) as printed, ``mu`` per subject by grid search, ``p0, p1`` per trial
-  on the paper's flat-segment footing.
-
-Both are always fitted, so the report can show them side by side; ``model`` names the one
-that ``predict``, ``validate`` and ``render`` use and the report puts first. The trials are
-read by :meth:`fingerfriction.study.store.ResultsStore.read_fit_trial`, the same reader the
-validation uses; everything is written through the store.
+``model='auto'`` (the default) uses the chosen variant; a variant's name forces it. The
+chosen (or forced) variant is the one that ``predict``, ``validate`` and ``render`` use,
+whose flags are the study's, and that the report and the console show first; the other
+variants are shown beside it as a comparison, their flags as notes on it. The trials are
+read by :meth:`fingerfriction.study.store.ResultsStore.read_fit_trial`, the same reader
+the validation uses; everything is written through the store.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import logging
-import math
 import os
 import time
 from collections.abc import Sequence
@@ -32,33 +27,20 @@ import pandas as pd
 
 from .. import fit as fitmod
 from .._progress import ProgressBar
-from ..model import MODELS, FrictionModel
+from ..fit.select import Evidence, Selection, residual_structure, select_model
+from ..fit.variants import MODELS, FitSettings, get
+from ..model import FrictionModel
 from ..model.stats import correlation_table
 from ..study.store import ResultsStore, now
 from .trial import one_line
-from .validation import validate_results
+from .validation import OutOfSample, validate_models, write_validation
 
-__all__ = ["FitSummary", "fit", "summary_lines"]
+__all__ = ["Comparison", "FitSummary", "compare_variants", "fit", "summary_lines", "MODEL_CHOICES"]
 
 logger = logging.getLogger(__name__)
 
-#: One sentence per model for the report and the console: which is the default and why.
-MODEL_NOTES = {
-    "load": "load-consistent Eq. (4): the pressure at each position carries the measured normal force, "
-            "mu is measured on flat ground (where Eq. 4 is Amontons' law), the load-bearing contact and "
-            "the deformation weight p1 are fitted on absolute forces; the default, because its parameters "
-            "are identified and physical.",
-    "paper": "Eq. (4) as printed: one constant pressure p0 per trial and mu by grid search on the paper's "
-             "flat-segment footing; kept to reproduce the paper, but mu is not identifiable there "
-             "((mu, p0, p1) and (p0/p1, p1 mu, p1) give the same forces) and p0 can turn negative.",
-}
-
-
-#: How each model puts measurement and model on one footing (the report's figure titles).
-FOOTING = {
-    "load": "absolute (drift removed on the unloaded rests only; no detrend of either)",
-    "paper": "detrended (a line fitted on the flat before the feature, subtracted from both)",
-}
+#: What ``fit(model=...)`` takes: ``'auto'`` (choose) or a variant's name (force it).
+MODEL_CHOICES = ("auto", *MODELS)
 
 
 @dataclass(frozen=True)
@@ -68,7 +50,11 @@ class FitSummary:
     Attributes
     ----------
     model : str
-        The default model of this fit (``'load'`` or ``'paper'``).
+        The variant used downstream: the chosen one (``requested='auto'``) or the forced one.
+    requested : str
+        ``'auto'`` or the variant's name the caller gave.
+    selection : Selection
+        The comparison of the variants and the choice (or the refusal), with its reason.
     mu : dict of str to float
         Per-subject friction coefficient of ``model``.
     mu_ci : dict of str to (float, float)
@@ -83,18 +69,20 @@ class FitSummary:
     messages : dict of str to str
         Per-subject message of ``model``.
     flags : tuple of FitFlag
-        Everything flagged, for both models.
+        The study's flags: those of ``model``, and ``model-rejected`` when no variant passes.
+    notes : tuple of FitFlag
+        The other variants' flags: notes on the comparison, not findings about the study.
     lines : tuple of str
-        One summary line per subject and model (what the command line prints).
+        One summary line per subject and model (what ``--verbose`` prints).
     table1 : pandas.DataFrame
-        Table 1 of both models (column ``model``), with bootstrap confidence intervals.
+        Table 1 of every variant (column ``model``, ``model``'s rows first), with bootstrap
+        confidence intervals.
     cpu_s : dict of str to float
-        CPU time in s of each model's fit (reading the trials not included).
+        CPU time in s of each variant's fit (reading the trials not included).
     loso : pandas.DataFrame or None
-        The out-of-sample validation (:func:`fingerfriction.pipeline.validation.validate_results`:
-        leave one surface out, rho per held-out surface, both models), also in
-        ``fit/loso.csv``; None when not computed (one surface only, ``validate=False``, or
-        it failed: see ``loso_message``).
+        The out-of-sample validation (leave one surface out, rho per held-out surface, every
+        variant, column ``model``), also in ``fit/loso.csv``; None when not computed (one
+        surface only, ``validate=False``, or it failed: see ``loso_message``).
     loso_message : str
         How the validation went ('' when computed).
     """
@@ -112,6 +100,19 @@ class FitSummary:
     cpu_s: dict = field(default_factory=dict)
     loso: Any = None
     loso_message: str = ""
+    requested: str = "auto"
+    selection: Selection | None = None
+    notes: tuple = ()
+
+    @property
+    def rejected(self) -> bool:
+        """True when no variant passes the bars (the study-level error ``model-rejected``)."""
+        return self.selection is not None and self.selection.rejected
+
+    @property
+    def title(self) -> str:
+        """The used variant's title, e.g. 'Load-consistent Eq. 4 (load)'."""
+        return f"{get(self.model).title} ({self.model})"
 
     def console_lines(self, store: ResultsStore) -> list[str]:
         """What ``fingerfriction fit`` prints: trials that could not be read (one line), one
@@ -125,15 +126,23 @@ class FitSummary:
         where = store.loso_path if self.loso is not None else self.loso_message
         out.append(f"out-of-sample validation (leave one surface out): {where}")
         n_err = sum(f.level == "error" for f in self.flags)
-        out.append(f"{self.n_trials} trials fitted with both models ({self.model} the default), {n_err} "
-                   f"error flags, {len(self.flags) - n_err} warnings -> {store.fit_dir}")
+        n_warn = sum(f.level == "warning" for f in self.flags)
+        out.append(f"{self.n_trials} trials fitted with every model variant ({self.model} used), {n_err} "
+                   f"error flags, {n_warn} warnings -> {store.fit_dir}")
         return out
+
+
+def _settings(mu_grid, method: str, median_kernel: int, seed: int) -> FitSettings:
+    start, stop, step = (float(v) for v in mu_grid)
+    return FitSettings(paper=fitmod.FitOptions(median_kernel=int(median_kernel)),
+                       load=fitmod.LoadFitOptions(median_kernel=int(median_kernel), seed=int(seed)),
+                       grid=fitmod.mu_grid(start, stop, step), method=method)
 
 
 def fit(
     results: str | os.PathLike,
     *,
-    model: str = "load",
+    model: str = "auto",
     mu_grid: tuple[float, float, float] = (0.30, 0.90, 0.01),
     method: str = "lstsq",
     median_kernel: int = 11,
@@ -141,15 +150,16 @@ def fit(
     validate: bool = True,
     seed: int = 0,
 ) -> FitSummary:
-    """Fit both variants of the friction model to every finished trial of a results folder.
+    """Fit every variant of the friction model to every finished trial of a results folder,
+    and choose the one the data support (or refuse).
 
     Parameters
     ----------
     results : path
         A results folder written by :func:`analyze`.
-    model : {'load', 'paper'}
-        The default model (see the module notes): the one ``predict``, ``validate`` and
-        ``render`` use with this fit, and the report's first.
+    model : {'auto', 'load', 'pressure', 'interlock', 'paper'}
+        ``'auto'`` (default): the variant chosen by :func:`fingerfriction.fit.select.select_model`;
+        a variant's name: that one (the choice is still made and reported).
     mu_grid : (start, stop, step)
         Inclusive ``mu`` grid of the paper variant (default 0.30 to 0.90 by 0.01).
     method : {'lstsq', 'nelder-mead'}
@@ -159,8 +169,8 @@ def fit(
     progress : bool
         Show a progress bar.
     validate : bool
-        Also run the leave-one-surface-out validation of both models
-        (:func:`fingerfriction.pipeline.validation.validate_results`) on two surfaces or more.
+        Also run the leave-one-surface-out validation of every variant on two surfaces or
+        more (the choice rests on it; without it, on Table 1 alone).
     seed : int
         Seed of the bootstrap confidence intervals.
 
@@ -168,68 +178,167 @@ def fit(
     -------
     FitSummary
 
-    Writes ``RESULTS/fit/`` (layout in :mod:`fingerfriction.study.store`, both models); a
+    Writes ``RESULTS/fit/`` (layout in :mod:`fingerfriction.study.store`, every variant); a
     validation that fails is logged and recorded in ``fit.json``, the fit itself stands.
     """
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    if model not in MODEL_CHOICES:
+        raise ValueError(f"model must be one of {MODEL_CHOICES}, got {model!r}")
     store = ResultsStore(results)
-    start, stop, step = (float(v) for v in mu_grid)
-    grid = fitmod.mu_grid(start, stop, step)
-    options = fitmod.FitOptions(median_kernel=int(median_kernel))
-    load_options = fitmod.LoadFitOptions(median_kernel=int(median_kernel), seed=int(seed))
+    settings = _settings(mu_grid, method, median_kernel, seed)
     surfaces = store.surfaces()
     analysis = store.analysis_digests()  # what is fitted, so that the report can tell it changed since
     meta = {t["id"]: t for t in store.analysed_trials()}
     if not meta:
         raise ValueError(f"{str(store.root)!r} has no successfully analysed trial to fit")
 
-    bar = ProgressBar(progress, len(meta) + 2, "fit")
+    bar = ProgressBar(progress, len(meta) + len(MODELS) + 1, "fit")
     try:
-        trials, grids, failures = _read_trials(store, meta, surfaces, options.flat_margin, bar)
-        fits, cpu = _fit_both(trials, grid, method, options, load_options, bar)
+        trials, grids, failures = _read_trials(store, meta, surfaces, settings.paper.flat_margin, bar)
+        store.clear_loso()  # the folder never holds a validation of another fit
+        comp = compare_variants(trials, settings, validate=validate, seed=seed, advance=bar.advance)
     finally:
         bar.close()
-
-    flags = [f for sf in fits["load"].values() for f in sf.flags]
-    flags += [f for sf in fits["paper"].values() for f in fitmod.paper_flags(sf)]
-    failures += [(tf.labels["trial"], tf.message) for sf in fits[model].values() for tf in sf.trials
+    fits, table1, loso, loso_message = comp.fits, comp.table1, comp.loso, comp.loso_message
+    selection, cpu = comp.selection, comp.cpu_s
+    used = selection.model if model == "auto" else model
+    order = [used, *[m for m in MODELS if m != used]]
+    all_flags = {m: get(m).flags(fits[m]) for m in MODELS}
+    flags = selection.flags() + all_flags[used]
+    notes = [f for m in order[1:] for f in all_flags[m]]
+    failures += [(tf.labels["trial"], tf.message) for sf in fits[used].values() for tf in sf.trials
                  if not tf.success]
-    table1 = pd.concat([correlation_table(fits[m], seed=seed).assign(model=m) for m in MODELS],
-                       ignore_index=True)
-    _write_outputs(store, trials, grids, meta, fits, model)
-    store.write_fit_csv("table1", table1)
-    record = _fit_record(model, fits, cpu, (start, stop, step, int(grid.size)), method, options, load_options,
-                         flags, len(trials), failures)
+    table1_all = pd.concat([table1[m].assign(model=m) for m in order], ignore_index=True)
+    loso_all = None
+    if loso is not None:
+        loso_all = pd.concat([loso[m].table for m in order], ignore_index=True)
+        write_validation(OutOfSample(table=loso_all, estimates=loso[used].estimates), store.loso_path)
+    _write_outputs(store, trials, grids, meta, fits, order)
+    store.write_fit_csv("table1", table1_all)
+    store.write_fit_csv("comparison", selection.comparison)
+    record = _fit_record(model, used, selection, fits, cpu, settings, flags, notes, len(trials), failures)
     record["analysis"] = {"trials": analysis}  # per trial: the digest of its stored tables
-    store.write_fit_record(record)  # validate_results reads the grid and options from it
-    loso, loso_message = _validate_after_fit(store, trials, validate)
     record["loso"] = {"computed": loso is not None, "message": loso_message,
                       "csv": "loso.csv" if loso is not None else None}
     store.write_fit_record(record)
-    return FitSummary(model=model, mu=record["mu"], mu_ci={s: tuple(v) for s, v in record["mu_ci"].items()},
+    return FitSummary(model=used, requested=model, selection=selection, mu=record["mu"],
+                      mu_ci={s: tuple(v) for s, v in record["mu_ci"].items()},
                       n_trials=len(trials), n_failed=len(failures), failures=tuple(failures),
-                      messages=record["messages"], flags=tuple(flags),
-                      lines=tuple(summary_lines(fits, flags, model)), table1=table1, cpu_s=cpu,
-                      loso=loso, loso_message=loso_message)
+                      messages=record["messages"], flags=tuple(flags), notes=tuple(notes),
+                      lines=tuple(summary_lines(fits, flags + notes, order)), table1=table1_all, cpu_s=cpu,
+                      loso=loso_all, loso_message=loso_message)
 
 
-def _fit_record(model: str, fits: dict, cpu: dict, grid: tuple, method: str, options, load_options,
-                flags: list, n_trials: int, failures: list) -> dict:
-    """The content of ``fit/fit.json`` (without ``loso``, added once validated)."""
+@dataclass(frozen=True)
+class Comparison:
+    """Every variant fitted to the same trials, validated and compared (:func:`compare_variants`).
+
+    Attributes
+    ----------
+    fits : dict
+        Variant -> subject -> subject fit.
+    table1 : dict
+        Variant -> its Table 1 (:func:`fingerfriction.model.stats.correlation_table`).
+    loso : dict or None
+        Variant -> its leave-one-surface-out validation (OutOfSample); None when not
+        computed (see ``loso_message``).
+    loso_message : str
+    selection : Selection
+    cpu_s : dict
+        Variant -> CPU time in s of its fit.
+    """
+
+    fits: dict
+    table1: dict
+    loso: dict | None
+    loso_message: str
+    selection: Selection
+    cpu_s: dict
+
+
+def compare_variants(trials: Sequence, settings: FitSettings | None = None, *, validate: bool = True,
+                     forward_step: float = 0.01, seed: int = 0, n_boot: int | None = 1000,
+                     advance=None) -> Comparison:
+    """Fit every variant to ``trials``, validate each out of sample (leave one surface out,
+    on two surfaces or more) and choose (:func:`fingerfriction.fit.select.select_model`).
+
+    Parameters
+    ----------
+    trials : sequence of fingerfriction.fit.Trial
+    settings : FitSettings, optional
+        The fits' settings (default: the defaults).
+    validate : bool
+        Run the leave-one-surface-out validation (the choice rests on it).
+    forward_step : float
+        Finger step in mm of the forward model's sweeps (trials on a coarser grid need the
+        same step).
+    seed : int
+        Seed of the bootstrap intervals of Table 1.
+    n_boot : int or None
+        Bootstrap resamples of Table 1's intervals (None: none).
+    advance : callable, optional
+        Called with a label after each variant's fit and after the validation (a progress bar).
+
+    Returns
+    -------
+    Comparison
+    """
+    settings = settings or FitSettings()
+    trials = list(trials)
+    advance = advance or (lambda _label: None)
+    fits, cpu = _fit_all(trials, settings, advance)
+    table1 = {m: correlation_table(fits[m], seed=seed, n_boot=n_boot) for m in MODELS}
+    loso, loso_message = _validate(trials, settings, table1, validate, forward_step)
+    advance("leave one surface out")
+    selection = select_model({m: _evidence(m, fits[m], trials, table1[m], loso) for m in MODELS})
+    return Comparison(fits=fits, table1=table1, loso=loso, loso_message=loso_message, selection=selection,
+                      cpu_s=cpu)
+
+
+def _evidence(name: str, fits: dict, trials: list, table1: pd.DataFrame, loso: dict | None) -> Evidence:
+    """What one variant's fit shows, for the choice."""
+    tfs = [tf for sf in fits.values() for tf in sf.trials]
+    by_id = {t.id: t for t in trials}
+    xs, meas, res, groups = [], [], [], []
+    for tf in tfs:
+        t = by_id.get(tf.labels.get("trial", ""))
+        used = getattr(tf, "used", None)
+        if t is None or not tf.success:
+            continue
+        used = np.isfinite(tf.estimate) if used is None else used
+        xs.append(t.x[used])
+        meas.append(tf.measured[used])
+        res.append((tf.measured - tf.estimate)[used])
+        groups.append((t.subject, t.surface.name))
+    # a subject whose fit failed as a whole has no trial fits: its trials count as failed
+    n_fitted = len(tfs)
+    n_bad = sum(not tf.success for tf in tfs) + max(len(trials) - n_fitted, 0)
+    return Evidence(table1=table1, loso=loso[name].table if loso is not None else None,
+                    n_trials=len(trials), n_unphysical=n_bad,
+                    residual=residual_structure(xs, meas, res, groups))
+
+
+def _fit_record(requested: str, used: str, selection: Selection, fits: dict, cpu: dict, settings: FitSettings,
+                flags: list, notes: list, n_trials: int, failures: list) -> dict:
+    """The content of ``fit/fit.json`` (without ``loso``)."""
+    v = get(used)
+    s = settings
     return {
-        "model": model,
-        "model_notes": MODEL_NOTES,
-        "footing": FOOTING[model],
-        "mu": {s: sf.mu for s, sf in fits[model].items()},
-        "mu_ci": {s: list(_mu_ci(sf)) for s, sf in fits[model].items()},
+        "model": used,
+        "requested": requested,
+        "selection": selection.to_dict(),
+        "model_notes": {m: get(m).note for m in MODELS},
+        "footing": v.footing,
+        "mu": {sub: sf.mu for sub, sf in fits[used].items()},
+        "mu_ci": {sub: list(v.mu_ci(sf)) for sub, sf in fits[used].items()},
         "models": {m: _model_record(m, fits[m], cpu[m]) for m in MODELS},
-        "mu_grid": dict(zip(("start", "stop", "step", "n"), grid, strict=True)),
-        "method": method, "options": dataclasses.asdict(options),
-        "load_options": dataclasses.asdict(load_options),
-        "curves": {s: {"grid": sf.grid, "objective": sf.curve} for s, sf in fits["paper"].items()},
-        "messages": {s: sf.message for s, sf in fits[model].items()},
+        "mu_grid": {"start": float(s.grid[0]), "stop": float(s.grid[-1]),
+                    "step": float(s.grid[1] - s.grid[0]) if s.grid.size > 1 else 0.0, "n": int(s.grid.size)},
+        "method": s.method, "options": dataclasses.asdict(s.paper),
+        "load_options": dataclasses.asdict(s.load),
+        "curves": get("paper").record(fits["paper"])["curves"],
+        "messages": {sub: sf.message for sub, sf in fits[used].items()},
         "flags": [f.to_dict() for f in flags],
+        "notes": [f.to_dict() for f in notes],
         "n_trials": n_trials, "failures": [{"trial": t, "reason": r} for t, r in failures],
         "finished": now(),
     }
@@ -252,129 +361,76 @@ def _read_trials(store: ResultsStore, meta: dict, surfaces: dict, flat_margin: f
     return trials, grids, failures
 
 
-def _fit_both(trials: list, grid, method: str, options, load_options, bar) -> tuple[dict, dict]:
-    """Both model variants fitted to every subject: ``(fits, cpu_s)`` keyed by model."""
-    cpu: dict[str, float] = {}
-    c0 = time.process_time()
-    fits = {"load": fitmod.fit_load_trials(trials, load_options)}
-    cpu["load"] = time.process_time() - c0
-    bar.advance("load-consistent model")
-    c0 = time.process_time()
-    fits["paper"] = fitmod.fit_trials(trials, grid=grid, method=method, options=options)
-    cpu["paper"] = time.process_time() - c0
-    bar.advance("paper's model")
+def _fit_all(trials: list, settings: FitSettings, advance) -> tuple[dict, dict]:
+    """Every variant fitted to every subject: ``(fits, cpu_s)`` keyed by variant."""
+    fits, cpu = {}, {}
+    for m in MODELS:
+        c0 = time.process_time()
+        fits[m] = get(m).fit(trials, settings)
+        cpu[m] = time.process_time() - c0
+        advance(f"{m} model")
     return fits, cpu
 
 
-def _mu_ci(sf) -> tuple[float, float]:
-    return tuple(getattr(sf, "mu_ci", (math.nan, math.nan)))
-
-
 def _model_record(name: str, fits: dict, cpu_s: float) -> dict:
-    """The per-model part of ``fit.json``."""
-    rec: dict = {"note": MODEL_NOTES[name], "cpu_s": round(cpu_s, 3),
-                 "mu": {s: sf.mu for s, sf in fits.items()},
-                 "success": {s: bool(sf.success) for s, sf in fits.items()},
-                 "messages": {s: sf.message for s, sf in fits.items()}}
-    if name == "load":
-        rec["mu_ci"] = {s: list(sf.mu_ci) for s, sf in fits.items()}
-        rec["mu_trials"] = {s: (sf.flat.mu_trials if sf.flat else {}) for s, sf in fits.items()}
-        rec["transient_mm"] = {s: (sf.flat.transient_mm if sf.flat else math.nan) for s, sf in fits.items()}
-        rec["inset_mm"] = {s: sf.inset for s, sf in fits.items()}
-        rec["kappa_per_mm"] = {s: sf.kappa for s, sf in fits.items()}
-        rec["fitted"] = {s: list(sf.fitted) for s, sf in fits.items()}
-        rec["p1_median"] = {s: _median([t.p1 for t in sf.trials if t.success]) for s, sf in fits.items()}
-    else:
-        rec["p0_median"] = {s: _median([t.p0 for t in sf.trials if t.success]) for s, sf in fits.items()}
-        rec["p1_median"] = {s: _median([t.p1 for t in sf.trials if t.success]) for s, sf in fits.items()}
-    return rec
-
-
-def _median(v: list) -> float:
-    return float(np.median(v)) if v else math.nan
+    """The per-variant part of ``fit.json``."""
+    v = get(name)
+    return {"title": v.title, "family": v.family, "note": v.note, "footing": v.footing,
+            "selectable": v.selectable, "cpu_s": round(cpu_s, 3),
+            "mu": {s: sf.mu for s, sf in fits.items()},
+            "success": {s: bool(sf.success) for s, sf in fits.items()},
+            "messages": {s: sf.message for s, sf in fits.items()}, **v.record(fits)}
 
 
 def _write_outputs(store: ResultsStore, trials: list, grids: dict, meta: dict, fits: dict,
-                   model: str) -> None:
-    """``fit/trials.csv``, ``fit/subjects.csv`` and ``fit/model/<trial-id>.parquet``."""
+                   order: list) -> None:
+    """``fit/trials.csv``, ``fit/subjects.csv`` and ``fit/model/<trial-id>.parquet``; the
+    first variant of ``order`` (the one used) gives the unprefixed columns."""
     by_id = {t.labels["trial"]: t for t in trials}
     per_trial: dict[str, dict[str, Any]] = {}
     rows, subj_rows = [], []
-    for m in MODELS:
+    for m in order:
+        v = get(m)
         for subject, sf in fits[m].items():
-            subj_rows.append(_subject_row(m, subject, sf))
+            subj_rows.append({"subject": subject, "model": m, **v.subject_row(sf), "n_trials": len(sf.trials),
+                              "n_failed": sum(not t.success for t in sf.trials), "success": sf.success,
+                              "message": sf.message})
             for tf in sf.trials:
                 tid = tf.labels["trial"]
                 e = meta[tid]
                 rows.append({"trial": tid, "model": m, "subject": subject, "surface": e["surface"],
                              "speed_mm_s": e["speed_mm_s"], "repetition": e.get("repetition"),
-                             "mu": tf.mu, "p0": tf.p0_mean if m == "load" else tf.p0, "p1": tf.p1,
-                             "p1_se": getattr(tf, "p1_se", math.nan),
-                             "inset_mm": getattr(tf, "inset", math.nan),
-                             "kappa_per_mm": getattr(tf, "kappa", math.nan),
-                             "footing": getattr(tf, "footing", "flat"), "objective": tf.objective,
-                             "success": tf.success, "message": tf.message})
+                             **v.trial_row(tf), "success": tf.success, "message": tf.message})
                 per_trial.setdefault(tid, {})[m] = tf
     models: dict[str, FrictionModel] = {}
+    names = ("F_T_N", "F_hat_N", "F_model_N", "F_int_N", "F_def_N", "p0_N_per_mm")
     for tid, by_model in per_trial.items():
         tr = by_id[tid]
-        cols: dict[str, np.ndarray] = {"x_mm": tr.x}
-        for m, tf in by_model.items():
-            if m == "load":
-                cols.update({"load_F_T_N": tf.measured, "load_F_hat_N": tf.estimate,
-                             "load_F_int_N": tf.interfacial, "load_F_def_N": tf.deformation,
-                             "load_p0_N_per_mm": tf.pressure})
-            else:
-                fm = models.setdefault(tr.surface.name, FrictionModel(tr.surface))
-                # Eq. (2)-(4) with the fitted p0, p1 as they are (FrictionParams would refuse
-                # the unphysical p0 < 0 of a failed fit; its row in trials.csv says it failed).
-                B = fm.basis(tr.regions, tf.mu)
-                cols.update({"paper_F_T_N": tf.measured, "paper_F_hat_N": tf.estimate,
-                             "paper_F_model_N": tf.p0 * B[:, 0] + tf.p1 * B[:, 1],
-                             "paper_F_int_N": tf.p0 * B[:, 0], "paper_F_def_N": tf.p1 * B[:, 1]})
-        nan = np.full(tr.n, np.nan)  # a model that could not fit this trial's subject
-        for name in ("F_T_N", "F_hat_N", "F_int_N", "F_def_N"):
-            for m in MODELS:
-                cols.setdefault(f"{m}_{name}", nan)
-        cols.setdefault("load_p0_N_per_mm", nan)
-        cols.setdefault("paper_F_model_N", nan)
-        p = model
-        default = {"F_T_N": cols[f"{p}_F_T_N"], "F_hat_N": cols[f"{p}_F_hat_N"],
-                   "F_model_N": cols.get(f"{p}_F_model_N", cols[f"{p}_F_hat_N"]),
-                   "F_int_N": cols[f"{p}_F_int_N"], "F_def_N": cols[f"{p}_F_def_N"]}
-        extra = {"F_N_N": tr.normal_abs if tr.has_absolute else np.full(tr.n, np.nan),
+        fm = models.setdefault(tr.surface.name, FrictionModel(tr.surface))
+        nan = np.full(tr.n, np.nan)
+        cols: dict[str, np.ndarray] = {}
+        for m in order:  # a variant that could not fit this trial's subject: NaN columns
+            got = get(m).columns(by_model[m], tr, fm) if m in by_model else {}
+            cols.update({f"{m}_{name}": got.get(name, nan) for name in names})
+        used = order[0]
+        default = {name: cols[f"{used}_{name}"] for name in names[:5]}
+        extra = {"F_N_N": tr.normal_abs if tr.has_absolute else nan,
                  "F_T_raw_N": tr.force, "regions_translated": grids[tid]}
-        store.write_model(tid, pd.DataFrame({"x_mm": tr.x, **default, **extra,
-                                             **{k: v for k, v in cols.items() if k != "x_mm"}}))
+        store.write_model(tid, pd.DataFrame({"x_mm": tr.x, **default, **extra, **cols}))
     store.write_fit_tables(pd.DataFrame(rows), pd.DataFrame(subj_rows))
 
 
-def _subject_row(model: str, subject: str, sf) -> dict:
-    n_bad = sum(not t.success for t in sf.trials)
-    lo, hi = _mu_ci(sf)
-    return {"subject": subject, "model": model, "mu": sf.mu, "mu_lo": lo, "mu_hi": hi,
-            "inset_mm": getattr(sf, "inset", math.nan), "kappa_per_mm": getattr(sf, "kappa", math.nan),
-            "transient_mm": sf.flat.transient_mm if getattr(sf, "flat", None) else math.nan,
-            "n_trials": len(sf.trials), "n_failed": n_bad, "success": sf.success, "message": sf.message}
-
-
-def summary_lines(fits: dict, flags: Sequence, model: str) -> list[str]:
-    """One line per subject and model: the parameters, then the flags grouped by kind with a
-    count and the first example (never one line per trial)."""
+def summary_lines(fits: dict, flags: Sequence, order: Sequence[str]) -> list[str]:
+    """One line per subject and model (``order``: the used variant first): the parameters,
+    then the flags grouped by kind with a count and the first example (never one line per
+    trial)."""
     out = []
-    for m in (model, *[x for x in MODELS if x != model]):
+    for m in order:
+        v = get(m)
         for subject, sf in fits[m].items():
-            tag = f"subject {subject}, {'load-consistent' if m == 'load' else 'paper'} model"
-            tag += " (default)" if m == model else ""
+            tag = f"subject {subject}, {v.title} ({m})" + (" (used)" if m == order[0] else "")
             n = len(sf.trials)
-            if m == "load":
-                lo, hi = sf.mu_ci
-                p1 = _median([t.p1 for t in sf.trials if t.success])
-                head = (f"mu = {sf.mu:.4f} (95 % CI {lo:.4f}-{hi:.4f}), load-bearing inset "
-                        f"{sf.inset:.2f} mm, pressure rise {sf.kappa:.2f}/mm, p1 median {p1:.3g} N/mm")
-            else:
-                p0 = _median([t.p0 for t in sf.trials])
-                head = f"mu = {sf.mu:.3f} (grid search), p0 median {p0:.3g} N/mm"
+            head = v.summary(sf)
             mine = [f for f in flags if f.subject == subject and f.model == m]
             groups: dict[str, list] = {}
             for f in mine:
@@ -392,13 +448,9 @@ def summary_lines(fits: dict, flags: Sequence, model: str) -> list[str]:
     return out
 
 
-def _validate_after_fit(store: ResultsStore, trials: Sequence, validate: bool):
-    """Leave-one-surface-out validation after :func:`fit`: (table or None, message).
-
-    A previous run's ``fit/loso.*`` is removed first, so the folder never holds a
-    validation of another fit.
-    """
-    store.clear_loso()
+def _validate(trials: Sequence, settings: FitSettings, table1: dict, validate: bool, forward_step: float):
+    """Leave-one-surface-out validation of every variant: ({variant: OutOfSample} or None,
+    message)."""
     if not validate:
         return None, "not requested"
     n_surf = len({t.labels["surface"] for t in trials})
@@ -406,11 +458,11 @@ def _validate_after_fit(store: ResultsStore, trials: Sequence, validate: bool):
         return None, f"needs at least two surfaces, the study has {n_surf}"
     t0 = time.perf_counter()
     try:
-        res = validate_results(store.root, trials=list(trials))
+        res = validate_models(list(trials), MODELS, settings, in_sample=table1, forward_step=forward_step)
     except (ValueError, KeyError, OSError, RuntimeError, np.linalg.LinAlgError) as exc:
         # RuntimeError: no training fit succeeded for a held-out surface (pipeline.validation);
         # the fit itself stands, the validation is recorded as failed
         logger.warning("out-of-sample validation failed: %s", one_line(exc))
         return None, f"failed: {one_line(exc)}"
     logger.info("out-of-sample validation: %.1f s", time.perf_counter() - t0)
-    return res.table, ""
+    return res, ""

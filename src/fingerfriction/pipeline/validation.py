@@ -17,17 +17,11 @@ import pandas as pd
 
 from .._atomic import atomic_write
 from .._style import figure_style
-from ..fit import (
-    FitOptions,
-    LoadFitOptions,
-    Trial,
-    fit_load_trials,
-    fit_trials,
-    flat_detrend,
-    flat_segment_mask,
-    median_filter,
-)
-from ..model import MODELS, FrictionModel, FrictionParams, LoadParams, T_matrix, load_terms
+from ..fit import FitOptions, LoadFitOptions, Trial
+from ..fit.load import load_estimate
+from ..fit.variants import MODELS as VARIANT_NAMES
+from ..fit.variants import FitSettings, HeldOut, get, variant_of_params
+from ..model import FrictionModel, LoadParams
 from ..model.stats import BOTH, correlation_table, ensemble_correlation
 from ..predict.forward import (
     DEFAULT_LOAD_N,
@@ -40,84 +34,19 @@ from ..study.store import ResultsStore
 from ..surfaces import Surface
 
 __all__ = [
-    "OutOfSample", "leave_one_surface_out", "trials_from_results", "validate_results", "load_prediction",
+    "OutOfSample", "leave_one_surface_out", "trials_from_results", "validate_results", "validate_models",
+    "write_validation", "load_prediction",
 ]
 
 log = logging.getLogger(__name__)
 
 
-def _paper_estimate(model: FrictionModel, regions: np.ndarray, params: FrictionParams, options,
-                    footing=np.asarray) -> np.ndarray:
-    """The paper model's Eq. (4) in N for fixed parameters, processed as the fit processes
-    it (``fit.paper._Design.estimate``): the median filter on the per-frame integrals S, K,
-    Q ('basis' mode) or on the force ('estimate' mode), and ``footing`` (a linear map of a
-    series, e.g. the flat detrend) where the fit applies it."""
-    raw = model.integrals(regions)  # S, K, Q (mm)
-    coef = T_matrix(params.mu) @ np.array([params.p0, params.p1])
-    if options.median_on == "basis":
-        return footing(median_filter(raw, options.median_kernel)) @ coef
-    return footing(median_filter(raw @ coef, options.median_kernel))
-
-
-def _compared_estimate(surface: Surface, x: np.ndarray, force: np.ndarray, regions: np.ndarray,
-                       params: FrictionParams, options, model: FrictionModel | None = None):
-    """Measured and model series as the fit compares them (fit.py's processing), for fixed
-    parameters: median filter on the per-frame integrals S, K, Q, then the same linear
-    detrend over the flat segment defined by ``regions`` applied to both."""
-    model = model or FrictionModel(surface)
-    if getattr(options, "detrend", True):
-        mask = flat_segment_mask(regions, surface, margin=options.flat_margin)
-
-        def footing(y):
-            return flat_detrend(x, y, mask)
-    else:  # absolute forces (FitOptions.detrend=False)
-        def footing(y):
-            return np.asarray(y, dtype=float)
-    return footing(force), _paper_estimate(model, regions, params, options, footing)
-
-
-def _predicted_estimate(surface: Surface, force: np.ndarray, regions: np.ndarray, params: FrictionParams,
-                        options, flat_level: float, model: FrictionModel):
-    """Measured force as given and the prediction minus its flat-ground level (N); the
-    model is median-filtered like the fit's (per-frame integrals S, K, Q in 'basis' mode)."""
-    est = _paper_estimate(model, regions, params, options)
-    if not getattr(options, "detrend", True):  # absolute forces: keep the flat level
-        flat_level = 0.0
-    return np.asarray(force, dtype=float), est - flat_level
-
-
 def load_prediction(model: FrictionModel, regions: np.ndarray, f_n, params: LoadParams, *,
                     median_kernel: int = 11) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The load-consistent Eq. (4) along a sweep, processed as the fit processes its model.
-
-    Parameters
-    ----------
-    model : FrictionModel
-        The surface's model.
-    regions : (n, n_max, 2) ndarray
-        Geometric contact regions in mm (video or forward model); inset by ``params.inset``.
-    f_n : float or (n,) array_like
-        Normal force in N (the nominal load for a prediction, or a measured one).
-    params : LoadParams
-    median_kernel : int
-        Median filter window in positions on the load-independent parts, as the fit's.
-
-    Returns
-    -------
-    total, interfacial, deformation : (n,) ndarray
-        ``F_T``, ``F_int`` (Eq. 2) and ``F_def`` (Eq. 3) in N; NaN where the load-bearing
-        contact is empty.
-    """
-    R = model.region_integrals(regions, inset=params.inset)
-    g, b, _ = load_terms(R, params.mu, params.kappa)
-    ok = np.isfinite(g)
-    if median_kernel > 1 and ok.any():
-        idx = np.arange(g.size)
-        g = np.where(ok, median_filter(np.interp(idx, idx[ok], g[ok]), median_kernel), np.nan)
-        b = median_filter(b, median_kernel)
-    f_int = np.broadcast_to(np.asarray(f_n, dtype=float), g.shape) * g
-    f_def = np.where(ok, params.p1 * b, np.nan)
-    return f_int + f_def, f_int, f_def
+    """The load-consistent Eq. (4) along a sweep, processed as the fit processes its model
+    (:func:`fingerfriction.fit.load.load_estimate`): ``(total, interfacial, deformation)``
+    in N, NaN where the load-bearing contact is empty."""
+    return load_estimate(model, regions, f_n, params, median_kernel=median_kernel)
 
 
 def _finite_pairs(meas: list, pred: list) -> tuple[list, list]:
@@ -201,7 +130,8 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
                           load_options: LoadFitOptions | None = None, load: float = DEFAULT_LOAD_N,
                           forward_step: float = 0.01, contact: str = "geometric",
                           forward_cache: dict | None = None, in_sample=None,
-                          heldout_fingers: dict | None = None) -> OutOfSample:
+                          heldout_fingers: dict | None = None,
+                          settings: FitSettings | None = None) -> OutOfSample:
     """Out-of-sample validation: fit on all surfaces but one, predict the held-out one.
 
     For each surface ``s`` of the study the model is fitted on the trials of the *other*
@@ -221,6 +151,10 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     training parameters on the trial's own video regions with its measured normal force
     (``rho_heldout_params_video``).
 
+    ``model='interlock'``: the same with the median weights of the ascending and the
+    descending slopes. ``model='pressure'``: Eq. (4) with the constant pressure, on the
+    absolute footing, with the subject's flat-ground ``mu`` and the median ``p0, p1``.
+
     ``model='paper'``: Eq. (4) as printed, ``mu`` by grid search and the median ``p0, p1``
     (:func:`fingerfriction.fit.fit_trials`). The measured force is taken on the paper's
     footing (drift-corrected, near zero on flat ground) and the prediction minus its exact
@@ -235,8 +169,8 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
         Per-trial data: finger positions ``x`` (mm), measured ``F_T`` (N) on the paper's
         footing and, for the load-consistent model, on the absolute one with ``F_N``;
         video contact regions (used for fitting only), surface, subject.
-    model : {'load', 'paper'}
-        The model variant (:data:`fingerfriction.model.MODELS`).
+    model : str
+        The model variant (:data:`fingerfriction.fit.variants.MODELS`).
     fingers : dict, optional
         Subject label -> FingerParams (or 1/2) of the forward model. Default: the digits
         of the label ('S1', '1') select :data:`fingerfriction.mechanics.SUBJECTS`.
@@ -263,6 +197,9 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
         that predicts that surface (e.g. calibrated on the other five,
         :func:`fingerfriction.pipeline.finger_calibration.calibrate_held_out`); subjects not
         in it use ``fingers``.
+    settings : fingerfriction.fit.variants.FitSettings, optional
+        All the fit's settings at once (a fit passes its own); replaces ``grid``,
+        ``options`` and ``load_options``.
 
     Returns
     -------
@@ -278,16 +215,14 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     forces are the same either way. The load-consistent variant measures ``mu`` on flat
     ground instead, where it is identified.
     """
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    variant = get(model)
     trials, surfaces, subjects = _loso_inputs(trials, fingers)
-    options = options or FitOptions()
-    load_options = load_options or LoadFitOptions()
+    if settings is None:
+        settings = FitSettings(paper=options or FitOptions(), load=load_options or LoadFitOptions(),
+                               **({} if grid is None else {"grid": np.asarray(grid, dtype=float)}))
 
     def fit_all(ts):
-        if model == "load":
-            return fit_load_trials(ts, load_options)
-        return fit_trials(ts, grid=grid, options=options)
+        return variant.fit(ts, settings)
 
     if in_sample is None:
         in_sample = correlation_table(fit_all(trials), n_boot=None)
@@ -315,18 +250,17 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
                 rows.append({**_loso_row(model, subj, surf, ttest, ins, {k: [] for k in pooled}, None),
                              "note": note})
                 continue
-            params = _training_params(model, sf, ok)
+            params = variant.params_for(sf, ok)
             finger = _heldout_finger(subj, name, fingers, heldout_fingers)
             lo, xs, fwd = _forward_sweep(cache, surf, finger, ttest, load=load, contact=contact,
                                          step=forward_step)
-            flat_level = 0.0
-            if model == "paper":
-                flat_level = params.mu * params.p0 * flat_length_of_kind(finger, float(load), contact)
+            ctx = HeldOut(load=float(load), paper=settings.paper, kernel=settings.load.median_kernel,
+                          flat_length=lambda f=finger: flat_length_of_kind(f, float(load), contact),
+                          min_load=settings.load.min_load)
             per, got = [], {k: [] for k in pooled}
             for t in ttest:
                 idx = np.clip(np.rint((t.x - lo) / forward_step).astype(int), 0, xs.size - 1)
-                series = _heldout_series(model, t, fwd[idx], params, fmodel, options=options,
-                                         kernel=load_options.median_kernel, load=load, flat_level=flat_level)
+                series = variant.heldout_series(t, fwd[idx], params, fmodel, ctx)
                 for k, v in series.items():
                     got[k].append(v)
                 per.append((t.x, series["m"], series["g"]))
@@ -386,32 +320,6 @@ def _in_table1_order(table: pd.DataFrame, subjects: list) -> pd.DataFrame:
     return table.iloc[sorted(range(len(table)), key=lambda i: key.iloc[i])].reset_index(drop=True)
 
 
-def _training_params(model: str, sf, ok: list):
-    """A subject's parameters for its held-out trials: the medians of its training trials'."""
-    if model == "load":
-        return LoadParams(sf.mu, float(np.median([f.p1 for f in ok])), sf.inset, sf.kappa)
-    return FrictionParams(sf.mu, float(np.median([f.p0 for f in ok])), float(np.median([f.p1 for f in ok])))
-
-
-def _heldout_series(model: str, t: Trial, fwd: np.ndarray, params, fmodel: FrictionModel, *, options,
-                    kernel: int, load: float, flat_level: float) -> dict:
-    """Measured and predicted series of one held-out trial: ``m, g`` the prediction from the
-    forward regions; ``vm, vg`` the training parameters on the trial's video regions;
-    ``lm, lg`` the load-consistent prediction with the trial's measured normal force."""
-    if model == "load":
-        meas = t.force_abs if t.has_absolute else t.force
-        fn = t.normal_abs if t.has_absolute else load
-        g = load_prediction(fmodel, fwd, load, params, median_kernel=kernel)[0]
-        lg = load_prediction(fmodel, fwd, fn, params, median_kernel=kernel)[0]
-        vg = load_prediction(fmodel, t.regions, fn, params, median_kernel=kernel)[0]
-        if not t.has_absolute:  # the paper's footing: compare shapes only (rho detrends)
-            g, lg, vg = g - np.nanmean(g), lg - np.nanmean(lg), vg - np.nanmean(vg)
-        return {"m": meas, "g": g, "vm": meas, "vg": vg, "lm": meas, "lg": lg}
-    m, g = _predicted_estimate(t.surface, t.force, fwd, params, options, flat_level, fmodel)
-    vm, vg = _compared_estimate(t.surface, t.x, t.force, t.regions, params, options, fmodel)
-    return {"m": m, "g": g, "vm": vm, "vg": vg, "lm": m, "lg": np.full(m.shape, np.nan)}
-
-
 def _rho(meas: list, pred: list) -> tuple[float, float]:
     """Ensemble rho and p over the positions where the prediction is defined (NaN when the
     series are all undefined, e.g. the paper variant has no measured-load prediction)."""
@@ -441,11 +349,8 @@ def _loso_row(model: str, subject, surf: Surface, trials, ins, got: dict, params
         "rho_out_of_sample": out[0],
         "p_out_of_sample": out[1],
         "rho_out_of_sample_measured_load": _rho(got["lm"], got["lg"])[0],
-        "mu": params.mu if params else nan,
-        "p0": getattr(params, "p0", nan) if params else nan,
-        "p1": params.p1 if params else nan,
-        "inset_mm": getattr(params, "inset", nan) if params else nan,
-        "kappa_per_mm": getattr(params, "kappa", nan) if params else nan,
+        **(variant_of_params(params).row_params(params) if params is not None else
+           dict.fromkeys(("mu", "p0", "p1", "p1_down", "inset_mm", "kappa_per_mm"), nan)),
         "note": "",
     }
 
@@ -484,13 +389,15 @@ def trials_from_results(results: str | os.PathLike) -> list:
 def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | None = None,
                      forward_step: float = 0.01, models: tuple[str, ...] | None = None,
                      trials: list | None = None, fingers: dict | None = None,
-                     calibrated_fingers: dict | None = None) -> OutOfSample:
+                     calibrated_fingers: dict | None = None, settings: FitSettings | None = None,
+                     in_sample: dict | None = None) -> OutOfSample:
     """Leave-one-surface-out validation of an analysed study; writes ``loso.csv``.
 
-    Validates each model variant of ``models`` (default: the fit's default model first,
-    then the other; both share the forward-model sweeps), with the ``mu`` grid and the
-    options recorded by ``fingerfriction fit`` in ``RESULTS/fit/fit.json`` when present (so
-    ``rho_in_sample`` is the study's Table 1), else the defaults. The table, one block of
+    Validates each model variant of ``models`` (default: the fit's model first, then the
+    other variants it fitted; all share the forward-model sweeps), with ``settings`` (the
+    fit passes its own, and ``in_sample``, model -> its Table 1) or else the ``mu`` grid
+    and the options recorded by ``fingerfriction fit`` in ``RESULTS/fit/fit.json`` when
+    present (so ``rho_in_sample`` is the study's Table 1), else the defaults. The table, one block of
     rows per model (column ``model``), goes to ``out`` (default ``RESULTS/fit/loso.csv``)
     and a figure of the first model's held-out trials beside it (``loso.png``). This is
     the function the fit stage and ``fingerfriction validate`` call. ``fingers``
@@ -508,37 +415,63 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
     """
     root = os.fspath(results)
     store = ResultsStore(root)
-    grid, options = store.fit_settings()
-    record = store.read_fit_record() or {}
-    load_options = _load_options(record.get("load_options"))
+    if settings is None:
+        grid, options = store.fit_settings()
+        record = store.read_fit_record() or {}
+        settings = FitSettings(paper=options or FitOptions(), load=_load_options(record.get("load_options")),
+                               **({} if grid is None else {"grid": grid}),
+                               **({"method": record["method"]} if record.get("method") else {}))
+        if models is None:
+            first = record.get("model") or "load"
+            fitted = [m for m in (record.get("models") or {}) if m in VARIANT_NAMES] or list(VARIANT_NAMES)
+            models = (first, *[m for m in fitted if m != first])
     if models is None:
-        first = record.get("model", "load")
-        models = (first, *[m for m in MODELS if m != first])
+        models = VARIANT_NAMES
     for m in models:
-        if m not in MODELS:
-            raise ValueError(f"models must be among {MODELS}, got {m!r}")
+        get(m)  # an unknown name: ValueError naming the known ones
     trials = trials_from_results(root) if trials is None else trials
     if fingers is not None:  # the other subjects keep their default finger
         fingers = {**{t.subject: finger_for_label(t.subject, None) for t in trials
                       if t.subject not in fingers}, **fingers}
     cache: dict = {}
-    results_by_model = [leave_one_surface_out(trials, model=m, fingers=fingers, grid=grid, options=options,
-                                              load_options=load_options, forward_step=forward_step,
-                                              forward_cache=cache) for m in models]
-    res = OutOfSample(table=pd.concat([r.table for r in results_by_model], ignore_index=True),
-                      estimates=results_by_model[0].estimates)
+    by_model = validate_models(trials, models, settings, in_sample=in_sample, fingers=fingers,
+                               forward_step=forward_step, forward_cache=cache)
+    res = OutOfSample(table=pd.concat([r.table for r in by_model.values()], ignore_index=True),
+                      estimates=by_model[models[0]].estimates)
     if calibrated_fingers:
-        cal = pd.concat([leave_one_surface_out(trials, model=m, fingers=fingers, grid=grid, options=options,
-                                               load_options=load_options, forward_step=forward_step,
-                                               forward_cache=cache, heldout_fingers=calibrated_fingers).table
-                         for m in models], ignore_index=True)
-        res = OutOfSample(table=_with_calibrated(res.table, cal, calibrated_fingers), estimates=res.estimates)
-    target = os.fspath(out) if out is not None else os.fspath(store.loso_path)
+        cal = validate_models(trials, models, settings, in_sample=in_sample, fingers=fingers,
+                              forward_step=forward_step, forward_cache=cache,
+                              heldout_fingers=calibrated_fingers)
+        cal_table = pd.concat([r.table for r in cal.values()], ignore_index=True)
+        res = OutOfSample(table=_with_calibrated(res.table, cal_table, calibrated_fingers),
+                          estimates=res.estimates)
+    write_validation(res, out if out is not None else store.loso_path)
+    return res
+
+
+def validate_models(trials: list, models, settings: FitSettings, *, in_sample: dict | None = None,
+                    fingers: dict | None = None, forward_step: float = 0.01,
+                    forward_cache: dict | None = None,
+                    heldout_fingers: dict | None = None) -> dict:
+    """:func:`leave_one_surface_out` of each variant of ``models`` on the same trials, sharing
+    the forward model's sweeps: variant name -> OutOfSample (in the order of ``models``).
+    ``in_sample``: variant name -> its Table 1, when the caller has it."""
+    in_sample = in_sample or {}
+    cache = {} if forward_cache is None else forward_cache
+    return {m: leave_one_surface_out(trials, model=m, fingers=fingers, settings=settings,
+                                     forward_step=forward_step,
+                                     forward_cache=cache, in_sample=in_sample.get(m),
+                                     heldout_fingers=heldout_fingers) for m in models}
+
+
+def write_validation(res: OutOfSample, path: str | os.PathLike) -> None:
+    """``res.table`` as CSV at ``path`` and the figure of ``res.estimates`` beside it (``.png``)."""
+    target = os.fspath(path)
     os.makedirs(os.path.dirname(os.path.abspath(target)), exist_ok=True)
     res.write_csv(target)
-    OutOfSample(table=results_by_model[0].table, estimates=res.estimates).write_figure(
+    first = res.table["model"].iloc[0] if len(res.table) else None
+    OutOfSample(table=res.table[res.table["model"] == first], estimates=res.estimates).write_figure(
         os.path.splitext(target)[0] + ".png")
-    return res
 
 
 def _with_calibrated(table: pd.DataFrame, cal: pd.DataFrame, calibrated_fingers: dict) -> pd.DataFrame:

@@ -6,13 +6,15 @@ from a file or a fit (:func:`load_params`).
 from __future__ import annotations
 
 import functools
+import json
 import os
 
 import numpy as np
 
 from .._check import parse_json
+from ..fit.variants import get
 from ..mechanics import FingerParams
-from ..model import MODELS, FrictionModel, FrictionParams, LoadParams
+from ..model import FrictionModel, FrictionParams, LoadParams
 from ..study.store import ResultsStore, read_fit_table
 from ..surfaces import Surface, get_surface
 from .forward import DEFAULT_LOAD_N, flat_length, forward_regions, resolve_finger, sweep_window
@@ -130,11 +132,10 @@ def _params_from_pipeline_fit(d: dict, subject, path: str, model: str | None = N
     """``fingerfriction fit`` output: mu per subject in fit.json, p0/p1 per trial in the
     trials.csv beside it; the subject's medians over its successful trials are used.
 
-    ``model`` picks the variant (default: the fit's default model, ``fit.json`` ``model``;
-    a fit written before the load-consistent model has only the paper's)."""
-    model = model or d.get("model", "paper")
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    ``model`` picks the variant (default: the fit's model, ``fit.json`` ``model``; a fit
+    written before the load-consistent model has only the paper's)."""
+    model = model or d.get("model") or "paper"
+    variant = get(model)
     per_model = (d.get("models") or {}).get(model)
     if per_model is None and model != d.get("model", "paper"):
         raise ValueError(f"{path}: the fit has no {model!r} model (it has {d.get('model', 'paper')!r})")
@@ -154,11 +155,7 @@ def _params_from_pipeline_fit(d: dict, subject, path: str, model: str | None = N
         sel = sel[sel["success"].astype(str).str.lower() == "true"]
     if sel.empty:
         raise ValueError(f"{tcsv}: no successful {model!r} trial fit for subject {subject!r}")
-    if model == "load":
-        return LoadParams(mu=float(mus[key]), p1=float(sel["p1"].median()),
-                          inset=float(per_model["inset_mm"][key]),
-                          kappa=float(per_model["kappa_per_mm"][key]))
-    return FrictionParams(mu=float(mus[key]), p0=float(sel["p0"].median()), p1=float(sel["p1"].median()))
+    return variant.params_from_record({**(per_model or {}), "mu": mus}, sel, key)
 
 
 def load_params(path: str | os.PathLike, subject=None, *, model: str | None = None):
@@ -204,9 +201,8 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
     if isinstance(d.get("mu"), dict):
         return _params_from_pipeline_fit(d, subject, path, model)
     try:
-        if d.get("model") == "load":
-            return LoadParams(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0),
-                              kappa=d.get("kappa", 0.0))
+        if d.get("model") is not None and get(d["model"]).params_type is LoadParams:  # LoadParams.to_json()
+            return LoadParams.from_json(json.dumps(d))
         return _params_from_mapping(d, subject, path)
     except (TypeError, KeyError) as exc:
         raise ValueError(f"{path}: malformed parameters ({exc})") from None
@@ -219,10 +215,10 @@ def resolve_params(params, subject, load: float, model: str | None = None,
     is None (:func:`default_params`, :func:`default_load_params`); ``params`` itself when it is
     a :class:`LoadParams` or :class:`FrictionParams`; a JSON file's read by :func:`load_params`
     when it is a path. ValueError for an unknown ``model``, TypeError for anything else."""
-    if model is not None and model not in MODELS:
-        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    if model is not None:
+        get(model)  # an unknown name: ValueError naming the known ones
     if params is None:
-        if (model or "load") == "paper":
+        if get(model or "load").params_type is FrictionParams:  # a constant pressure
             return (default_params(subject, load=load, finger=finger),
                     "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)")
         return (default_load_params(subject, load=load, finger=finger),

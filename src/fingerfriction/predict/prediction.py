@@ -17,6 +17,7 @@ import pandas as pd
 
 from .._atomic import atomic_write
 from .._style import figure_style
+from ..fit.variants import variant_of_params
 from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
 from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
@@ -86,15 +87,18 @@ class Prediction:
 
     @property
     def model(self) -> str:
-        """``'load'`` (the load-consistent Eq. 4) or ``'paper'``."""
-        return "load" if isinstance(self.params, LoadParams) else "paper"
+        """The model variant of the parameters (:func:`fingerfriction.fit.variants.variant_of_params`:
+        ``'load'``, ``'interlock'`` or, for a constant pressure, ``'paper'``)."""
+        return variant_of_params(self.params).name
 
     @property
     def params_text(self) -> str:
         """The parameters in one line with their units."""
         p = self.params
         if isinstance(p, LoadParams):
-            return (f"mu={p.mu:.3g}, p1={p.p1:.3g} N/mm, inset={p.inset:.3g} mm, kappa={p.kappa:.3g}/mm "
+            down = f" (ascending), p1_down={p.p1_down:.3g} N/mm" if p.asymmetric else ""
+            return (f"mu={p.mu:.3g}, p1={p.p1:.3g} N/mm{down}, inset={p.inset:.3g} mm, "
+                    f"kappa={p.kappa:.3g}/mm "
                     f"(load-consistent, F_N={self.load:g} N)")
         return f"mu={p.mu:.3g}, p0={p.p0:.3g} N/mm, p1={p.p1:.3g} N/mm (paper's Eq. 4)"
 
@@ -124,7 +128,7 @@ class Prediction:
             "surface_spec": _surface_dict(self.surface),
             "subject": str(self.subject),
             "model": self.model,
-            "params": asdict(self.params),
+            "params": {k: v for k, v in asdict(self.params).items() if v is not None},
             "params_source": self.params_source,
             "load_N": self.load,
             "contact": self.contact,

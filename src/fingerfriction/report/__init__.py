@@ -30,7 +30,7 @@ from ..forces.signals import describe_history
 from ..study.store import ResultsStore, write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
-from .flags import collect_flags, flagged_trials, group_flags
+from .flags import collect_flags, comparison_notes, flagged_trials, group_flags
 from .tables import (
     blindspot_table,
     fit_parameter_table,
@@ -43,7 +43,7 @@ from .tables import (
 )
 from .trial_pages import choose_pages, page_href, write_trial_pages
 
-__all__ = ["make_report", "ReportResult", "load_report_data", "ReportData"]
+__all__ = ["make_report", "ReportResult", "load_report_data", "ReportData", "comparison_frame"]
 
 logger = logging.getLogger(__name__)
 
@@ -80,6 +80,13 @@ class ReportResult:
         fitted); the CLI prints them too.
     stale_fit : str or None
         Why the fit was left out: the trials were analysed again since it was made.
+    model : str or None
+        The model variant the fit used (None before the fit).
+    rejection : str
+        The fit's reason when it rejected every model variant (the error at the top of the
+        page), else ''.
+    comparison : pandas.DataFrame or None
+        The fit's comparison of the variants (``fit.json`` ``selection``).
     """
 
     html: Path
@@ -95,6 +102,10 @@ class ReportResult:
     flags: tuple[dict, ...] = ()
     pages: dict = field(default_factory=dict)
     stale_fit: str | None = None
+    model: str | None = None
+    rejection: str = ""
+    comparison: pd.DataFrame | None = None
+    notes: tuple[dict, ...] = ()
 
 
 #: Captions of the figures in the HTML report (the figure titles carry the essentials).
@@ -186,39 +197,42 @@ def _write_tables(data: ReportData, out: Path, has_fit: bool, files: list[Path])
     return t1, loso, bs, truth, fit_parameter_table(data)
 
 
-MODEL_TITLES = {"load": "Load-consistent Eq. 4", "paper": "The paper's Eq. 4"}
+def _title(fit: dict, m: str) -> str:
+    """A variant's title as the fit recorded it (its name for a fit that did not)."""
+    return ((fit.get("models") or {}).get(m) or {}).get("title") or m
 
 
 def _models(fit: dict) -> list[str]:
-    """The fit's model variants, its default first (a fit of one model: that one)."""
+    """The fit's model variants, the one it used first (a fit of one model: that one)."""
     default = fit.get("model", "paper")
     return [default, *[m for m in (fit.get("models") or {}) if m != default]]
 
 
 def _mu_rows(fit: dict) -> list[dict]:
-    """Per model and subject: mu with its confidence interval, or a warning when it sits at
-    an end of the paper variant's search grid."""
-    grid = fit.get("mu_grid") or {}
-    per_model = fit.get("models") or {fit.get("model", "paper"): {"mu": fit.get("mu", {})}}
+    """Per subject: mu of the variant the fit used, with its confidence interval, and the
+    fit's own warning about that subject's mu when it has one (e.g. mu at an end of the
+    paper variant's search grid)."""
+    used = _models(fit)[0]
+    per_model = fit.get("models") or {used: {"mu": fit.get("mu", {})}}
+    rec = per_model.get(used, {})
+    subject_flags = {}
+    for f in fit.get("flags") or []:
+        if isinstance(f, dict) and not f.get("trial") and f.get("subject") and f.get("model") == used \
+                and f.get("level") in ("error", "warning"):
+            subject_flags.setdefault(str(f["subject"]), f.get("message", ""))
     rows = []
-    for m in _models(fit):
-        rec = per_model.get(m, {})
-        for s, mu in (rec.get("mu") or {}).items():
-            text, warn = f"subject {s}: &mu; = {mu:.4g}", ""
-            lo, hi = ((rec.get("mu_ci") or {}).get(s) or [None, None])
-            if lo is not None and hi is not None and math.isfinite(lo):
-                text += f" (95 % CI {lo:.4f}-{hi:.4f})"
-            if m == "paper" and grid and (abs(mu - grid.get("start", -1)) < 1e-9
-                                          or abs(mu - grid.get("stop", -1)) < 1e-9):
-                warn = (f"at the end of the search grid [{grid['start']:g}, {grid['stop']:g}]: "
-                        "not a minimum inside the grid, the true value may lie beyond it")
-            rows.append({"model": MODEL_TITLES.get(m, m) + (" (default)" if m == _models(fit)[0] else ""),
-                         "text": Markup(text), "warn": warn})
+    for s, mu in (rec.get("mu") or {}).items():
+        text = f"subject {s}: &mu; = {mu:.4g}"
+        lo, hi = ((rec.get("mu_ci") or {}).get(s) or [None, None])
+        if lo is not None and hi is not None and math.isfinite(lo):
+            text += f" (95 % CI {lo:.4f}-{hi:.4f})"
+        rows.append({"model": f"{_title(fit, used)} ({used})", "text": Markup(text),
+                     "warn": subject_flags.get(str(s), "")})
     return rows
 
 
 def _by_model(df: pd.DataFrame | None, fit: dict, render) -> list[dict]:
-    """One block per model of a table with a ``model`` column (the fit's default first)."""
+    """One block per model of a table with a ``model`` column (the variant used first)."""
     if df is None:
         return []
     notes = fit.get("model_notes") or {}
@@ -229,9 +243,62 @@ def _by_model(df: pd.DataFrame | None, fit: dict, render) -> list[dict]:
         sel = df[df["model"] == m].drop(columns="model")
         if sel.empty:
             continue
-        title = MODEL_TITLES.get(m, m) + (" - the default model" if m == _models(fit)[0] else "")
+        title = f"{_title(fit, m)} ({m})" + (" - the model used" if m == _models(fit)[0] else " - comparison")
         out.append({"title": title, "note": notes.get(m, ""), "html": render(sel)})
     return out
+
+
+#: Columns of the comparison of the variants in the report (from ``fit.json`` ``selection``).
+_COMPARISON = (("model", "model"), ("title", "variant"), ("verdict", "verdict"),
+               ("n_unphysical", "unphysical fits"), ("table1_cells_ok", "Table 1 cells >= bar"),
+               ("loso_cells_ok", "held-out cells >= bar"), ("cv_rho_mean", "mean held-out rho"),
+               ("cv_rho_min", "min held-out rho"), ("residual_structure", "systematic misfit"),
+               ("why", "bars missed"))
+
+
+#: Text columns of the comparison; every other one is a number (None in JSON where unknown).
+_COMPARISON_TEXT = ("model", "title", "family", "verdict", "why", "selectable", "passes")
+
+
+def comparison_frame(records) -> pd.DataFrame:
+    """The comparison of the variants (``fit.json`` ``selection.comparison``) as a table whose
+    number columns are numbers: JSON writes NaN as null, and a column of nulls alone (the
+    residual structure of a study without two trials per surface) would be read as objects."""
+    rows = pd.DataFrame(records or [])
+    for c in rows.columns:
+        if c not in _COMPARISON_TEXT:
+            rows[c] = pd.to_numeric(rows[c], errors="coerce")
+    return rows
+
+
+def _selection(fit: dict, notes: list[dict]) -> dict | None:
+    """The model choice for the page: how it was made, its reason, the comparison table and
+    the comparison variants' flags as notes (grouped by variant and kind)."""
+    sel = fit.get("selection")
+    if not isinstance(sel, dict):
+        return None
+    rows = comparison_frame(sel.get("comparison"))
+    table = None
+    if not rows.empty:
+        cols = [(c, h) for c, h in _COMPARISON if c in rows.columns]
+        table = rows[[c for c, _ in cols]].rename(columns=dict(cols))
+        for c, k, n in (("unphysical fits", "n_unphysical", "n_trials"),
+                        ("Table 1 cells >= bar", "table1_cells_ok", "table1_cells"),
+                        ("held-out cells >= bar", "loso_cells_ok", "loso_cells")):
+            if c in table.columns:  # "k of n"; NaN (None in JSON) where not computed
+                table[c] = [f"{int(a)} of {int(b)}" if a is not None and a == a else ""
+                            for a, b in zip(rows[k], rows[n], strict=True)]
+    grouped = []
+    for g in group_flags(notes):
+        grouped.append({"model": g["example"]["model"], "level": g["level"], "code": g["code"],
+                        "n_trials": g["n_trials"], "count": g["count"], "example": g["example"]})
+    requested = fit.get("requested", "auto")
+    bars = sel.get("bars") or {}
+    return {"rejected": bool(sel.get("rejected")), "reason": sel.get("reason", ""), "requested": requested,
+            "used": fit.get("model"), "auto": sel.get("model"), "bars": bars,
+            "cross_validated": sel.get("cross_validated", True),
+            "table": Markup(_html_table(table, float_format="{:.3f}")) if table is not None else None,
+            "notes": grouped}
 
 
 def make_report(results: str | os.PathLike, *, progress: bool = False, sample: int | None = 6,
@@ -309,10 +376,15 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
         bar.advance("index.html")
     finally:
         bar.close()
+    sel = (data.fit or {}).get("selection") if has_fit else None
+    sel = sel if isinstance(sel, dict) else {}
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
                         n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
-                        notices=tuple(notices), flags=tuple(flags), pages=pages, stale_fit=data.stale_fit)
-
+                        notices=tuple(notices), flags=tuple(flags), pages=pages, stale_fit=data.stale_fit,
+                        model=(data.fit or {}).get("model") if has_fit else None,
+                        rejection=sel.get("reason", "") if sel.get("rejected") else "",
+                        comparison=comparison_frame(sel["comparison"]) if sel.get("comparison") else None,
+                        notes=tuple(comparison_notes(data)) if has_fit else ())
 
 #: Titles of the ground-truth tables (simulated studies).
 _TRUTH_TITLES = {"mu": "Friction coefficient per subject",
@@ -339,14 +411,15 @@ def _render_index(data: ReportData, *, has_fit, figures, tables, loso_img, flags
     fit = data.fit or {}
     ft = data.fit_trials
     n_neg_p0 = 0
-    if ft is not None:
-        paper_rows = ft[ft["model"] == "paper"] if "model" in ft.columns else ft
-        n_neg_p0 = int((paper_rows["p0"] < 0).sum())
+    if ft is not None:  # the variant used: a constant pressure p0 < 0 is unphysical
+        used_rows = ft[ft["model"] == fit.get("model")] if "model" in ft.columns else ft
+        n_neg_p0 = int((used_rows["p0"] < 0).sum())
     return template.render(
         flag_groups=group_flags(flags), n_flagged=len(flagged), links=links, all_flags=flags,
         trials_table=Markup(_html_table(_trial_table(data, flags), links=links)),
         n_pages=n_pages,
         notices=notices, mu_rows=_mu_rows(fit), n_neg_p0=n_neg_p0,
+        selection=_selection(fit, comparison_notes(data)) if has_fit else None,
         table1_models=_by_model(t1, fit, lambda d: Markup(_html_table(table1_display(d)))),
         loso_models=_by_model(loso, fit, lambda d: Markup(_html_table(with_formatted_p(d)))),
         subject_word=("all subjects" if len(data.subjects) > 1 else "one subject"),

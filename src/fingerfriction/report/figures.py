@@ -74,7 +74,7 @@ def save_figure(fig: Figure, stem: str | Path, *, dpi: int = 150) -> dict[str, b
     return out
 
 
-def _label(data: ReportData, surface: str) -> str:
+def surface_title(data: ReportData, surface: str) -> str:
     """'Bump 2 mm' (the paper's names) or the surface's own name."""
     s = data.surfaces.get(surface)
     shape, width = getattr(s, "shape", None), getattr(s, "width", None)
@@ -205,7 +205,7 @@ def fig3_occupancy(data: ReportData) -> Figure:
             all_axes += [ax_o, ax_h]
             ts = data.select(surface=name)
             surf = data.surfaces.get(name)
-            title = f"{_label(data, name)} ({len(ts)} trials)"
+            title = f"{surface_title(data, name)} ({len(ts)} trials)"
             try:
                 bs = blind_spots(pooled_regions(ts))
                 occ = occupancy(pooled_regions(ts, [t.sliding() for t in ts]), span=bs.span)
@@ -263,7 +263,8 @@ def _flat_level(t: TrialData, x: np.ndarray, y: np.ndarray) -> float:
     return float(np.mean(y[m])) if m.any() else float(np.nanmean(y[:50]))
 
 
-def _measured(t: TrialData, footing: str):
+def measured_series(t: TrialData, footing: str):
+    """A trial's measured ``(x mm, F_T N)``: 'absolute' less its mean on the flat, else the paper's."""
     x = t.forces["x_mm"].to_numpy(float)
     if footing == "absolute":
         y = t.forces["F_T_abs_N"].to_numpy(float)
@@ -320,7 +321,7 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
                 drawn = False
                 for k, v in enumerate(speeds):
                     ts = data.select(surface=name, subject=subj, speed=v)
-                    ms = _mean_sd([_measured(t, footing) for t in ts])
+                    ms = _mean_sd([measured_series(t, footing) for t in ts])
                     if ms is None:
                         continue
                     c = SPEED_COLOURS[k % len(SPEED_COLOURS)]
@@ -332,7 +333,7 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
                     drawn = True
                 if not drawn:
                     _empty(ax)
-                ax.set_title(f"{_label(data, name)}, subject {subj}")
+                ax.set_title(f"{surface_title(data, name)}, subject {subj}")
         handles = [Line2D([], [], color=SPEED_COLOURS[k % len(SPEED_COLOURS)],
                           label=f"{v:g} mm/s (+{k * 25} mN)") for k, v in enumerate(speeds)]
         handles.append(Patch(color="0.5", alpha=0.35, label="+- 1 SD (only where n > 1)"))
@@ -411,7 +412,7 @@ def fig6_model(data: ReportData) -> Figure:
                         ev = ev[(ev >= xr[0]) & (ev <= xr[1])]
                         ax.plot(ev, np.zeros_like(ev), ls="none", marker="|", ms=5, mew=0.8, color=MODEL,
                                 alpha=0.6, transform=ax.get_xaxis_transform())
-                ax.set_title(f"{_label(data, name)}, subject {subj}" + (f" (n = {n})" if n else ""))
+                ax.set_title(f"{surface_title(data, name)}, subject {subj}" + (f" (n = {n})" if n else ""))
         handles = [Line2D([], [], color=MEASURED, label="measured F_T (mean)"),
                    Line2D([], [], color=MODEL, label="model F_hat_T (mean)"),
                    Patch(color="0.5", alpha=0.35, label="+- 1 SD (where n > 1)"),
@@ -460,7 +461,7 @@ def figS1_lengths(data: ReportData) -> Figure:
             n_max = max(n_max, max((t.regions.shape[1] for t in ts), default=0))
             if not ts:
                 _empty(ax)
-            ax.set_title(f"{_label(data, name)} ({len(ts)} trials)")
+            ax.set_title(f"{surface_title(data, name)} ({len(ts)} trials)")
             ax.set_xlabel("finger position x (mm)")
             ax.set_ylabel("L_i (mm)")
         handles = [Line2D([], [], ls="none", marker="o", ms=4, color=CYCLE[i % len(CYCLE)], label=f"L{i + 1}")
@@ -474,9 +475,15 @@ def figS1_lengths(data: ReportData) -> Figure:
 
 def figS3_components(data: ReportData) -> Figure:
     """Fig. S3: model F_int (Eq. 2) and F_def (Eq. 3), mean +- 1 SD over all trials, for
-    each model variant side by side (a column per model, the fit's default first)."""
-    default = (data.fit or {}).get("model", "paper")
-    models = [default] + [m for m in ("load", "paper") if m != default]
+    the model variant the fit used and, beside it, each variant it fitted only to compare
+    with the paper (not selectable: the paper's Eq. 4 as printed)."""
+    fit = data.fit or {}
+    default = fit.get("model", "paper")
+    recorded = fit.get("models") or {}
+    models = [default] + [m for m, rec in recorded.items()
+                          if m != default and isinstance(rec, dict) and rec.get("selectable") is False]
+    if not any("selectable" in (rec or {}) for rec in recorded.values()):  # a fit of the two variants
+        models = [default] + [m for m in recorded if m != default]
     models = [m for m in models
               if any(t.model is not None and f"{m}_F_int_N" in t.model for t in data.trials)]
     if not models:  # a fit written before the two variants: its own columns
@@ -500,9 +507,9 @@ def figS3_components(data: ReportData) -> Figure:
                     drawn = True
                 if not drawn:
                     _empty(ax)
-                what = "" if m is None else (" - load-consistent" if m == "load" else " - paper's Eq. 4")
-                ax.set_title(f"{_label(data, name)}{what}" + (" (default)" if m == default and len(models) > 1
-                                                            else ""))
+                what = "" if m is None else f" - {(recorded.get(m) or {}).get('title') or m}"
+                ax.set_title(f"{surface_title(data, name)}{what}"
+                             + (" (default)" if m == default and len(models) > 1 else ""))
                 if j == 0:
                     ax.set_ylabel("force (mN)")
         for ax in axes[-1]:

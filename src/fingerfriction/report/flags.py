@@ -13,7 +13,12 @@ their level here. Sources:
 * the fit: trials that could not be fitted or gave an unphysical fit (``fit-failed``),
   contact regions translated from the nearest frame where x(t) was extrapolated
   (``regions-translated``), mu at an end of its search grid (``mu-at-bound``), a failed
-  out-of-sample validation (``loso-failed``), and every flag the fit itself recorded.
+  out-of-sample validation (``loso-failed``), and every flag the fit itself recorded for
+  the model variant it used, with ``model-rejected`` (an error about the whole study) when
+  no variant passes the fit's bars.
+
+The flags of the other variants, fitted for comparison, are not findings about the study:
+:func:`comparison_notes` lists them, as notes on the comparison.
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import numpy as np
 from ..flags import LEVELS, Flag
 from .data import ReportData, TrialData
 
-__all__ = ["LEVELS", "collect_flags", "flagged_trials", "group_flags", "position_gaps"]
+__all__ = ["LEVELS", "collect_flags", "comparison_notes", "flagged_trials", "group_flags", "position_gaps"]
 
 #: Minimum run of frames without x(t) inside the tracked span reported as a gap.
 MIN_GAP_FRAMES = 3
@@ -113,9 +118,12 @@ def collect_flags(data: ReportData) -> list[Flag]:
     fit = data.fit or {}
     by_id = {t.id: t for t in data.trials}
     recorded = fit.get("flags")
-    if isinstance(recorded, list):  # the fit's own flags, already typed: taken as they are
+    used = fit.get("model")
+    if isinstance(recorded, list):  # the fit's own flags, those of the variant it used
         for f in recorded:
-            if isinstance(f, dict) and f.get("message"):
+            if not isinstance(f, dict) or (f.get("model") and used and f.get("model") != used):
+                continue  # a comparison variant's (a fit.json written before "notes"): a note
+            if f.get("message"):
                 flags.append(_flag(f.get("level", "warning") if f.get("level") in LEVELS else "warning",
                                    f.get("code", "fit"), f["message"], trial=f.get("trial"),
                                    subject=f.get("subject"), model=f.get("model")))
@@ -141,6 +149,20 @@ def collect_flags(data: ReportData) -> list[Flag]:
     trial_order = {m["id"]: i for i, m in enumerate(data.run.get("trials", []))}
     flags.sort(key=lambda f: (order[f.level], bool(f.trial), trial_order.get(f.trial, -1)))
     return flags
+
+
+def comparison_notes(data: ReportData) -> list[Flag]:
+    """The flags of the model variants fitted for comparison (not the one the fit used)."""
+    fit = data.fit or {}
+    used = fit.get("model")
+    if isinstance(fit.get("notes"), list):
+        recorded = fit["notes"]
+    else:  # a fit.json written before "notes": the other variants' flags were among "flags"
+        recorded = [f for f in fit.get("flags") or [] if isinstance(f, dict) and f.get("model")
+                    and f.get("model") != used]
+    return [_flag(f.get("level", "warning") if f.get("level") in LEVELS else "warning", f.get("code", "fit"),
+                  f.get("message", ""), trial=f.get("trial"), subject=f.get("subject"), model=f.get("model"))
+            for f in recorded if isinstance(f, dict)]
 
 
 def flagged_trials(flags: list[Flag], *, levels=("error", "warning")) -> list[str]:

@@ -155,17 +155,38 @@ def _truth_mu(truth: dict) -> dict[str, float]:
     return out
 
 
+def realised_mu(data: ReportData) -> dict[str, float]:
+    """Per subject, the mean of the friction coefficients the simulator drew for the trials
+    in the report (``truth/<trial>.npz`` ``mu_trial``): the value a fit of these trials
+    should recover (a study with per-trial scatter of ``mu`` does not realise its nominal
+    mean exactly). Empty when the truth files are not there."""
+    if data.truth_dir is None:
+        return {}
+    by: dict[str, list[float]] = {}
+    for t in data.trials:
+        p = data.truth_dir / f"{t.id}.npz"
+        if not p.is_file():
+            continue
+        with np.load(p, allow_pickle=False) as z:
+            if "mu_trial" in z.files:
+                by.setdefault(t.subject, []).append(float(z["mu_trial"]))
+    return {s: float(np.mean(v)) for s, v in by.items() if v}
+
+
 def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
     """For a simulated study: recovered against true parameters.
 
-    Returns a dict with (when available) ``'mu'``: subject, mu true, mu fitted, error;
-    and ``'blindspots'``: surface, blind-spot widths from the analysed video against
-    those of the simulator's geometric (3 px) contact regions of the same trials.
+    Returns a dict with (when available) ``'mu'``: model, subject, the true mu (the mean of
+    the trials' drawn coefficients, :func:`realised_mu`, else the nominal one), the nominal
+    one, the fitted one with its CI, error, whether the CI covers the truth; and
+    ``'blindspots'``: surface, blind-spot widths from the analysed video against those of
+    the simulator's geometric (3 px) contact regions of the same trials.
     """
     out: dict[str, pd.DataFrame] = {}
     if data.truth is None:
         return out
-    true_mu = _truth_mu(data.truth)
+    nominal = _truth_mu(data.truth)
+    true_mu = {**nominal, **realised_mu(data)}
     fit = data.fit or {}
     default = fit.get("model", "paper")
     per_model = fit.get("models") or {default: {"mu": fit.get("mu", {}), "mu_ci": fit.get("mu_ci", {})}}
@@ -179,8 +200,8 @@ def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
                 lo, hi = (ci.get(s) or [math.nan, math.nan])
                 lo = math.nan if lo is None else lo
                 hi = math.nan if hi is None else hi
-                rows.append({"model": m, "subject": s, "mu_true": t, "mu_fitted": f, "ci95_lo": lo,
-                             "ci95_hi": hi, "error": f - t,
+                rows.append({"model": m, "subject": s, "mu_true": t, "mu_nominal": nominal.get(s, math.nan),
+                             "mu_fitted": f, "ci95_lo": lo, "ci95_hi": hi, "error": f - t,
                              "truth_in_ci": bool(lo <= t <= hi) if math.isfinite(lo) else None})
         out["mu"] = pd.DataFrame(rows)
     if data.truth_dir is not None:

@@ -31,7 +31,7 @@ from ..pipeline.trial import TrialInput
 from ..study.manifest import load_manifest
 from ..video.overlay import write_results_overlay
 from .data import ReportData, TrialData
-from .figures import _label, _measured, region_events
+from .figures import measured_series, region_events, surface_title
 from .flags import position_gaps
 from .style import CYCLE, MEASURED, MODEL, OKABE_ITO, figure_style
 
@@ -142,7 +142,7 @@ def trial_plots(t: TrialData, data: ReportData) -> dict[str, str]:
             ax.plot(xf, 1e3 * t.forces["F_T_N"].to_numpy(float), color=OKABE_ITO["vermillion"], lw=0.7,
                     label="paper's footing")
             if has_abs:
-                xa, ya = _measured(t, "absolute")
+                xa, ya = measured_series(t, "absolute")
                 ax.plot(xa, 1e3 * ya, color=OKABE_ITO["bluish green"], lw=0.7,
                         label="absolute, less its flat level")
         ax.set_xlabel("finger position x (mm)")
@@ -255,7 +255,7 @@ def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str],
         lab = labels.get(tid, {})
         own = [f for f in flags if f["trial"] == tid]
         ctx = {"trial": tid, "subject": lab.get("subject", ""), "surface": lab.get("surface", ""),
-               "surface_label": _label(data, lab.get("surface", "")) if lab.get("surface") else "",
+               "surface_label": surface_title(data, lab.get("surface", "")) if lab.get("surface") else "",
                "speed": lab.get("speed_mm_s", ""), "repetition": lab.get("repetition", ""),
                "flags": own, "failed": failed.get(tid), "plots": None, "animation": None,
                "animation_note": None, "fit": fit_rows.get(tid), "info": None,

@@ -84,7 +84,7 @@ from ..regions import regions_on_grid
 from ..surfaces import Surface, surface_from_spec
 from .digests import input_fingerprint, params_digest, sha256_file, sha256_input
 from .manifest import validate_id
-from .tables import atomic_write_parquet, frames_table, regions_from_table
+from .tables import atomic_write_parquet, clipped_on_grid, frames_table, regions_from_table
 
 __all__ = [
     "RESULTS_FORMAT",
@@ -444,10 +444,12 @@ class ResultsStore:
             fn_abs = fo["F_N_abs_N"].to_numpy(float)[good]
             if np.all(np.isfinite(ft_abs)) and np.all(np.isfinite(fn_abs)):
                 absolute = {"force_abs": ft_abs, "normal_abs": fn_abs}
+        clipped = clipped_on_grid(fr, x)
         trial = Trial(x=x[good], force=F[good], regions=reg[good], surface=surf,
                       subject=str(entry["subject"]),
                       labels={"trial": tid, "surface": entry["surface"],
-                              "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute)
+                              "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute,
+                      clipped=None if clipped is None else clipped[good])
         return trial, moved[good]
 
     # the analysis a fit used ----------------------------------------------------------

@@ -31,7 +31,7 @@ import pandas as pd
 from .._atomic import atomic_write
 from ..regions import as_regions
 
-__all__ = ["frames_table", "regions_from_table", "atomic_write_parquet"]
+__all__ = ["frames_table", "regions_from_table", "atomic_write_parquet", "clipped_on_grid"]
 
 
 def atomic_write_parquet(path: str | os.PathLike, df: pd.DataFrame) -> None:
@@ -127,3 +127,20 @@ def regions_from_table(df: pd.DataFrame) -> np.ndarray:
         out[:, i, 0] = df[f"a{i + 1}"].to_numpy(dtype=float)
         out[:, i, 1] = df[f"b{i + 1}"].to_numpy(dtype=float)
     return out
+
+
+def clipped_on_grid(frames: pd.DataFrame, x: np.ndarray) -> np.ndarray | None:
+    """The frames' ``clipped`` flag at each grid position: that of the tracked frame whose
+    x(t) is nearest, as :func:`~fingerfriction.regions.regions_on_grid` takes its regions
+    (None when the frames have no such column or fewer than two tracked frames)."""
+    if "clipped" not in frames.columns:
+        return None
+    xf = frames["x_mm"].to_numpy(float)
+    ok = np.isfinite(xf)
+    if ok.sum() < 2:
+        return None
+    order = np.argsort(xf[ok], kind="stable")
+    xs, cl = xf[ok][order], frames["clipped"].to_numpy(bool)[ok][order]
+    j = np.clip(np.searchsorted(xs, x), 1, xs.size - 1)
+    nearest = np.where(np.abs(x - xs[j - 1]) <= np.abs(xs[j] - x), j - 1, j)
+    return cl[nearest]
