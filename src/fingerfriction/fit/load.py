@@ -69,7 +69,7 @@ from .load_results import (
     LoadSubjectFit,
     LoadTrialFit,
 )
-from .mu import flat_ground_mu
+from .mu import FlatGroundMu, flat_ground_mu
 from .weights import column_weights, hac_se, split_weights
 
 __all__ = [
@@ -77,6 +77,7 @@ __all__ = [
     "LoadTrialFit",
     "LoadSubjectFit",
     "fit_load_subject",
+    "subject_flat_mu",
     "fit_load_trials",
     "load_estimate",
 ]
@@ -395,6 +396,24 @@ def _at_bound_flags(subject: str, fitted, inset: float, kappa: float, options: L
     return flags
 
 
+
+def subject_flat_mu(trials: Sequence[Trial], options: LoadFitOptions, subject: str,
+                    model: str) -> tuple[FlatGroundMu | None, LoadSubjectFit | None]:
+    """One subject's flat-ground mu for a fit of the load family (:func:`flat_ground_mu`
+    with the fit's options), or, when it cannot be measured, the failed subject fit that
+    says why (flag ``mu-unavailable``); returns ``(flat, None)`` or ``(None, failed)``."""
+    try:
+        flat = flat_ground_mu(trials, transient=options.transient, transient_max_mm=options.transient_max_mm,
+                              min_load=options.min_load, min_flat_mm=options.min_flat_mm,
+                              n_boot=options.n_boot, seed=options.seed, level=options.level, model=model)
+    except ValueError as exc:
+        msg = str(exc)
+        flag = fit_flag("error", "mu-unavailable", subject, "", model, msg)
+        return None, LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
+                                    fitted=(), trials=(), flags=(flag,), success=False, message=msg,
+                                    model=model)
+    return flat, None
+
 def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
                      models: dict | None = None, split: bool = False) -> LoadSubjectFit:
     """Fit the load-consistent Eq. (4) to one subject's trials (see the module notes).
@@ -431,15 +450,9 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
         if key not in models:
             models[key] = FrictionModel(key)
         designs.append(_LoadDesign(t, options, models[key], split=split))
-    try:
-        flat = flat_ground_mu(trials, transient=options.transient, transient_max_mm=options.transient_max_mm,
-                              min_load=options.min_load, min_flat_mm=options.min_flat_mm,
-                              n_boot=options.n_boot, seed=options.seed, level=options.level, model=name)
-    except ValueError as exc:
-        msg = str(exc)
-        flag = fit_flag("error", "mu-unavailable", subject, "", name, msg)
-        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
-                              fitted=(), trials=(), flags=(flag,), success=False, message=msg, model=name)
+    flat, failed = subject_flat_mu(trials, options, subject, name)
+    if failed is not None:
+        return failed
     mu = flat.mu
     flags = list(flat.flags)
 

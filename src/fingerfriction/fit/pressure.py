@@ -58,8 +58,7 @@ from .common import (
     nmse,
     one_subject,
 )
-from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit
-from .mu import flat_ground_mu
+from .load import LoadFitOptions, LoadSubjectFit, LoadTrialFit, subject_flat_mu
 from .weights import column_weights, hac_cov
 
 __all__ = ["fit_pressure_subject", "fit_pressure_trials"]
@@ -173,15 +172,9 @@ def fit_pressure_subject(trials: Sequence[Trial], options: LoadFitOptions | None
     trials, subject = one_subject(trials, caller="fit_pressure_subject", purpose="fit a subject",
                                    group="fit_pressure_trials")
     models = {} if models is None else models
-    try:
-        flat = flat_ground_mu(trials, transient=options.transient, transient_max_mm=options.transient_max_mm,
-                              min_load=options.min_load, min_flat_mm=options.min_flat_mm,
-                              n_boot=options.n_boot, seed=options.seed, level=options.level, model=NAME)
-    except ValueError as exc:
-        msg = str(exc)
-        flag = fit_flag("error", "mu-unavailable", subject, "", NAME, msg)
-        return LoadSubjectFit(subject=subject, mu=math.nan, flat=None, inset=math.nan, kappa=math.nan,
-                              fitted=(), trials=(), flags=(flag,), success=False, message=msg, model=NAME)
+    flat, failed = subject_flat_mu(trials, options, subject, NAME)
+    if failed is not None:
+        return failed
     wrong_sign = {f.trial for f in flat.flags if f.code == "negative-mu"}
     fits = []
     for t in trials:
