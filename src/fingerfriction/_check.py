@@ -9,6 +9,13 @@ kept for an argument that is not the kind of object asked for (a dict where a
 ``FrictionParams`` is expected, a string for a True/False flag). Every message names the
 argument, the value received and what is allowed: "fs must be a finite positive sampling
 frequency in Hz, got -1.0".
+
+Where the checks run: once, at the boundary. An options dataclass checks its fields in
+``__post_init__`` with these functions, and code that receives the dataclass trusts it
+(it does not check a field again). A record of data checks its own invariants the same way
+(a :class:`~fingerfriction.forces.ForceRecord` its ``fs_hz``), and the stage that takes it
+passes its checked values on. A public function that takes a bare number from a user
+checks it, as ``scipy.signal`` does with ``fs``.
 """
 
 from __future__ import annotations
@@ -17,7 +24,8 @@ import math
 import warnings
 from collections.abc import Iterable
 
-__all__ = ["positive", "interval", "check_fs", "check_freq", "check_option", "parse_json", "MAX_JSON_DEPTH"]
+__all__ = ["positive", "nonnegative", "integer", "interval", "SamplingRate", "check_fs", "check_freq", "check_option",
+           "choices_text", "option_message", "validate_type", "check_bool", "parse_json", "MAX_JSON_DEPTH"]
 
 
 def positive(name: str, value, unit: str, *, what: str = "number") -> float:
@@ -49,6 +57,41 @@ def positive(name: str, value, unit: str, *, what: str = "number") -> float:
     return v
 
 
+def nonnegative(name: str, value, unit: str, *, what: str = "number") -> float:
+    """``value`` as a finite float >= 0, or a ValueError naming it ("<name> must be a finite
+    <what> >= 0 in <unit>, got <value>")."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a {what} in {unit}, got {value!r}") from None
+    if not (math.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} must be a finite {what} >= 0 in {unit}, got {value!r}")
+    return v
+
+
+def integer(name: str, value, lo: int | None = None, hi: int | None = None, *, what: str = "") -> int:
+    """``value`` as an int in ``[lo, hi]`` (either end may be open), or a ValueError naming it.
+
+    A float with an integer value (``3.0``) is accepted; ``True``/``False`` and ``2.5`` are
+    not. ``what`` is appended to the allowed range in the message (``'samples'``).
+
+    Raises
+    ------
+    ValueError
+        "lowpass_order must be an integer in [1, 12], got 13".
+    """
+    span = ("" if lo is None and hi is None else f" >= {lo}" if hi is None else f" <= {hi}" if lo is None
+            else f" in [{lo}, {hi}]")
+    allowed = f"an integer{span}{' ' + what if what else ''}"
+    try:
+        ok = not isinstance(value, bool) and float(value) == int(value)
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok or (lo is not None and int(value) < lo) or (hi is not None and int(value) > hi):
+        raise ValueError(f"{name} must be {allowed}, got {value!r}")
+    return int(value)
+
+
 def interval(name: str, value, unit: str, *, labels: tuple[str, str] = ("lo", "hi")) -> tuple[float, float]:
     """``value`` as a finite increasing pair ``(lo, hi)`` of floats, or a ValueError naming it.
 
@@ -73,13 +116,25 @@ def interval(name: str, value, unit: str, *, labels: tuple[str, str] = ("lo", "h
     return lo, hi
 
 
-def check_fs(fs, name: str = "fs") -> float:
-    """A sampling frequency in Hz as a finite positive float.
+class SamplingRate(float):
+    """A sampling frequency in Hz that :func:`check_fs` has checked: a float in every other
+    respect (arithmetic on it gives plain floats, JSON writes it as a number).
+
+    :func:`check_fs` returns one and passes one through without checking it again, so a
+    rate is checked once, where it enters (a manifest's ``force.fs_hz``, a force file's own
+    rate, a number a user passes), however many functions it then goes through.
+    """
+
+    __slots__ = ()
+
+
+def check_fs(fs, name: str = "fs") -> SamplingRate:
+    """A sampling frequency in Hz as a finite positive float (a :class:`SamplingRate`).
 
     Parameters
     ----------
     fs : object
-        The value received.
+        The value received; a :class:`SamplingRate` (checked already) is returned as is.
     name : str
         Argument name used in the message (``'fs'``, ``'fs_hz'``).
 
@@ -88,7 +143,9 @@ def check_fs(fs, name: str = "fs") -> float:
     ValueError
         If it is not a number, or NaN, infinite, zero or negative.
     """
-    return positive(name, fs, "Hz", what="sampling frequency")
+    if type(fs) is SamplingRate:
+        return fs
+    return SamplingRate(positive(name, fs, "Hz", what="sampling frequency"))
 
 
 def check_freq(name: str, value, fs: float) -> float:
@@ -124,18 +181,83 @@ def check_freq(name: str, value, fs: float) -> float:
     return f
 
 
+def choices_text(allowed: Iterable) -> str:
+    """The allowed values as a message lists them: names bare, anything else as its repr
+    (``'hybrid, cf-centroid, chord'``, ``'1, 2'``, ``'None'``)."""
+    return ", ".join(a if isinstance(a, str) else repr(a) for a in allowed)
+
+
 def check_option(name: str, value, allowed: Iterable) -> object:
-    """``value`` if it is one of ``allowed``, else a ValueError listing them.
+    """``value`` if it is one of ``allowed``, else a ValueError listing them (after
+    ``mne.utils._check_option``).
+
+    Parameters
+    ----------
+    name : str
+        Argument name used in the message (``'position'``, ``'--sync'``, ``'force.format'``).
+    value : object
+        The value received.
+    allowed : iterable
+        The values allowed, in the order the message lists them.
 
     Raises
     ------
     ValueError
-        "position must be one of 'hybrid', 'cf-centroid', 'chord', got 'x'".
+        "position must be one of hybrid, cf-centroid, chord, got 'x'".
     """
     allowed = tuple(allowed)
-    if value not in allowed:
-        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
+    try:
+        ok = value in allowed
+    except TypeError:  # an unhashable value against a set or dict of names
+        ok = False
+    if not ok:
+        raise ValueError(f"{name} {option_message(value, allowed)}")
     return value
+
+
+def option_message(value, allowed: Iterable) -> str:
+    """What :func:`check_option` says of a value that is not one of ``allowed``, without the
+    name: "must be one of hybrid, cf-centroid, chord, got 'x'" (a reader whose messages put
+    the field first, ``"trials[3].force.format: ..."``, raises its own error with it)."""
+    return f"must be one of {choices_text(allowed)}, got {value!r}"
+
+
+def validate_type(name: str, value, types, what: str):
+    """``value`` if it is an instance of ``types``, else a TypeError naming it (after
+    ``mne.utils._validate_type``).
+
+    Parameters
+    ----------
+    name : str
+        Argument name used in the message.
+    value : object
+        The value received.
+    types : type or tuple of types
+        What :func:`isinstance` must accept. ``bool`` is never taken for a number: pass
+        ``int`` and a ``True`` is refused.
+    what : str
+        What is allowed, for the message (``'a ForceProcessingParams'``, ``'a dict of options'``).
+
+    Raises
+    ------
+    TypeError
+        "params must be a ForceProcessingParams, got dict".
+    """
+    types = types if isinstance(types, tuple) else (types,)
+    bool_as_number = isinstance(value, bool) and bool not in types
+    if bool_as_number or not isinstance(value, types):
+        raise TypeError(f"{name} must be {what}, got {type(value).__name__}")
+    return value
+
+
+def check_bool(name: str, value) -> bool:
+    """``value`` as a bool when it is ``True``/``False`` (numpy's included), else a
+    TypeError: "estimate_highpass must be True or False, got 'yes'"."""
+    import numpy as np  # numpy's bool is accepted; numpy is imported by every stage anyway
+
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 #: The deepest nesting accepted in a JSON file the package reads (a manifest is 4 deep).

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
 
+from ._check import check_option
+
 __all__ = ["LEVELS", "Flag"]
 
 #: Levels of a :class:`Flag`, most serious first.
@@ -48,8 +50,7 @@ class Flag:
     model: str = ""
 
     def __post_init__(self) -> None:
-        if self.level not in LEVELS:
-            raise ValueError(f"Flag.level must be one of {', '.join(LEVELS)}, got {self.level!r}")
+        check_option("Flag.level", self.level, LEVELS)
         if not isinstance(self.code, str) or not self.code:
             raise ValueError(f"Flag.code must be a non-empty string, got {self.code!r}")
         for name in ("message", "trial", "subject", "model"):

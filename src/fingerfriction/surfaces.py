@@ -25,7 +25,7 @@ from typing import Literal
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
-from ._check import positive
+from ._check import check_option, positive
 
 __all__ = [
     "Surface",
@@ -122,8 +122,7 @@ class RaisedCosine(Surface):
     name: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
-        if self.shape not in _SHAPES:
-            raise ValueError(f"shape must be one of {_SHAPES}, got {self.shape!r}")
+        check_option("shape", self.shape, _SHAPES)
         w = positive("width", self.width, "mm", what="length")
         h = 0.2 * w if self.height is None else positive("height", self.height, "mm", what="length")
         c = float(self.center)

@@ -613,7 +613,7 @@ def test_mains_options():
     step = next(h for h in prof.history if h["step"] == "remove_rest_drift")
     assert step["rests"].startswith("after the lift-off;")
     assert _rms_error(prof) < 0.02
-    with pytest.raises(ValueError, match="mains must be 'fit', 'notch' or 'both', got 'hum'"):
+    with pytest.raises(ValueError, match="mains must be one of fit, notch, both, got 'hum'"):
         ForceProcessingParams(mains="hum")
 
 

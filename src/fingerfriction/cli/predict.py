@@ -12,6 +12,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
+from .._check import check_option
 from .._outputs import check_output_dir, output_dir, output_file
 from ..surfaces import surface_from_spec
 from ._common import LOAD_N, SEED, STEP_MM, SUBJECT, bounded, console, csv_list, fail, finish, read_fingers
@@ -41,8 +42,7 @@ def predict_contact(
     from ..mechanics.figures import save_occupancy_figure  # heavy (matplotlib); when the command runs
 
     try:
-        if kind not in ("geometric", "mechanical"):
-            raise ValueError(f"--kind must be 'geometric' or 'mechanical', got {kind!r}")
+        check_option("--kind", kind, ("geometric", "mechanical"))
         surf = surface_from_spec(surface)
         owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
                 "what": "folder of occupancy figures"}

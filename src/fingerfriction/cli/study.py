@@ -14,6 +14,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from .. import __version__
+from .._check import check_option
 from .._console import console_log, one_line, summary_line, with_ci
 from .._outputs import output_dir
 from ._common import (
@@ -228,10 +229,8 @@ def analyze_cmd(
     from ..selfcheck import SYNC_MODES  # heavy (both stages), as above
 
     try:
-        if position not in POSITIONS:
-            raise ValueError(f"--position must be one of {', '.join(POSITIONS)}, got {position!r}")
-        if sync not in SYNC_MODES:
-            raise ValueError(f"--sync must be one of {', '.join(SYNC_MODES)}, got {sync!r}")
+        check_option("--position", position, POSITIONS)
+        check_option("--sync", sync, SYNC_MODES)
         opts = sim_params(position) if simulated else {"video": {"position": position}, "forces": {}}
         opts["selfcheck"] = {"sync": sync}
         if window_mm is not None:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
+from .._check import check_option
 from ..flags import Flag
 from ..regions import as_regions
 from ..surfaces import RaisedCosine, Surface, surface_from_spec
@@ -392,6 +393,5 @@ FitFlag = Flag
 def fit_flag(level: str, code: str, subject, trial: str, model: str, message: str) -> Flag:
     """A :class:`~fingerfriction.flags.Flag` raised by a fit, about a trial (``trial`` its
     id) or a whole subject (``trial=''``), for the model variant ``model``."""
-    if level not in FLAG_LEVELS:
-        raise ValueError(f"a fit's flag level must be one of {FLAG_LEVELS}, got {level!r}")
+    check_option("a fit's flag level", level, FLAG_LEVELS)
     return Flag(level, code, message, trial=trial, subject=str(subject), model=model)

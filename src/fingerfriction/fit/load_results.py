@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._check import check_bool, check_option
 from .common import check_kernel
 from .mu import FlatGroundMu
 
@@ -104,8 +105,7 @@ class LoadFitOptions:
         m = self.min_load
         if not (isinstance(m, (int, float)) and math.isfinite(m) and m >= 0):
             raise ValueError(f"min_load must be a force >= 0 in N, got {self.min_load!r}")
-        if self.mu_per not in MU_PER:
-            raise ValueError(f"mu_per must be one of {MU_PER}, got {self.mu_per!r}")
+        check_option("mu_per", self.mu_per, MU_PER)
         if isinstance(self.n_boot, bool) or not isinstance(self.n_boot, int) or self.n_boot < 100:
             raise ValueError(f"n_boot must be an integer >= 100, got {self.n_boot!r}")
         if not (isinstance(self.level, float) and 0.5 < self.level < 1):
@@ -113,8 +113,7 @@ class LoadFitOptions:
         if isinstance(self.search_trials, bool) or not isinstance(self.search_trials, int) \
                 or self.search_trials < 1:
             raise ValueError(f"search_trials must be an integer >= 1, got {self.search_trials!r}")
-        if not isinstance(self.transient, bool):
-            raise TypeError(f"transient must be True or False, got {self.transient!r}")
+        object.__setattr__(self, "transient", check_bool("transient", self.transient))
 
 
 @dataclass(frozen=True, eq=False)

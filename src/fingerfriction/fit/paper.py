@@ -46,6 +46,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import optimize
 
+from .._check import check_option
 from ..model import FrictionModel, FrictionParams, T_matrix
 from ..surfaces import Surface
 from .common import (
@@ -286,9 +287,7 @@ def _fit_one(d: _Design, mu: float, method: str, options: FitOptions, subject: s
 
 
 def _check_method(method: str) -> str:
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    return method
+    return check_option("method", method, METHODS)
 
 
 def fit_trial(trial: Trial, mu: float, *, method: str = "lstsq",

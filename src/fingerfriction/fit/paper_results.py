@@ -9,12 +9,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._check import check_option
 from ..model import FrictionParams
 from .common import check_kernel
 
 __all__ = ["FitOptions", "TrialFit", "SubjectFit"]
 
 OBJECTIVES = ("nmse", "nmse_eq5")
+#: What the median filter runs on (``FitOptions.median_on``).
+MEDIAN_ON = ("basis", "estimate")
 
 
 @dataclass(frozen=True)
@@ -57,11 +60,9 @@ class FitOptions:
     maxiter: int = 2000
 
     def __post_init__(self) -> None:
-        if self.objective not in OBJECTIVES:
-            raise ValueError(f"objective must be one of {OBJECTIVES}, got {self.objective!r}")
+        check_option("objective", self.objective, OBJECTIVES)
         check_kernel(self.median_kernel)
-        if self.median_on not in ("basis", "estimate"):
-            raise ValueError(f"median_on must be 'basis' or 'estimate', got {self.median_on!r}")
+        check_option("median_on", self.median_on, MEDIAN_ON)
         if not (math.isfinite(self.flat_margin) and self.flat_margin >= 0):
             raise ValueError(f"flat_margin must be >= 0 mm, got {self.flat_margin!r}")
         for name in ("xatol", "fatol"):

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._check import check_option
 from ..model import FrictionModel, FrictionParams, LoadParams, T_matrix
 from .common import FitFlag, Trial, flat_detrend, flat_segment_mask, median_filter
 from .load import LoadFitOptions, fit_load_trials, load_estimate
@@ -438,10 +439,7 @@ SELECTABLE: tuple[str, ...] = tuple(n for n, v in VARIANTS.items() if v.selectab
 
 def get(name: str) -> Variant:
     """The variant called ``name``; ``ValueError`` naming the known ones otherwise."""
-    try:
-        return VARIANTS[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"model must be one of {MODELS}, got {name!r}") from None
+    return VARIANTS[check_option("model", name, MODELS)]
 
 
 def variant_of_params(params) -> Variant:

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write
+from .._check import check_option, validate_type
 from ..flags import Flag
 from .checks import (
     ForceDataError,
@@ -285,11 +286,9 @@ def _arguments(record: ForceRecord, feature_extent_mm, params, on_error: str):
     The filters are designed first: a cut-off above Nyquist is an argument error, not a
     data flag.
     """
-    if on_error not in ("raise", "flag"):
-        raise ValueError(f"on_error must be 'raise' or 'flag', got {on_error!r}")
+    check_option("on_error", on_error, ("raise", "flag"))
     params = ForceProcessingParams() if params is None else params
-    if not isinstance(params, ForceProcessingParams):
-        raise TypeError(f"params must be a ForceProcessingParams, got {type(params).__name__}")
+    validate_type("params", params, ForceProcessingParams, "a ForceProcessingParams")
     fs = record.fs_hz
     design_notch(fs, params.notch_hz, params.notch_q)
     if params.lowpass_hz is not None:

@@ -17,11 +17,15 @@ from scipy import signal
 from .._check import check_freq as _check_freq
 from .._check import check_fs as _check_fs
 from .._check import positive as _positive
+from .params import MAINS_HZ, ForceProcessingParams
+
+#: The force stage's default options: their values are the filters' defaults.
+_OPTS = ForceProcessingParams()
 
 __all__ = ["design_notch", "design_lowpass", "notch_filter", "lowpass_filter", "zero_phase"]
 
 
-def design_notch(fs: float, freqs: Sequence[float] = (50.0, 150.0, 300.0), q: float = 10.0) -> np.ndarray:
+def design_notch(fs: float, freqs: Sequence[float] = MAINS_HZ, q: float = _OPTS.notch_q) -> np.ndarray:
     """Second-order sections of a cascade of IIR notch filters.
 
     Parameters
@@ -50,7 +54,8 @@ def design_notch(fs: float, freqs: Sequence[float] = (50.0, 150.0, 300.0), q: fl
     return np.vstack(sections)
 
 
-def design_lowpass(fs: float, cutoff: float = 500.0, order: int = 4) -> np.ndarray:
+def design_lowpass(fs: float, cutoff: float = _OPTS.lowpass_hz,
+                   order: int = _OPTS.lowpass_order) -> np.ndarray:
     """Second-order sections of a Butterworth low-pass (:func:`scipy.signal.butter`).
 
     Parameters
@@ -87,7 +92,7 @@ def _zero_phase(sos: np.ndarray, x, axis: int) -> np.ndarray:
 
 
 def notch_filter(
-    x, fs: float, freqs: Sequence[float] = (50.0, 150.0, 300.0), *, q: float = 10.0, axis: int = -1
+    x, fs: float, freqs: Sequence[float] = MAINS_HZ, *, q: float = _OPTS.notch_q, axis: int = -1
 ) -> np.ndarray:
     """Zero-phase notch filtering (mains interference, Methods "Measurement apparatus").
 
@@ -114,7 +119,8 @@ def notch_filter(
     return _zero_phase(design_notch(fs, freqs, q), x, axis)
 
 
-def lowpass_filter(x, fs: float, cutoff: float = 500.0, *, order: int = 4, axis: int = -1) -> np.ndarray:
+def lowpass_filter(x, fs: float, cutoff: float = _OPTS.lowpass_hz, *, order: int = _OPTS.lowpass_order,
+                   axis: int = -1) -> np.ndarray:
     """Zero-phase Butterworth low-pass (Methods "Force data processing": 500 Hz).
 
     Forwards-backwards (:func:`scipy.signal.sosfiltfilt`), so the magnitude response is

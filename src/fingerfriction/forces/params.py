@@ -9,10 +9,17 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .._check import interval as _interval
-from .._check import positive as _positive
+from .._check import check_bool, check_option, integer, interval, nonnegative, positive
 
-__all__ = ["ForceProcessingParams"]
+__all__ = ["ForceProcessingParams", "MAINS_HZ", "MAINS_MODES", "HIGHPASS_MODELS"]
+
+#: Mains interference frequencies in Hz, the default of ``notch_hz`` (and of the filters
+#: and fits of :mod:`.filters` and :mod:`.sensor`): the mains and its odd harmonics.
+MAINS_HZ = (50.0, 150.0, 300.0)
+#: How the mains interference is removed (``mains``).
+MAINS_MODES = ("fit", "notch", "both")
+#: The sensor's high-pass responses (``highpass_model``).
+HIGHPASS_MODELS = ("first-order", "second-order")
 
 
 @dataclass(frozen=True)
@@ -132,7 +139,7 @@ class ForceProcessingParams:
         is used but flagged (``"highpass-estimate"``). Default 0.3.
     """
 
-    notch_hz: tuple[float, ...] = (50.0, 150.0, 300.0)
+    notch_hz: tuple[float, ...] = MAINS_HZ
     mains: str = "fit"
     notch_q: float = 10.0
     lowpass_hz: float | None = 500.0
@@ -168,14 +175,11 @@ class ForceProcessingParams:
                     f"notch_hz must hold finite positive frequencies in Hz, got {self.notch_hz!r}"
                 )
         object.__setattr__(self, "notch_hz", notch)
-        if self.mains not in ("fit", "notch", "both"):
-            raise ValueError(f"mains must be 'fit', 'notch' or 'both', got {self.mains!r}")
-        object.__setattr__(self, "notch_q", _positive("notch_q", self.notch_q, "(dimensionless)"))
+        check_option("mains", self.mains, MAINS_MODES)
+        object.__setattr__(self, "notch_q", positive("notch_q", self.notch_q, "(dimensionless)"))
         if self.lowpass_hz is not None:
-            object.__setattr__(self, "lowpass_hz", _positive("lowpass_hz", self.lowpass_hz, "Hz"))
-        if int(self.lowpass_order) != self.lowpass_order or not 1 <= int(self.lowpass_order) <= 12:
-            raise ValueError(f"lowpass_order must be an integer in [1, 12], got {self.lowpass_order!r}")
-        object.__setattr__(self, "lowpass_order", int(self.lowpass_order))
+            object.__setattr__(self, "lowpass_hz", positive("lowpass_hz", self.lowpass_hz, "Hz"))
+        object.__setattr__(self, "lowpass_order", integer("lowpass_order", self.lowpass_order, 1, 12))
         for name, unit in (
             ("window_mm", "mm"),
             ("resolution_mm", "mm"),
@@ -184,7 +188,7 @@ class ForceProcessingParams:
             ("max_reversal_mm", "mm"),
             ("max_fill_mm", "mm"),
         ):
-            object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
+            object.__setattr__(self, name, positive(name, getattr(self, name), unit))
         if self.resolution_mm > self.window_mm / 10:
             raise ValueError(
                 f"resolution_mm ({self.resolution_mm:g} mm) must be at most a tenth of window_mm "
@@ -193,18 +197,15 @@ class ForceProcessingParams:
         if self.flat_segment_mm is not None:
             object.__setattr__(
                 self, "flat_segment_mm",
-                _interval("flat_segment_mm", self.flat_segment_mm, "mm", labels=("x_lo", "x_hi")),
+                interval("flat_segment_mm", self.flat_segment_mm, "mm", labels=("x_lo", "x_hi")),
             )
-        for name in ("max_nan_gap", "clip_run"):
-            v = getattr(self, name)
-            if int(v) != v or int(v) < (0 if name == "max_nan_gap" else 2):
-                raise ValueError(f"{name} must be a non-negative integer number of samples, got {v!r}")
-            object.__setattr__(self, name, int(v))
+        for name, lo in (("max_nan_gap", 0), ("clip_run", 2)):
+            object.__setattr__(self, name, integer(name, getattr(self, name), lo, what="samples"))
         if self.full_scale_n is not None:
-            object.__setattr__(self, "full_scale_n", _positive("full_scale_n", self.full_scale_n, "N"))
+            object.__setattr__(self, "full_scale_n", positive("full_scale_n", self.full_scale_n, "N"))
         if self.sensor_highpass_hz is not None:
             object.__setattr__(
-                self, "sensor_highpass_hz", _positive("sensor_highpass_hz", self.sensor_highpass_hz, "Hz")
+                self, "sensor_highpass_hz", positive("sensor_highpass_hz", self.sensor_highpass_hz, "Hz")
             )
         for name in ("baseline", "post_baseline"):
             v = getattr(self, name)
@@ -212,10 +213,9 @@ class ForceProcessingParams:
                 if v != "auto":
                     raise ValueError(f"{name} must be 'auto', None or (t_lo, t_hi) in s, got {v!r}")
             elif v is not None:
-                object.__setattr__(self, name, _interval(name, v, "s", labels=("t_lo", "t_hi")))
-        if not (math.isfinite(float(self.extrapolate_mm)) and float(self.extrapolate_mm) >= 0):
-            raise ValueError(f"extrapolate_mm must be a length >= 0 in mm, got {self.extrapolate_mm!r}")
-        object.__setattr__(self, "extrapolate_mm", float(self.extrapolate_mm))
+                object.__setattr__(self, name, interval(name, v, "s", labels=("t_lo", "t_hi")))
+        object.__setattr__(self, "extrapolate_mm",
+                           nonnegative("extrapolate_mm", self.extrapolate_mm, "mm", what="length"))
         for name, unit in (
             ("contact_threshold_n", "N"),
             ("baseline_guard_s", "s"),
@@ -224,10 +224,8 @@ class ForceProcessingParams:
             ("rest_rate_n_per_s", "N/s"),
             ("highpass_max_change", "(fraction of the prior)"),
         ):
-            object.__setattr__(self, name, _positive(name, getattr(self, name), unit))
-        if not isinstance(self.estimate_highpass, (bool, np.bool_)):
-            raise TypeError(f"estimate_highpass must be True or False, got {self.estimate_highpass!r}")
-        object.__setattr__(self, "estimate_highpass", bool(self.estimate_highpass))
+            object.__setattr__(self, name, positive(name, getattr(self, name), unit))
+        object.__setattr__(self, "estimate_highpass", check_bool("estimate_highpass", self.estimate_highpass))
         self._check_highpass_model()
         if self.estimate_highpass and (self.sensor_highpass_hz is None or self.post_baseline is None):
             raise ValueError(
@@ -237,9 +235,7 @@ class ForceProcessingParams:
             )
 
     def _check_highpass_model(self) -> None:
-        if self.highpass_model not in ("first-order", "second-order"):
-            raise ValueError(
-                f"highpass_model must be 'first-order' or 'second-order', got {self.highpass_model!r}")
+        check_option("highpass_model", self.highpass_model, HIGHPASS_MODELS)
         if self.highpass_model == "second-order" and (
                 self.sensor_highpass_hz is None or self.post_baseline is None):
             raise ValueError(

@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._check import check_fs
+from .._check import check_fs, check_option
 from ._base import MAX_SAMPLES, ForceFileError, as_channel, not_index, too_long
 from .containers import hdf5_outside_data, read_hdf5, read_mat, read_tdms
 from .delimited import CsvLayout, CsvLayoutError, csv_layout
@@ -387,8 +387,7 @@ def _time_axis(t: np.ndarray, *, name, path: Path) -> tuple[float, float]:
 
 
 def _read(path: Path, fmt: str, wanted: dict, delimiter: str | None) -> tuple[dict, dict]:
-    if fmt not in _READERS:
-        raise ValueError(f"format must be one of {FORCE_FORMATS}, got {fmt!r}")
+    check_option("format", fmt, FORCE_FORMATS)
     if not path.exists():
         raise FileNotFoundError(f"force file {str(path)!r} does not exist")
     if not path.is_file():

@@ -29,6 +29,7 @@ from scipy import signal
 from scipy.optimize import least_squares
 
 from .._check import check_fs as _check_fs
+from .._check import check_option
 from .._check import positive as _positive
 
 __all__ = ["HighpassResponse", "ResponseEstimate", "estimate_response", "rest_drift_image"]
@@ -204,8 +205,7 @@ def estimate_response(y, mask, fs: float, prior_hz: float, *, order: int = 2) ->
     """
     fs = _check_fs(fs, "fs")
     prior_hz = _positive("prior_hz", prior_hz, "Hz")
-    if order not in (1, 2):
-        raise ValueError(f"order must be 1 or 2, got {order!r}")
+    check_option("order", order, (1, 2))
     y = np.asarray(y, dtype=np.float64)
     m = np.asarray(mask, dtype=bool)
     if y.ndim != 1 or m.shape != y.shape:

@@ -27,6 +27,7 @@ from .._check import check_freq as _check_freq
 from .._check import check_fs as _check_fs
 from .._check import positive as _positive
 from .highpass import HighpassEstimate, estimate_highpass
+from .params import MAINS_HZ
 
 __all__ = [
     "decompose",
@@ -191,7 +192,7 @@ class BaselineFit:
         return np.hypot(self.cos, self.sin)
 
 
-def fit_baseline(t, y, mask, *, mains_hz: Sequence[float] = (50.0, 150.0, 300.0)) -> BaselineFit:
+def fit_baseline(t, y, mask, *, mains_hz: Sequence[float] = MAINS_HZ) -> BaselineFit:
     """Drift line of an unloaded baseline, fitted together with mains sinusoids.
 
     Least squares of ``y ~ slope * t + intercept + sum_k (c_k cos 2 pi f_k t + s_k sin 2 pi

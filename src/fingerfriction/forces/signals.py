@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .filters import design_lowpass, design_notch, zero_phase
+from .params import MAINS_HZ, ForceProcessingParams
 from .readers import ForceRecord
 from .response import rest_drift_image
 from .sensor import (
@@ -27,6 +28,9 @@ from .sensor import (
     fit_rest_drift,
     remove_linear_drift,
 )
+
+#: The force stage's default options: their values are the steps' defaults.
+_OPTS = ForceProcessingParams()
 
 __all__ = ["ForceSignals", "describe_step", "describe_history"]
 
@@ -77,7 +81,7 @@ class ForceSignals:
         logger.info("forces: %s", step)
         return replace(self, history=self.history + (step,), **changes)
 
-    def notch(self, freqs: Sequence[float] = (50.0, 150.0, 300.0), *, q: float = 10.0) -> ForceSignals:
+    def notch(self, freqs: Sequence[float] = MAINS_HZ, *, q: float = _OPTS.notch_q) -> ForceSignals:
         """Zero-phase notch filters at ``freqs`` Hz (:func:`notch_filter`)."""
         if len(freqs) == 0:
             return self
@@ -86,7 +90,7 @@ class ForceSignals:
         step = {"step": "notch", "freqs_hz": [float(f) for f in freqs], "q": float(q), "zero_phase": True}
         return self._with(step, f_n=both[0], f_t=both[1])
 
-    def lowpass(self, cutoff: float = 500.0, *, order: int = 4) -> ForceSignals:
+    def lowpass(self, cutoff: float = _OPTS.lowpass_hz, *, order: int = _OPTS.lowpass_order) -> ForceSignals:
         """Zero-phase Butterworth low-pass at ``cutoff`` Hz (:func:`lowpass_filter`)."""
         sos = design_lowpass(self.fs_hz, cutoff, order)
         both = zero_phase(sos, np.vstack([self.f_n, self.f_t]), -1)
@@ -94,7 +98,7 @@ class ForceSignals:
         return self._with(step, f_n=both[0], f_t=both[1])
 
     def remove_baseline(
-        self, mask, *, mains_hz: Sequence[float] = (50.0, 150.0, 300.0), subtract_mains: bool = False
+        self, mask, *, mains_hz: Sequence[float] = MAINS_HZ, subtract_mains: bool = False
     ) -> ForceSignals:
         """Subtract the drift line fitted on an unloaded baseline (:func:`fit_baseline`), and
         with ``subtract_mains`` the mains sinusoids fitted with it, from the whole record."""

@@ -13,6 +13,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .._check import check_option
+
 __all__ = ["FORCE_UNITS", "channel_scale"]
 
 #: Units accepted in the manifest's ``force.units`` field: newtons, or the volts of a
@@ -69,8 +71,7 @@ def channel_scale(units: str = "N", sensitivity_n_per_v=None, gain_v_per_n=None)
     ValueError
         Unknown units; volts without exactly one of the two; a scale given for newtons.
     """
-    if units not in FORCE_UNITS:
-        raise ValueError(f"units must be one of {', '.join(FORCE_UNITS)}, got {units!r}")
+    check_option("units", units, FORCE_UNITS)
     given = [n for n, v in (("sensitivity_n_per_v", sensitivity_n_per_v), ("gain_v_per_n", gain_v_per_n))
              if v is not None]
     if units == "N":

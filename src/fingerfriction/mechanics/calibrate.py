@@ -70,6 +70,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from .._check import check_option
 from ..regions import as_regions
 from ..surfaces import Surface
 from ._calibration_problem import (
@@ -256,9 +257,7 @@ class CalibrationOptions:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"CalibrationOptions.{name} must be a positive number, got {v!r}")
-        if self.warm_start not in ("positions", "parameters", "none"):
-            raise ValueError(f"CalibrationOptions.warm_start must be 'positions', 'parameters' or 'none', "
-                             f"got {self.warm_start!r}")
+        check_option("CalibrationOptions.warm_start", self.warm_start, ("positions", "parameters", "none"))
         if not (math.isfinite(self.end_bias_px) and self.end_bias_px >= 0):
             raise ValueError(f"CalibrationOptions.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
         if not self.bound > 1:

@@ -32,6 +32,8 @@ from typing import Literal
 
 import numpy as np
 
+from .._check import check_option
+
 __all__ = ["FingerParams", "SUBJECTS", "get_subject"]
 
 Shape = Literal["circle", "ellipse", "profile"]
@@ -120,8 +122,7 @@ class FingerParams:
         object.__setattr__(self, "radius", _num("radius", self.radius, "mm"))
         object.__setattr__(self, "modulus", _num("modulus", self.modulus, "MPa"))
         object.__setattr__(self, "width", _num("width", self.width, "mm"))
-        if self.shape not in _SHAPES:
-            raise ValueError(f"FingerParams.shape must be one of {_SHAPES}, got {self.shape!r}")
+        check_option("FingerParams.shape", self.shape, _SHAPES)
         object.__setattr__(
             self, "layer_thickness", _num("layer_thickness", self.layer_thickness, "mm", allow_none=True)
         )

@@ -15,13 +15,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._check import check_option
 from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..regions import n_regions
 from ..surfaces import Surface
 from .bem import GEOMETRIC_TOL, ContactSolver, check_load
 from .finger import FingerParams
 
-__all__ = ["SweepResult", "sweep", "default_positions", "OutlineTable", "outline_table"]
+__all__ = ["SweepResult", "sweep", "default_positions", "OutlineTable", "outline_table", "CONTACT_KINDS"]
+
+#: The two contacts a sweep gives: ``'geometric'`` (the finger within the video's 70 um of
+#: the surface, the paper's) and ``'mechanical'`` (positive pressure).
+CONTACT_KINDS = ("geometric", "mechanical")
 
 log = logging.getLogger(__name__)
 
@@ -106,12 +111,9 @@ class SweepResult:
         return bool(self.success.all())
 
     def regions(self, kind: str = "geometric") -> np.ndarray:
-        """Regions of ``kind`` ('geometric' or 'mechanical'), ``(m, k, 2)``."""
-        if kind == "geometric":
-            return self.geometric_regions
-        if kind == "mechanical":
-            return self.mechanical_regions
-        raise ValueError(f"kind must be 'geometric' or 'mechanical', got {kind!r}")
+        """Regions of ``kind`` (one of :data:`CONTACT_KINDS`), ``(m, k, 2)``."""
+        check_option("kind", kind, CONTACT_KINDS)
+        return self.geometric_regions if kind == "geometric" else self.mechanical_regions
 
     def blind_spots(self, kind: str = "geometric", **kwargs) -> BlindSpots:
         """Tactile blind spots of the sweep (:func:`fingerfriction.model.blindspots.blind_spots`)."""

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from .. import fit as fitmod
+from .._check import check_option
 from .._progress import ProgressBar
 from ..fit.select import Evidence, Selection, residual_structure, select_model
 from ..fit.variants import MODELS, FitSettings, get
@@ -181,8 +182,7 @@ def fit(
     Writes ``RESULTS/fit/`` (layout in :mod:`fingerfriction.study.store`, every variant); a
     validation that fails is logged and recorded in ``fit.json``, the fit itself stands.
     """
-    if model not in MODEL_CHOICES:
-        raise ValueError(f"model must be one of {MODEL_CHOICES}, got {model!r}")
+    check_option("model", model, MODEL_CHOICES)
     store = ResultsStore(results)
     settings = _settings(mu_grid, method, median_kernel, seed)
     surfaces = store.surfaces()

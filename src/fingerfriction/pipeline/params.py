@@ -13,6 +13,7 @@ from .._check import check_option
 from ..forces import ForceProcessingParams
 from ..selfcheck import SelfCheckParams
 from ..video import AnalysisOptions
+from ..video.options import POSITIONS
 
 __all__ = [
     "AnalysisParams",
@@ -41,8 +42,6 @@ __all__ = [
 #: The measurements behind both are in ``docs/study.md``.
 VIDEO_DEFAULTS = {"position": "hybrid", "n_max_regions": 16}
 
-#: The x(t) estimators the pipeline accepts (``AnalysisOptions.position``).
-POSITIONS = ("hybrid", "cf-centroid", "chord")
 
 
 def video_options(opts: Mapping | None = None, calibration_frame: int | None = None) -> AnalysisOptions:

@@ -11,8 +11,10 @@ import math
 
 import numpy as np
 
+from .._check import check_option
 from ..mechanics import GEOMETRIC_TOL, SUBJECTS, FingerParams, sweep
 from ..mechanics.fe import FEFingerParams, FEProvider  # scikit-fem only when an FE solver is built
+from ..mechanics.sweep import CONTACT_KINDS
 from ..regions import as_regions, region_lengths, regions_from_mask
 from ..surfaces import SampledProfile, Surface
 
@@ -178,8 +180,7 @@ def forward_regions(surface: Surface, finger, positions, *, load: float = DEFAUL
     RuntimeError
         When the contact solver did not converge at some position (named).
     """
-    if contact not in ("geometric", "mechanical"):
-        raise ValueError(f"contact must be 'geometric' or 'mechanical', got {contact!r}")
+    check_option("contact", contact, CONTACT_KINDS)
     if isinstance(finger, FEFingerParams):
         return _fe_regions(surface, finger, np.asarray(positions, dtype=float), load, contact)
     res = sweep(surface, finger, np.asarray(positions, dtype=float), load=load)

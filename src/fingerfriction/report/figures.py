@@ -32,6 +32,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from .._atomic import atomic_write_bytes
+from .._check import check_option
 from ..model.blindspots import blind_spots, occupancy
 from ..model.stats import shape_label
 from ..regions import region_lengths
@@ -308,8 +309,7 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
         flat-segment detrend; ``'auto'`` (default): absolute when every trial has it.
         The title says which.
     """
-    if footing not in ("auto", "absolute", "paper"):
-        raise ValueError(f"footing must be 'auto', 'absolute' or 'paper', got {footing!r}")
+    check_option("footing", footing, ("auto", "absolute", "paper"))
     if footing == "auto":
         footing = measured_footing(data)
     names, subjects, speeds = data.surface_names, data.subjects, data.speeds

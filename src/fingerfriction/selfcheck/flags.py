@@ -65,8 +65,7 @@ class Check:
     field: str = ""
 
     def __post_init__(self) -> None:
-        if self.level not in (*LEVELS, "ok"):
-            raise ValueError(f"Check.level must be one of {', '.join((*LEVELS, 'ok'))}, got {self.level!r}")
+        check_option("Check.level", self.level, (*LEVELS, "ok"))
 
     @property
     def finding(self) -> bool:

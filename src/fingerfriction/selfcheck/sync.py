@@ -37,6 +37,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .._check import check_option
 from .onsets import MOTION_MM, WINDOW_S, OnsetData, onset_data
 
 __all__ = ["OnsetData", "OffsetEstimate", "onset_data", "estimate_offsets", "MOTION_MM", "PRIOR_D_MM"]
@@ -360,8 +361,7 @@ def estimate_offsets(
         trials' manifest clocks being the hypothesis) and the common offset is reported
         beside it.
     """
-    if mode not in ("check", "auto"):
-        raise ValueError(f"mode must be 'check' or 'auto', got {mode!r}")
+    check_option("mode", mode, ("check", "auto"))
     groups: dict[str, list[OnsetData]] = {}
     for o in data:
         groups.setdefault(o.group, []).append(o)

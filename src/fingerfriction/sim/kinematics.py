@@ -30,6 +30,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
+from .._check import check_fs, positive
+
 __all__ = ["KinematicsParams", "Kinematics", "simulate_kinematics", "min_jerk", "smooth_noise"]
 
 
@@ -83,8 +85,11 @@ class KinematicsParams:
                 f"KinematicsParams: the slide [{self.x_start}, {self.x_stop}] mm must cover the "
                 f"{self.window} mm window centred on 0"
             )
-        if self.fs_hz <= 0 or self.force_n <= 0 or self.force_limit >= self.force_n:
-            raise ValueError("KinematicsParams: fs_hz and force_n must be > 0 and force_limit < force_n")
+        check_fs(self.fs_hz, "KinematicsParams.fs_hz")
+        positive("KinematicsParams.force_n", self.force_n, "N", what="force")
+        if self.force_limit >= self.force_n:
+            raise ValueError(f"KinematicsParams.force_limit must be below force_n ({self.force_n:g} N), "
+                             f"got {self.force_limit!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)

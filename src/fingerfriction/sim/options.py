@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .._check import check_option
 from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from .camera import CameraParams
 from .chain import CHAIN_NAMES, RealisticChain
@@ -161,8 +162,7 @@ class SimOptions:
             raise ValueError("speeds must not be empty")
         if len(set(sp)) != len(sp):
             raise ValueError(f"speeds has duplicates: {sp}")
-        if self.video_format not in VIDEO_EXT:
-            raise ValueError(f"video_format must be one of {', '.join(VIDEO_EXT)}, got {self.video_format!r}")
+        check_option("video_format", self.video_format, VIDEO_EXT)
         if self.table_step is None:  # 0.02 mm; the FE finger's tables (0.4 s a position): 0.1 mm
             object.__setattr__(self, "table_step", 0.1 if self.contact_model == "fe" else 0.02)
         if not (self.table_step > 0 and math.isfinite(self.table_step)):

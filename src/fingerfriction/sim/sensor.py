@@ -28,6 +28,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.signal import butter, lfilter, sosfilt
 
+from .._check import check_freq, check_fs, integer, nonnegative, positive
+
 __all__ = ["SensorParams", "to_channels", "from_channels", "apply_sensor", "highpass2", "SQRT2"]
 
 SQRT2 = math.sqrt(2.0)
@@ -67,23 +69,19 @@ class SensorParams:
     full_scale_n: float = 2.5
 
     def __post_init__(self) -> None:
-        for k in ("fs_hz", "highpass_hz", "drift_offset_n", "drift_rate_n_per_s", "noise_n", "full_scale_n"):
-            v = getattr(self, k)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"SensorParams.{k} must be a finite number >= 0, got {v!r}")
-        if self.fs_hz <= 0 or self.full_scale_n <= 0:
-            raise ValueError("SensorParams.fs_hz and full_scale_n must be > 0")
-        if self.highpass_hz >= self.fs_hz / 2:
-            raise ValueError(
-                f"SensorParams.highpass_hz ({self.highpass_hz} Hz) must be below the Nyquist "
-                f"frequency ({self.fs_hz / 2} Hz)"
-            )
+        object.__setattr__(self, "fs_hz", check_fs(self.fs_hz, "SensorParams.fs_hz"))
+        object.__setattr__(self, "full_scale_n",
+                           positive("SensorParams.full_scale_n", self.full_scale_n, "N"))
+        for k, unit in (("highpass_hz", "Hz"), ("drift_offset_n", "N"), ("drift_rate_n_per_s", "N/s"),
+                        ("noise_n", "N")):
+            object.__setattr__(self, k, nonnegative(f"SensorParams.{k}", getattr(self, k), unit))
+        if self.highpass_hz > 0:  # 0: no high-pass
+            check_freq("SensorParams.highpass_hz", self.highpass_hz, self.fs_hz)
         m = tuple(float(v) for v in self.mains_n)
         if len(m) != 3 or any(not math.isfinite(v) or v < 0 for v in m):
             raise ValueError(f"SensorParams.mains_n must be 3 amplitudes >= 0 (N), got {self.mains_n!r}")
         object.__setattr__(self, "mains_n", m)
-        if not isinstance(self.bits, int) or not 2 <= self.bits <= 32:
-            raise ValueError(f"SensorParams.bits must be an integer in [2, 32], got {self.bits!r}")
+        object.__setattr__(self, "bits", integer("SensorParams.bits", self.bits, 2, 32))
 
     @property
     def lsb_n(self) -> float:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .._check import SamplingRate, option_message
 from ..forces.readers import FORCE_FORMATS, FORCE_UNITS, channel_scale, infer_force_format
 
 __all__ = [
@@ -197,6 +198,14 @@ def number(d: dict, key: str, where: str, *, positive: bool = False, integer: bo
     return int(v) if integer else float(v)
 
 
+def rate(d: dict, key: str, where: str, *, default: Any = ...) -> Any:
+    """Field ``key`` of manifest object ``d`` as a sampling rate in Hz (:func:`number`, > 0,
+    within :data:`LIMITS`), a :class:`~fingerfriction._check.SamplingRate`: checked here once,
+    the force readers take it as checked."""
+    v = number(d, key, where, positive=True, default=default)
+    return v if v is None or v is default else SamplingRate(v)
+
+
 def string(d: dict, key: str, where: str, *, allowed: tuple[str, ...] | None = None,
            default: Any = ...) -> Any:
     """Field ``key`` of manifest object ``d`` as a string, one of ``allowed`` when given; a
@@ -209,9 +218,17 @@ def string(d: dict, key: str, where: str, *, allowed: tuple[str, ...] | None = N
     v = d[key]
     if not isinstance(v, str):
         raise fail(f"{where}.{key}", f"must be a string, got {v!r}")
-    if allowed is not None and v not in allowed:
-        raise fail(f"{where}.{key}", f"must be one of {', '.join(allowed)}, got {v!r}")
+    if allowed is not None:
+        option(f"{where}.{key}", v, allowed)
     return v
+
+
+def option(where: str, value: Any, allowed) -> Any:
+    """``value`` when it is one of ``allowed``, else the :class:`ManifestError` of field
+    ``where``: "trials[3].force.format: must be one of npz, csv, ..., got 'xls'"."""
+    if value not in allowed:
+        raise fail(where, option_message(value, allowed))
+    return value
 
 
 def mapping(d: Any, where: str) -> dict:
@@ -349,8 +366,7 @@ class VideoInfo:
             raise fail("video.calibration_frame", f"must be < n_frames ({self.n_frames}), got {cf}")
         object.__setattr__(self, "calibration_frame", cf)
         fmt = _video_format(self.path, "video") if self.format is None else self.format
-        if fmt not in VIDEO_FORMATS:
-            raise fail("video.format", f"must be one of {', '.join(VIDEO_FORMATS)}, got {fmt!r}")
+        option("video.format", fmt, VIDEO_FORMATS)
         object.__setattr__(self, "format", fmt)
 
     @property
@@ -470,12 +486,11 @@ class ForceInfo:
             except ValueError:
                 raise fail("force.format", f"not given, and the suffix of {self.path!r} does not tell it; "
                                            f"give one of {', '.join(FORCE_FORMATS)}") from None
-        if fmt not in FORCE_FORMATS:
-            raise fail("force.format", f"must be one of {', '.join(FORCE_FORMATS)}, got {fmt!r}")
+        option("force.format", fmt, FORCE_FORMATS)
         object.__setattr__(self, "format", fmt)
         d = {"fs_hz": self.fs_hz, "n_samples": self.n_samples, "t0_s": self.t0_s}
-        if self.fs_hz is not None:
-            object.__setattr__(self, "fs_hz", number(d, "fs_hz", "force", positive=True))
+        if self.fs_hz is not None and not isinstance(self.fs_hz, SamplingRate):  # else checked by rate()
+            object.__setattr__(self, "fs_hz", rate(d, "fs_hz", "force"))
         if self.n_samples is not None:
             n = number(d, "n_samples", "force", positive=True, integer=True)
             object.__setattr__(self, "n_samples", n)
@@ -529,7 +544,7 @@ class ForceInfo:
         return _parse(cls, d, where, problems, trial, lambda c, d: dict(
             path=c(check_relpath, d.get("path"), f"{where}.path"),
             format=c(string, d, "format", where, allowed=FORCE_FORMATS, **opt),
-            fs_hz=c(number, d, "fs_hz", where, positive=True, **opt),
+            fs_hz=c(rate, d, "fs_hz", where, **opt),
             n_samples=c(number, d, "n_samples", where, positive=True, integer=True, **opt),
             channels=d.get("channels", {"F1": "F1", "F2": "F2"}),
             units=c(string, d, "units", where, allowed=FORCE_UNITS, default="N"),

@@ -32,7 +32,12 @@ from numba import njit
 from scipy.ndimage import correlate1d
 from scipy.signal import savgol_coeffs
 
-__all__ = ["contact_distance", "contact_regions", "smooth_outline"]
+from .._check import check_option
+
+__all__ = ["contact_distance", "contact_regions", "smooth_outline", "CONTACT_METRICS"]
+
+#: How the distance from the finger to the surface is measured (``metric``).
+CONTACT_METRICS = ("euclidean", "vertical")
 
 
 def smooth_outline(rows: np.ndarray, window: int, order: int = 2) -> np.ndarray:
@@ -163,8 +168,7 @@ def contact_distance(f: np.ndarray, s: np.ndarray, *, metric: str = "euclidean",
     """
     f = np.atleast_2d(np.asarray(f, dtype=float))
     s = np.asarray(s, dtype=float)
-    if metric not in ("euclidean", "vertical"):
-        raise ValueError(f"metric must be 'euclidean' or 'vertical', got {metric!r}")
+    check_option("metric", metric, CONTACT_METRICS)
     d = np.maximum(s[None, :] - f, 0.0)
     if metric == "vertical":
         return d
@@ -232,8 +236,7 @@ def contact_regions(d: np.ndarray, tol_px: float, col_to_mm, *, n_max: int = 8,
     -----
     Why a cleanup, and the measured defaults: see docs/video.md, 'Contact-region cleanup'.
     """
-    if on_overflow not in ("raise", "mask"):
-        raise ValueError(f"on_overflow must be 'raise' or 'mask', got {on_overflow!r}")
+    check_option("on_overflow", on_overflow, ("raise", "mask"))
     for name, v in (("min_gap_px", min_gap_px), ("min_region_px", min_region_px)):
         if not (math.isfinite(v) and v >= 0):
             raise ValueError(f"{name} must be a finite number of px >= 0, got {v!r}")

@@ -11,9 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._check import check_option
 from .binarize import Crop
+from .contact import CONTACT_METRICS
 
-__all__ = ["FrameFlag", "FLAG_REASONS", "AnalysisOptions"]
+__all__ = ["FrameFlag", "FLAG_REASONS", "AnalysisOptions", "POSITIONS"]
+
+#: The x(t) estimators (``AnalysisOptions.position``).
+POSITIONS = ("hybrid", "cf-centroid", "chord")
 
 
 class FrameFlag(enum.IntFlag):
@@ -152,8 +157,7 @@ class AnalysisOptions:
     def __post_init__(self) -> None:
         if not (math.isfinite(self.contact_tol_px) and self.contact_tol_px > 0):
             raise ValueError(f"contact_tol_px must be > 0 px, got {self.contact_tol_px!r}")
-        if self.contact_metric not in ("euclidean", "vertical"):
-            raise ValueError(f"contact_metric must be 'euclidean' or 'vertical', got {self.contact_metric!r}")
+        check_option("contact_metric", self.contact_metric, CONTACT_METRICS)
         if not (math.isfinite(self.line_offset_mm) and self.line_offset_mm > 0):
             raise ValueError(f"line_offset_mm must be > 0 mm, got {self.line_offset_mm!r}")
         if int(self.chunk_size) < 1:
@@ -173,8 +177,7 @@ class AnalysisOptions:
             raise ValueError(
                 f"outline_smooth_order must be an integer >= 0 and < outline_smooth_px ({w}), got {o!r}"
             )
-        if self.position not in ("cf-centroid", "chord", "hybrid"):
-            raise ValueError(f"position must be 'cf-centroid', 'chord' or 'hybrid', got {self.position!r}")
+        check_option("position", self.position, POSITIONS)
         if not (math.isfinite(self.edge_height_mm) and self.edge_height_mm > 0):
             raise ValueError(f"edge_height_mm must be > 0 mm, got {self.edge_height_mm!r}")
         if not (math.isfinite(self.edge_calibration_mm) and self.edge_calibration_mm > 0):

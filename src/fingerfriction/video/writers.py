@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import AtomicFile, atomic_write
+from .._check import check_option
 from .cine import write_cine
 
 __all__ = ["write_video", "write_cine", "VideoWriter"]
@@ -137,8 +138,7 @@ class VideoWriter:
     """
 
     def __init__(self, path, fmt: str, width: int, height: int, fps: float):
-        if fmt not in ("ffv1-mkv", "tiff"):
-            raise ValueError(f"video format must be 'ffv1-mkv' or 'tiff', got {fmt!r}")
+        check_option("video format", fmt, ("ffv1-mkv", "tiff"))
         self._file = AtomicFile(path)
         self.path = self._file.path
         self._tmp = str(self._file.tmp)
