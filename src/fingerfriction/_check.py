@@ -24,8 +24,9 @@ import math
 import warnings
 from collections.abc import Iterable
 
-__all__ = ["positive", "nonnegative", "integer", "interval", "SamplingRate", "check_fs", "check_freq", "check_option",
-           "choices_text", "option_message", "validate_type", "check_bool", "parse_json", "MAX_JSON_DEPTH"]
+__all__ = ["positive", "nonnegative", "integer", "interval", "SamplingRate", "check_fs", "check_freq",
+           "check_option", "choices_text", "option_message", "validate_type", "check_bool", "parse_json",
+           "MAX_JSON_DEPTH"]
 
 
 def positive(name: str, value, unit: str, *, what: str = "number") -> float:

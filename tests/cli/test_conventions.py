@@ -138,3 +138,22 @@ def test_every_output_follows_the_umask(tmp_path):
             "r/table.csv"} <= set(written)
     bad = {k: oct(m) for k, m in modes.items() if k in written and m != 0o640}
     assert not bad, bad
+
+
+def test_options_defaulting_to_none_show_their_dataclass_default():
+    # an option whose default is None leaves the value to the stage's dataclass (or function);
+    # its help shows that default, looked up where it is defined: every lookup resolves
+    from fingerfriction.cli._common import FieldDefault
+
+    group = typer.main.get_command(app)
+    shown = {}
+    for name, cmd in group.commands.items():
+        for p in cmd.params:
+            if isinstance(p.show_default, FieldDefault):
+                assert p.default is None, (name, p.opts)
+                shown[f"{name} {p.opts[0]}"] = str(p.show_default)
+    assert len(shown) >= 30
+    assert shown["fit --median"] == "11" and shown["fit --mu-min"] == "0.3"
+    assert shown["forces --notch-q"] == "10" and shown["simulate --world"] == "load-sharing"
+    code, out = _run("fit", "--help")
+    assert code == 0 and "[default: 11]" in out and "(11)" not in out

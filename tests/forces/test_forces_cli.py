@@ -123,3 +123,22 @@ def test_forces_command_estimate_highpass(study, capsys):
     assert run([str(d), "t1", "--from-truth", "--highpass-hz", "0", "--estimate-highpass"]) == 2
     err = capsys.readouterr().err
     assert "estimate_highpass=True needs sensor_highpass_hz" in err and "Traceback" not in err
+
+
+def _steps(text: str) -> list[str]:
+    return " ".join(text.split()).split("steps: ")[1].split(" wrote")[0].split(", ")
+
+
+def test_forces_command_notch_q_acts_only_with_the_notch(study, capsys):
+    d, _ = study
+    # the default mains='fit' removes the mains without notches: --notch-q alone changes
+    # nothing, and the command says so; with --mains notch the notches run
+    assert run([str(d), "t1", "--from-truth", "--notch-q", "30"]) == 0
+    out = capsys.readouterr()
+    assert "--notch-q: the fit removes the mains" in " ".join(out.err.split())
+    assert "notch" not in _steps(out.out)
+    assert run([str(d), "t1", "--from-truth", "--mains", "notch", "--notch-q", "30"]) == 0
+    out = capsys.readouterr()
+    assert "notch" in _steps(out.out) and "--notch-q" not in out.err
+    assert run([str(d), "t1", "--from-truth", "--mains", "hum"]) == 2
+    assert "mains must be one of fit, notch, both, got 'hum" in " ".join(capsys.readouterr().err.split())

@@ -55,6 +55,82 @@ LOAD_N = bounded(0.001, 10.0, "N")
 SUBJECT = bounded(1, 99)
 
 
+class FieldDefault(str):
+    """What ``--help`` shows as the default of an option whose own default is None, meaning
+    "the default of the options dataclass": that field's default, looked up when the help
+    is formatted (the command line imports a stage only when a command runs, or its help
+    is shown), so the value is written once, in the dataclass.
+
+    ``FieldDefault("fingerfriction.fit.paper_results:FitOptions.median_kernel")``: a module
+    and a dataclass's field; a function's keyword (``"fingerfriction.pipeline.fitting:fit.model"``)
+    or any attribute (``"fingerfriction.fit.paper:MU_GRID[0]"`` takes an item, ``[position]`` a
+    key) for a default
+    that is not a dataclass's. Pass it as ``show_default`` (:func:`dataclass_option`).
+    """
+
+    def value(self):
+        """The default itself (imports its module)."""
+        import dataclasses  # small; kept beside its one use
+        import importlib  # small; kept beside its one use
+        import inspect  # small; kept beside its one use
+
+        module, _, path = str.__str__(self).partition(":")
+        index = None
+        if path.endswith("]"):
+            path, _, item = path[:-1].partition("[")
+            index = int(item) if item.isdigit() else item  # a tuple's item, or a dict's key
+        owner_path, _, name = path.rpartition(".")
+        obj = importlib.import_module(module)
+        for part in filter(None, owner_path.split(".")):
+            obj = getattr(obj, part)
+        field = next((f for f in dataclasses.fields(obj) if f.name == name), None) \
+            if dataclasses.is_dataclass(obj) else None
+        if field is None and callable(obj) and not isinstance(obj, type):  # a function's keyword
+            value = inspect.signature(obj).parameters[name].default
+        elif field is None:
+            value = getattr(obj, name)
+        elif field.default is not dataclasses.MISSING:
+            value = field.default
+        else:
+            value = field.default_factory()
+        return value if index is None else value[index]
+
+    def text(self) -> str:
+        v = self.value()
+        if isinstance(v, bool):
+            return "on" if v else "off"
+        if isinstance(v, float):
+            return f"{v:g}"
+        if isinstance(v, (tuple, list)):
+            return ",".join(f"{x:g}" if isinstance(x, float) else str(x) for x in v)
+        return "none" if v is None else str(v)
+
+    def __str__(self) -> str:
+        return self.text()
+
+    def __format__(self, spec: str) -> str:
+        return format(self.text(), spec)
+
+
+def dataclass_option(field: str, *names: str, **kwargs):
+    """A ``typer.Option`` that defaults to None, "the dataclass default": ``--help`` shows the
+    default of ``field`` (a :class:`FieldDefault` path), which the command leaves to the
+    dataclass when the option is not given."""
+    return typer.Option(None, *names, show_default=FieldDefault(field), **kwargs)
+
+
+def or_default(value, field: str):
+    """``value``, or the default of ``field`` (a :class:`FieldDefault` path) when it is None: for
+    a command that prints the value it used."""
+    return FieldDefault(field).value() if value is None else value
+
+
+def given(**options) -> dict:
+    """The options that were given (not None), as keywords: the others are left to the
+    dataclass's defaults."""
+    return {k: v for k, v in options.items() if v is not None}
+
+
 def finish(all_ok: bool) -> None:
     """End a command that ran: exit status 0 if ``all_ok``, else 1 (:data:`EXIT_SOME_FAILED`)."""
     if not all_ok:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import typer
 
+from ._common import FieldDefault
+
 __all__ = ["readable_help_types"]
 
 
@@ -34,3 +36,22 @@ def readable_help_types() -> None:
 
     display_type._readable = True
     base.display_type = display_type
+    _plain_field_defaults()
+
+
+def _plain_field_defaults() -> None:
+    """Show an option's default taken from its dataclass (``cli._common.FieldDefault``, a
+    ``show_default`` text) as the value, ``[default: 11]``, not as click shows a described
+    default, ``[default: (11)]``; other typer versions keep the parentheses."""
+    option = getattr(getattr(typer, "core", None), "TyperOption", None)
+    original = getattr(option, "_get_default_string", None)
+    if original is None or getattr(original, "_plain", False):
+        return
+
+    def _get_default_string(self, *args, **kwargs):
+        if isinstance(self.show_default, FieldDefault):
+            return str(self.show_default)
+        return original(self, *args, **kwargs)
+
+    _get_default_string._plain = True
+    option._get_default_string = _get_default_string

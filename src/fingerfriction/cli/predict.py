@@ -15,7 +15,28 @@ from rich.table import Table
 from .._check import check_option
 from .._outputs import check_output_dir, output_dir, output_file
 from ..surfaces import surface_from_spec
-from ._common import LOAD_N, SEED, STEP_MM, SUBJECT, bounded, console, csv_list, fail, finish, read_fingers
+from ._common import (
+    LOAD_N,
+    SEED,
+    STEP_MM,
+    SUBJECT,
+    bounded,
+    console,
+    csv_list,
+    dataclass_option,
+    fail,
+    finish,
+    given,
+    or_default,
+    read_fingers,
+)
+
+_SWEEP_LOAD = "fingerfriction.mechanics.sweep:sweep.load"
+_SWEEP_STEP = "fingerfriction.mechanics.sweep:default_positions.step"
+_SWEEP_KIND = "fingerfriction.mechanics.sweep:SweepResult.blind_spots.kind"
+_PREDICT = "fingerfriction.predict.prediction:predict"
+_DISPLAY = "fingerfriction.predict.render:DisplayModel"
+_VALIDATE_STEP = "fingerfriction.pipeline.validation:validate_results.forward_step"
 
 
 def predict_contact(
@@ -24,12 +45,11 @@ def predict_contact(
     ),
     subject: int = typer.Option(1, "--subject", help="Calibrated finger of subject 1 or 2.",
                                 callback=SUBJECT),
-    load: float = typer.Option(0.3, "--load", help="Normal force in N.", callback=LOAD_N),
-    step: float = typer.Option(0.01, "--step", help="Finger position step in mm over the 26 mm window.",
-                               callback=STEP_MM),
-    kind: str = typer.Option(
-        "geometric", "--kind", help="Contact definition: geometric (gap <= 70 um) or mechanical."
-    ),
+    load: float = dataclass_option(_SWEEP_LOAD, "--load", help="Normal force in N.", callback=LOAD_N),
+    step: float = dataclass_option(_SWEEP_STEP, "--step", callback=STEP_MM,
+                                   help="Finger position step in mm over the 26 mm window."),
+    kind: str = dataclass_option(_SWEEP_KIND, "--kind",
+                                 help="Contact definition: geometric (gap <= 70 um) or mechanical."),
     out: str = typer.Option(
         "predict-contact", "--out", help="Folder for the occupancy figure (PNG); created if missing."
     ),
@@ -42,7 +62,8 @@ def predict_contact(
     from ..mechanics.figures import save_occupancy_figure  # heavy (matplotlib); when the command runs
 
     try:
-        check_option("--kind", kind, ("geometric", "mechanical"))
+        load, step = or_default(load, _SWEEP_LOAD), or_default(step, _SWEEP_STEP)
+        kind = check_option("--kind", or_default(kind, _SWEEP_KIND), ("geometric", "mechanical"))
         surf = surface_from_spec(surface)
         owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
                 "what": "folder of occupancy figures"}
@@ -96,9 +117,10 @@ def predict_cmd(
     model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
     out: str = typer.Option("prediction", "--out", help="Output folder for CSV, JSON and PNG files "
                             "(created if missing)."),
-    load: float = typer.Option(0.3, "--load", help="Normal force in N.", callback=LOAD_N),
-    step: float = typer.Option(0.01, "--step", help="Finger step in mm.", callback=STEP_MM),
-    contact: str = typer.Option("geometric", "--contact", help="geometric (70 um) or mechanical."),
+    load: float = dataclass_option(f"{_PREDICT}.load", "--load", callback=LOAD_N, help="Normal force in N."),
+    step: float = dataclass_option(f"{_PREDICT}.step", "--step", callback=STEP_MM, help="Finger step in mm."),
+    contact: str = dataclass_option(f"{_PREDICT}.contact", "--contact",
+                                    help="geometric (70 um) or mechanical."),
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
     finger_path: str = typer.Option(
         None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
@@ -111,8 +133,8 @@ def predict_cmd(
     try:
         owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
         check_output_dir(out, **owns)
-        pred = predict(surface, subject, _predict_inputs(params), load=load, step=step, contact=contact,
-                       model=model, finger=finger)
+        pred = predict(surface, subject, _predict_inputs(params), model=model, finger=finger,
+                       **given(load=load, step=step, contact=contact))
         paths = pred.write(output_dir(out, **owns), figures=figures)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
@@ -144,13 +166,15 @@ def render_cmd(
                                callback=bounded(1.0, 1e6, "Hz")),
     normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N.",
                                        callback=LOAD_N),
-    load: float = typer.Option(0.3, "--load", help="Normal force in N of the prediction.", callback=LOAD_N),
-    mu_min: float = typer.Option(0.0, "--mu-min", help="Lowest mu the display can produce.",
-                                 callback=bounded(0.0, 100.0)),
-    mu_max: float = typer.Option(5.0, "--mu-max", help="Highest mu the display can produce.",
-                                 callback=bounded(0.0, 100.0)),
+    load: float = dataclass_option(f"{_PREDICT}.load", "--load", callback=LOAD_N,
+                                   help="Normal force in N of the prediction."),
+    mu_min: float = dataclass_option(f"{_DISPLAY}.mu_min", "--mu-min", callback=bounded(0.0, 100.0),
+                                     help="Lowest mu the display can produce."),
+    mu_max: float = dataclass_option(f"{_DISPLAY}.mu_max", "--mu-max", callback=bounded(0.0, 100.0),
+                                     help="Highest mu the display can produce."),
     table: str = typer.Option(None, "--table", help="Also write the table CSV (x_mm, F_T_N, mu_cmd)."),
-    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the prediction.", callback=STEP_MM),
+    step: float = dataclass_option(f"{_PREDICT}.step", "--step", help="Finger step in mm of the prediction.",
+                                   callback=STEP_MM),
     finger_path: str = typer.Option(
         None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
     ),
@@ -161,9 +185,9 @@ def render_cmd(
     finger = None if finger_path is None else read_fingers(finger_path)
     try:
         output_file(out, create=False), table and output_file(table, option="--table", create=False)
-        r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), load=load,
-                                       normal_force=normal_force, step=step, mu_range=(mu_min, mu_max),
-                                       model=model, finger=finger)
+        r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), normal_force=normal_force,
+                                       mu_range=(mu_min, mu_max), model=model, finger=finger,
+                                       **given(load=load, step=step))
         files = r.write_command(output_file(out), speed, rate)
         if table:
             files["table"] = r.write_table(output_file(table, option="--table"))
@@ -184,8 +208,8 @@ def render_cmd(
 def validate_cmd(
     results: str = typer.Argument(..., help="Results folder of 'fingerfriction analyze' (and 'fit')."),
     out: str = typer.Option(None, "--out", help="CSV path (default RESULTS/fit/loso.csv)."),
-    step: float = typer.Option(0.01, "--step", help="Finger step in mm of the forward sweeps.",
-                               callback=STEP_MM),
+    step: float = dataclass_option(_VALIDATE_STEP, "--step", help="Finger step in mm of the forward sweeps.",
+                                   callback=STEP_MM),
     finger: Annotated[
         list[str] | None,
         typer.Option("--finger", help="SUBJECT=FILE: that subject's finger JSON (calibrate-finger, or an "
@@ -209,8 +233,8 @@ def validate_cmd(
             for (surf, subj), why in held.errors.items():
                 console.print(f"[yellow]no calibrated finger[/] for subject {subj} without {surf}: {why}",
                               highlight=False, soft_wrap=True)
-        res = validate_results(results, out=None if out is None else output_file(out), forward_step=step,
-                               fingers=fingers, calibrated_fingers=held and held.fingers())
+        res = validate_results(results, out=None if out is None else output_file(out), fingers=fingers,
+                               calibrated_fingers=held and held.fingers(), **given(forward_step=step))
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")
@@ -236,7 +260,8 @@ def calibrate_finger_cmd(
                                callback=LOAD_N, help="Assume this constant normal force in N (studies "
                                "without an absolute F_N; the modulus is then relative to it)."),
     surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap uncertainties.", callback=SEED),
+    seed: int = dataclass_option("fingerfriction.mechanics.calibrate:CalibrationOptions.seed", "--seed",
+                                 help="Seed of the bootstrap uncertainties.", callback=SEED),
 ) -> None:
     """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
     and write it as a finger JSON that predict, predict-contact, validate and render accept."""
@@ -247,7 +272,7 @@ def calibrate_finger_cmd(
     target = out or f"finger-s{subject}.json"
     try:
         output_file(target, create=False)  # a folder given as the file fails before the work
-        opts = CalibrationOptions(seed=seed)
+        opts = CalibrationOptions(**given(seed=seed))
         t0 = time.process_time()
         with console.status(f"calibrating the finger of subject {subject}..."):
             res = calibrate_results(results, subject, initial=start, options=opts, load=load,

@@ -13,10 +13,12 @@ from ._common import (
     QUIET,
     SEED,
     VERBOSE,
+    FieldDefault,
     bounded,
     echo,
     err_console,
     fail,
+    given,
     plural,
     print_summary,
     read_fingers,
@@ -55,12 +57,16 @@ def _design(surfaces, subjects, speeds) -> dict:
     return kw
 
 
+def _sim(name: str) -> FieldDefault:
+    return FieldDefault(f"fingerfriction.sim.options:SimOptions.{name}")
+
+
 def simulate_cmd(
     out: Annotated[str, typer.Option("--out", help="Output study folder (new, empty, or same study).")],
     reps: Annotated[int, typer.Option("--reps", help="Repetitions per condition (the paper: 5).",
-                                      callback=bounded(1, 100))] = 5,
+                                      callback=bounded(1, 100), show_default=_sim("reps"))] = None,
     seed: Annotated[int, typer.Option("--seed", help="Study seed: same seed, byte-identical study.",
-                                      callback=SEED)] = 0,
+                                      callback=SEED, show_default=_sim("seed"))] = None,
     surfaces: Annotated[
         list[str] | None, typer.Option("--surfaces", help="Surfaces, e.g. bump-2mm,step-up-4mm (default: 6).")
     ] = None,
@@ -72,20 +78,23 @@ def simulate_cmd(
     ] = None,
     workers: Annotated[int, typer.Option("--workers", help="Worker processes (0: all cores).",
                                          callback=bounded(0, 256, "workers"))] = 0,
-    video_format: Annotated[str, typer.Option("--video-format", help="ffv1-mkv or tiff.")] = "ffv1-mkv",
+    video_format: Annotated[str, typer.Option("--video-format", help="ffv1-mkv or tiff.",
+                                              show_default=_sim("video_format"))] = None,
     contact_model: Annotated[
-        str, typer.Option("--contact-model", help="mechanics-bem (default) or bridged-foundation (fast).")
-    ] = "mechanics-bem",
+        str, typer.Option("--contact-model", help="mechanics-bem or bridged-foundation (fast).",
+                          show_default=_sim("contact_model"))
+    ] = None,
     realism: Annotated[bool, typer.Option(
         "--realism", help="A harder study: friction drawn per trial (10 % SD), falling with load, and the "
                           "normal force wandering over +-50 mN (fingerfriction.sim.RealismParams).")] = False,
     world: Annotated[str, typer.Option(
-        "--world", help="The true physics: load-sharing (default), constant-pressure or interlocking "
-                        "(docs/worlds.md).")] = "load-sharing",
+        "--world", help="The true physics: load-sharing, constant-pressure or interlocking "
+                        "(docs/worlds.md).", show_default=_sim("world"))] = None,
     chain: Annotated[str, typer.Option(
-        "--chain", help="The measurement chain: ideal (default: the analysis inverts it exactly) or "
+        "--chain", help="The measurement chain: ideal (the analysis inverts it exactly) or "
                         "realistic (second-order sensor of unknown cut-off, crosstalk, curved drift, a "
-                        "normal force that follows the relief; docs/worlds.md).")] = "ideal",
+                        "normal force that follows the relief; docs/worlds.md).",
+        show_default=_sim("chain"))] = None,
     finger: Annotated[
         list[str] | None,
         typer.Option("--finger", help="SUBJECT=FILE: that subject's finger, a finger JSON file (repeat)."),
@@ -109,16 +118,15 @@ def simulate_cmd(
         simulate_study,
     )
 
-    kw: dict = {"reps": reps, "seed": seed, "video_format": video_format,
-                "contact_model": contact_model, "realism": RealismParams() if realism else None,
-                "world": world, "chain": chain,
-                **_design(surfaces, subjects, speeds)}
+    kw: dict = {**given(reps=reps, seed=seed, video_format=video_format, contact_model=contact_model,
+                        world=world, chain=chain),
+                "realism": RealismParams() if realism else None, **_design(surfaces, subjects, speeds)}
     if workers < 0:
         fail(f"--workers must be >= 0 (0: all cores), got {workers}")
-    if finger_model not in ("halfspace", "fe"):
+    if finger_model not in ("halfspace", "fe"):  # worded as tests/sim/test_fe_sim.py expects
         fail(f"--finger-model must be halfspace or fe, got {finger_model!r}")
     if finger_model == "fe":
-        if contact_model not in ("mechanics-bem", "fe"):
+        if contact_model not in (None, "mechanics-bem", "fe"):
             fail(f"--finger-model fe is its own contact model; drop --contact-model {contact_model}")
         kw["contact_model"] = "fe"
     if finger:

@@ -8,24 +8,27 @@ import typer
 from rich.markup import escape
 
 from .._outputs import output_file
-from ._common import bounded, console, fail
+from ._common import bounded, console, dataclass_option, fail, given, warn
+
+_OVERLAY = "fingerfriction.video.overlay:write_overlay"
 
 
 def overlay_cmd(
     study: str = typer.Argument(..., help="Study folder (or its manifest.json)."),
     trial: str = typer.Argument(..., help="Trial id, as in the manifest."),
     out: str = typer.Option(None, "--out", help="Output .mp4 or .gif (default: <trial>-overlay.mp4)."),
-    start: int = typer.Option(0, "--start", help="First frame.", callback=bounded(0, 10_000_000, "frames")),
+    start: int = dataclass_option(f"{_OVERLAY}.start", "--start", help="First frame.",
+                                  callback=bounded(0, 10_000_000, "frames")),
     stop: int = typer.Option(None, "--stop", help="Stop before this frame (default: the last).",
                              callback=bounded(1, 10_000_000, "frames")),
-    step: int = typer.Option(1, "--step", help="Draw every STEP-th frame.",
-                             callback=bounded(1, 1_000_000, "frames")),
-    fps: float = typer.Option(30.0, "--fps", help="Playback frame rate of the output (Hz).",
-                              callback=bounded(0.1, 1000.0, "Hz")),
+    step: int = dataclass_option(f"{_OVERLAY}.step", "--step", help="Draw every STEP-th frame.",
+                                 callback=bounded(1, 1_000_000, "frames")),
+    fps: float = dataclass_option(f"{_OVERLAY}.fps", "--fps", help="Playback frame rate of the output (Hz).",
+                                  callback=bounded(0.1, 1000.0, "Hz")),
     level: float = typer.Option(None, "--level", help="Threshold gray level (default: Otsu).",
                                 callback=bounded(0.0, 65535.0)),
-    scale: float = typer.Option(1.0, "--scale", help="Resize factor of the 1260x360 crop.",
-                                callback=bounded(0.05, 4.0)),
+    scale: float = dataclass_option(f"{_OVERLAY}.scale", "--scale", callback=bounded(0.05, 4.0),
+                                    help="Resize factor of the 1260x360 crop."),
 ) -> None:
     """Write a video of a trial's frames with the traced contours and contact regions drawn."""
     from ..pipeline.params import video_options  # heavy (video stage); imported when the command runs
@@ -37,13 +40,17 @@ def overlay_cmd(
         opts = video_options({"level": level}, tr.record.video.calibration_frame)  # as `analyze`
         info = write_overlay(
             tr.path(tr.record.video.path, "video.path"), tr.height_mm, out or f"{trial}-overlay.mp4",
-            surface=tr.surface, options=opts, start=start, stop=stop, step=step, fps=fps, scale=scale,
+            surface=tr.surface, options=opts, stop=stop,
+            **given(start=start, step=step, fps=fps, scale=scale),
         )
     except KeyError as exc:
         fail(str(exc.args[0]) if exc.args else str(exc))
     except (ValueError, OSError) as exc:
         fail(str(exc))
     console.print(f"[green]wrote[/] {info.path}: {info.n_frames} frames ({info.n_flagged} flagged)")
+
+
+_FP = "fingerfriction.forces.params:ForceProcessingParams"
 
 
 def forces_cmd(
@@ -53,10 +60,17 @@ def forces_cmd(
     positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
     from_video: bool = typer.Option(False, "--from-video", help="x(t) and contact regions from the video"),
     from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
-    highpass_hz: float = typer.Option(5.0, "--highpass-hz", help="sensor high-pass to invert, Hz; 0: none",
-                                      callback=bounded(0.0, 1000.0, "Hz")),
-    notch_q: float = typer.Option(10.0, "--notch-q", help="quality factor of the 50/150/300 Hz notches",
-                                  callback=bounded(0.1, 1000.0)),
+    highpass_hz: float = dataclass_option(f"{_FP}.sensor_highpass_hz", "--highpass-hz",
+                                          help="sensor high-pass to invert, Hz; 0: none",
+                                          callback=bounded(0.0, 1000.0, "Hz")),
+    mains: str = dataclass_option(f"{_FP}.mains", "--mains",
+                                  help="mains interference: fit (sinusoids fitted on the rest before the "
+                                       "touch), notch (the paper's notch filters) or both"),
+    notch_q: float = dataclass_option(f"{_FP}.notch_q", "--notch-q",
+                                      help="quality factor of the notches at the mains frequencies (used by "
+                                           "--mains notch or both, and by the notch that replaces the fit "
+                                           "when the record has no rest before the touch)",
+                                      callback=bounded(0.1, 1000.0)),
     estimate_highpass: bool = typer.Option(
         False, "--estimate-highpass", help="fit the sensor cut-off on the rests (--highpass-hz: the prior)"
     ),
@@ -71,9 +85,13 @@ def forces_cmd(
     try:
         tr = TrialInput.from_study(study, trial)
         x, regions = finger_positions(tr, positions=positions, from_truth=from_truth, from_video=from_video)
-        params = ForceProcessingParams(
-            sensor_highpass_hz=highpass_hz or None, notch_q=notch_q, estimate_highpass=estimate_highpass
-        )
+        kw = given(mains=mains, notch_q=notch_q)
+        if highpass_hz is not None:
+            kw["sensor_highpass_hz"] = highpass_hz or None  # 0: no compensation
+        params = ForceProcessingParams(**kw, estimate_highpass=estimate_highpass)
+        if notch_q is not None and params.mains == "fit":
+            warn("--notch-q: the fit removes the mains (--mains fit), the notches run only when the record "
+                 "has no rest before the touch; give --mains notch or both to filter with them")
         prof = process_trial_forces(tr, x, params=params, regions=regions, on_error="flag")
         if out is not None:
             prof.write_csv(output_file(out))

@@ -22,13 +22,16 @@ from ._common import (
     SEED,
     VERBOSE,
     WORKERS,
+    FieldDefault,
     bounded,
     console,
     csv_list,
+    dataclass_option,
     echo,
     err_console,
     fail,
     finish,
+    given,
     grouped_failures,
     plural,
     print_problems,
@@ -37,6 +40,10 @@ from ._common import (
     verbosity_of,
     warn,
 )
+
+
+def _init(name: str) -> FieldDefault:
+    return FieldDefault(f"fingerfriction.study.init:InitOptions.{name}")
 
 
 def init_cmd(
@@ -79,15 +86,15 @@ def init_cmd(
     ] = None,
     video_t0_s: Annotated[float, typer.Option(
         "--video-t0-s", metavar="SECONDS", callback=bounded(-1e6, 1e6, "s"),
-        help="Clock offset: time in s of video frame 0 (default 0).")] = 0.0,
+        help="Clock offset: time in s of video frame 0.", show_default=_init("video_t0_s"))] = None,
     calibration_frame: Annotated[int, typer.Option(
         "--calibration-frame", metavar="INDEX", callback=bounded(0, 10_000_000),
-        help="The finger-free frame used for calibration.")] = 0,
+        help="The finger-free frame used for calibration.", show_default=_init("calibration_frame"))] = None,
     surface_height_mm: Annotated[list[str] | None, typer.Option(
         "--surface-height-mm", metavar="[SURFACE=]MM", help="Feature height H in mm that calibrates the "
         "image scale (default: the surface's own).")] = None,
     description: Annotated[str, typer.Option("--description", metavar="TEXT",
-                                             help="Free text for the manifest.")] = "",
+                                             help="Free text for the manifest.", show_default=False)] = None,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="Print what was found; write nothing.")] = False,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing manifest.json.")
                          ] = False,
@@ -198,9 +205,9 @@ def analyze_cmd(
     window_mm: float = typer.Option(None, "--window-mm", help="Force position window in mm, centred on the "
                                     "feature (default: the paper's 26 mm).",
                                     callback=bounded(1.0, 100.0, "mm")),
-    position: str = typer.Option("hybrid", "--position", help="x(t) estimator: hybrid (chord midpoint, "
-                                 "else an outline edge; default) or cf-centroid (the paper's C_f centroid) "
-                                 "or chord."),
+    position: str = dataclass_option("fingerfriction.pipeline.params:VIDEO_DEFAULTS[position]", "--position",
+                                     help="x(t) estimator: hybrid (chord midpoint, else an outline edge) or "
+                                          "cf-centroid (the paper's C_f centroid) or chord."),
     simulated: bool = typer.Option(False, "--simulated", help="Options for studies of the virtual "
                                    "experiment (only matter with --position cf-centroid: narrower window, "
                                    "x(t) extended; see README)."),
@@ -211,9 +218,10 @@ def analyze_cmd(
                                       "inode are those recorded instead of hashing its content (faster on "
                                       "large studies; misses edits on file systems without status-change "
                                       "times)."),
-    sync: str = typer.Option("check", "--sync", help="Video-force clock offset: check (measure it from the "
-                             "start of each slide and fail a trial whose manifest offset is off; default), "
-                             "auto (use the measured offset) or manifest (trust the manifest)."),
+    sync: str = dataclass_option("fingerfriction.selfcheck.flags:SelfCheckParams.sync", "--sync",
+                                 help="Video-force clock offset: check (measure it from the start of each "
+                                      "slide and fail a trial whose manifest offset is off), auto (use the "
+                                      "measured offset) or manifest (trust the manifest)."),
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
@@ -229,10 +237,13 @@ def analyze_cmd(
     from ..selfcheck import SYNC_MODES  # heavy (both stages), as above
 
     try:
-        check_option("--position", position, POSITIONS)
-        check_option("--sync", sync, SYNC_MODES)
-        opts = sim_params(position) if simulated else {"video": {"position": position}, "forces": {}}
-        opts["selfcheck"] = {"sync": sync}
+        if position is not None:
+            check_option("--position", position, POSITIONS)
+        if sync is not None:
+            check_option("--sync", sync, SYNC_MODES)
+        opts = sim_params(**given(position=position)) if simulated else \
+            {"video": given(position=position), "forces": {}}
+        opts["selfcheck"] = given(sync=sync)
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
         params = AnalysisParams(**opts)
@@ -285,21 +296,30 @@ def _sync_fact(sync: dict) -> str:
     return f"sync checked: {off} of {plural(len(trials), 'trial')} off the video's clock"
 
 
+_FIT = "fingerfriction.pipeline.fitting"
+_GRID = "fingerfriction.fit.paper:MU_GRID"
+
+
 def fit_cmd(
     results: str = typer.Argument(..., help="Results folder written by `fingerfriction analyze`."),
-    model: str = typer.Option("auto", help="auto (the variant the data support, or none: exit status 1), or "
-                                           "a variant to use: load, pressure, interlock or paper; every "
-                                           "variant is fitted and compared."),
-    method: str = typer.Option("lstsq", help="Paper model's p0, p1 fit: lstsq or nelder-mead (the paper's)."),
-    mu_min: float = typer.Option(0.30, help="Smallest mu of the paper model's grid.",
-                                 callback=bounded(0.0, 5.0)),
-    mu_max: float = typer.Option(0.90, help="Largest mu of the paper model's grid.",
-                                 callback=bounded(0.0, 5.0)),
-    mu_step: float = typer.Option(0.01, help="Step of the paper model's mu grid (at most 10001 values).",
-                                  callback=bounded(1e-4, 1.0)),
-    median: int = typer.Option(11, help="Median filter window on the models, samples (odd; 1 = off).",
-                               callback=bounded(1, 1001, "samples")),
-    seed: int = typer.Option(0, help="Seed of the bootstrap confidence intervals.", callback=SEED),
+    model: str = dataclass_option(f"{_FIT}:fit.model", "--model",
+                                  help="auto (the variant the data support, or none: exit status 1), or a "
+                                       "variant to use: load, pressure, interlock or paper; every variant is "
+                                       "fitted and compared."),
+    method: str = dataclass_option("fingerfriction.fit.variants:FitSettings.method", "--method",
+                                   help="Paper model's p0, p1 fit: lstsq or nelder-mead (the paper's)."),
+    mu_min: float = dataclass_option(f"{_GRID}[0]", "--mu-min", help="Smallest mu of the paper model's grid.",
+                                     callback=bounded(0.0, 5.0)),
+    mu_max: float = dataclass_option(f"{_GRID}[1]", "--mu-max", help="Largest mu of the paper model's grid.",
+                                     callback=bounded(0.0, 5.0)),
+    mu_step: float = dataclass_option(f"{_GRID}[2]", "--mu-step",
+                                      help="Step of the paper model's mu grid (at most 10001 values).",
+                                      callback=bounded(1e-4, 1.0)),
+    median: int = dataclass_option("fingerfriction.fit.paper_results:FitOptions.median_kernel", "--median",
+                                   help="Median filter window on the models, samples (odd; 1 = off).",
+                                   callback=bounded(1, 1001, "samples")),
+    seed: int = dataclass_option(f"{_FIT}:fit.seed", "--seed", callback=SEED,
+                                 help="Seed of the bootstrap confidence intervals."),
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
@@ -313,8 +333,8 @@ def fit_cmd(
     t0 = time.perf_counter()
     try:
         with console_log(verbosity, echo) as log, _holding(results, "fit"):
-            res = fit(results, model=model, mu_grid=(mu_min, mu_max, mu_step), method=method,
-                      median_kernel=median, progress=show_progress(verbosity), seed=seed)
+            res = fit(results, mu_grid=(mu_min, mu_max, mu_step), progress=show_progress(verbosity),
+                      **given(model=model, method=method, median_kernel=median, seed=seed))
     except (ValueError, OSError) as exc:
         fail(str(exc))
     store = ResultsStore(results)
@@ -490,8 +510,9 @@ def _print_tables(rep) -> None:
 
 def report_cmd(
     results: str = typer.Argument(..., help="Results folder (after analyze; fit for Fig. 6/S3, Table 1)."),
-    sample: int = typer.Option(6, "--sample", callback=bounded(0, 100_000, "trials"),
-                               help="Trial pages for every flagged trial and this many of the others."),
+    sample: int = dataclass_option("fingerfriction.report:make_report.sample", "--sample",
+                                   callback=bounded(0, 100_000, "trials"),
+                                   help="Trial pages for every flagged trial and this many of the others."),
     all_trials: bool = typer.Option(False, "--all-trials", help="A page for every trial."),
     animations: bool = typer.Option(True, "--animations/--no-animations",
                                     help="Overlay animation on each trial page (needs the study's videos)."),
@@ -506,8 +527,8 @@ def report_cmd(
     t0 = time.perf_counter()
     try:
         with console_log(verbosity, echo) as log, _holding(results, "report"):
-            rep = make_report(results, progress=show_progress(verbosity),
-                              sample=None if all_trials else sample, animations=animations)
+            rep = make_report(results, progress=show_progress(verbosity), animations=animations,
+                              **({"sample": None} if all_trials else given(sample=sample)))
     except (ValueError, OSError) as exc:
         fail(str(exc))
     if verbosity >= 0:
@@ -535,7 +556,8 @@ def demo(
     full: bool = typer.Option(False, "--full", help="The paper's 180 trials (default: 36, 1 per condition)."),
     reps: int = typer.Option(None, "--reps", help="Repetitions per condition (overrides --full).",
                              callback=bounded(1, 100)),
-    seed: int = typer.Option(0, "--seed", help="Seed of the virtual experiment.", callback=SEED),
+    seed: int = dataclass_option("fingerfriction.demo:demo.seed", "--seed", callback=SEED,
+                                 help="Seed of the virtual experiment."),
     workers: int = typer.Option(None, "--workers", "-j", help="Worker processes (default: all).",
                                 callback=WORKERS),
     subjects: str = typer.Option(None, hidden=True, help="Comma-separated subjects (a smaller design)."),
@@ -565,8 +587,8 @@ def demo(
                 raise ValueError(f"--speeds must be in [1, 1000] mm/s, got {speeds}")
         output_dir(out, owns={"study", "results"}, what="demo folder (study/, results/)")
         with console_log(verbosity, echo) as log:
-            res = run_demo(out, full=full, reps=reps, seed=seed, n_workers=workers,
-                           progress=show_progress(verbosity), design=design)
+            res = run_demo(out, full=full, reps=reps, n_workers=workers, progress=show_progress(verbosity),
+                           design=design, **given(seed=seed))
     except (ValueError, OSError) as exc:
         fail(str(exc))
     a, f = res.analysis, res.fit

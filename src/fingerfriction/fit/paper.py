@@ -77,6 +77,7 @@ __all__ = [
     "fit_subject",
     "fit_trials",
     "mu_grid",
+    "MU_GRID",
     "paper_flags",
 ]
 
@@ -88,8 +89,16 @@ METHODS = ("lstsq", "nelder-mead")
 # ------------------------------------------------------------------------ the mu grid
 
 
-def mu_grid(start: float = 0.30, stop: float = 0.90, step: float = 0.01) -> np.ndarray:
-    """Inclusive grid of ``mu`` values (default 0.30..0.90 by 0.01: 61 values)."""
+#: The paper variant's default ``mu`` grid, ``(start, stop, step)``: 0.30 to 0.90 by 0.01,
+#: 61 values (:func:`mu_grid`; the fit, its command and :class:`~.variants.FitSettings` take it
+#: from here).
+MU_GRID = (0.30, 0.90, 0.01)
+
+
+def mu_grid(start: float | None = None, stop: float | None = None, step: float | None = None) -> np.ndarray:
+    """Inclusive grid of ``mu`` values; an end or step left None is that of :data:`MU_GRID`
+    (0.30..0.90 by 0.01: 61 values)."""
+    start, stop, step = (d if v is None else v for v, d in zip((start, stop, step), MU_GRID, strict=True))
     for name, v in (("start", start), ("stop", stop), ("step", step)):
         if not math.isfinite(v):
             raise ValueError(f"mu grid {name} must be finite, got {v!r}")

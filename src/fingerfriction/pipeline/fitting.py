@@ -133,20 +133,22 @@ class FitSummary:
         return out
 
 
-def _settings(mu_grid, method: str, median_kernel: int, seed: int) -> FitSettings:
-    start, stop, step = (float(v) for v in mu_grid)
-    return FitSettings(paper=fitmod.FitOptions(median_kernel=int(median_kernel)),
-                       load=fitmod.LoadFitOptions(median_kernel=int(median_kernel), seed=int(seed)),
-                       grid=fitmod.mu_grid(start, stop, step), method=method)
+def _settings(mu_grid, method: str | None, median_kernel: int | None, seed: int) -> FitSettings:
+    """The fit's settings; an argument left None is the options dataclasses' default."""
+    kernel = {} if median_kernel is None else {"median_kernel": int(median_kernel)}
+    grid = [None if v is None else float(v) for v in (mu_grid or (None, None, None))]
+    return FitSettings(paper=fitmod.FitOptions(**kernel),
+                       load=fitmod.LoadFitOptions(**kernel, seed=int(seed)),
+                       grid=fitmod.mu_grid(*grid), **({} if method is None else {"method": method}))
 
 
 def fit(
     results: str | os.PathLike,
     *,
     model: str = "auto",
-    mu_grid: tuple[float, float, float] = (0.30, 0.90, 0.01),
-    method: str = "lstsq",
-    median_kernel: int = 11,
+    mu_grid: tuple[float | None, float | None, float | None] | None = None,
+    method: str | None = None,
+    median_kernel: int | None = None,
     progress: bool = True,
     validate: bool = True,
     seed: int = 0,
@@ -161,12 +163,15 @@ def fit(
     model : {'auto', 'load', 'pressure', 'interlock', 'paper'}
         ``'auto'`` (default): the variant chosen by :func:`fingerfriction.fit.select.select_model`;
         a variant's name: that one (the choice is still made and reported).
-    mu_grid : (start, stop, step)
-        Inclusive ``mu`` grid of the paper variant (default 0.30 to 0.90 by 0.01).
-    method : {'lstsq', 'nelder-mead'}
-        How the paper variant fits ``p0, p1`` (closed form, or Nelder-Mead as the paper).
-    median_kernel : int
-        Median filter window in samples on the models (odd; 1 = off).
+    mu_grid : (start, stop, step), optional
+        Inclusive ``mu`` grid of the paper variant; None, or an entry None, is that of
+        :data:`fingerfriction.fit.paper.MU_GRID` (0.30 to 0.90 by 0.01).
+    method : {'lstsq', 'nelder-mead'}, optional
+        How the paper variant fits ``p0, p1`` (closed form, or Nelder-Mead as the paper);
+        default :class:`~fingerfriction.fit.variants.FitSettings`'s (lstsq).
+    median_kernel : int, optional
+        Median filter window in samples on the models (odd; 1 = off); default
+        :class:`~fingerfriction.fit.FitOptions`'s (11).
     progress : bool
         Show a progress bar.
     validate : bool

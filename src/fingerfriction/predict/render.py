@@ -191,7 +191,7 @@ class HapticRenderer:
     @classmethod
     def for_surface(cls, surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
                     normal_force: float | None = None, step: float = 0.01, resolution: float = 0.01,
-                    mu_range: tuple[float, float] = (0.0, 5.0), model: str | None = None,
+                    mu_range: tuple[float | None, float | None] | None = None, model: str | None = None,
                     finger=None) -> HapticRenderer:
         """Predict a relief for a subject and precompute its renderer.
 
@@ -204,13 +204,15 @@ class HapticRenderer:
         resolution : float, optional
             Table spacing in mm.
         mu_range : (float, float), optional
-            The display's attainable friction coefficients.
+            The display's attainable friction coefficients; None (or an end None) is
+            :class:`DisplayModel`'s default (0 and 5).
         """
         pred = predict(surface_spec, subject, params, load=load, step=step, model=model, finger=finger)
         fn = load if normal_force is None else float(normal_force)
         L = flat_contact_length(pred.finger, load=fn)
-        disp = DisplayModel(normal_force=fn, p0=pred.display_p0(fn, L), flat_length=L,
-                            mu_min=mu_range[0], mu_max=mu_range[1])
+        ends = zip(("mu_min", "mu_max"), mu_range or (None, None), strict=True)
+        mu = {k: v for k, v in ends if v is not None}
+        disp = DisplayModel(normal_force=fn, p0=pred.display_p0(fn, L), flat_length=L, **mu)
         return cls(pred, disp, resolution=resolution)
 
     # ------------------------------------------------------------------ queries

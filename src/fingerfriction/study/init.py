@@ -113,26 +113,28 @@ class InitOptions:
     @classmethod
     def from_command_line(cls, *, video, forces, surface=None, channels=None, time=None, units=None,
                           sensitivity=None, gain=None, fs_hz=None, force_t0_s=None, fps=None,
-                          video_t0_s=0.0, calibration_frame=0, surface_height_mm=None,
-                          description="") -> InitOptions:
+                          video_t0_s=None, calibration_frame=None, surface_height_mm=None,
+                          description=None) -> InitOptions:
         """The options of ``fingerfriction init`` as typed (repeatable options as lists of
         text: ``--surface TOKEN=SURFACE``, ``--channels [FORMAT:]F1,F2``...; see
-        :func:`parse_force_options` and :func:`parse_mapping`).
+        :func:`parse_force_options` and :func:`parse_mapping`). An option left None takes the
+        field's default.
 
         Raises
         ------
         ValueError
             A malformed value, naming its option.
         """
+        given = {k: v for k, v in (("video_t0_s", video_t0_s), ("calibration_frame", calibration_frame),
+                                   ("description", description)) if v is not None}
         return cls(
             video=tuple(video or ()), forces=tuple(forces or ()),
-            surfaces=parse_mapping(surface, "--surface"),
-            fps=fps, video_t0_s=video_t0_s, calibration_frame=calibration_frame,
+            surfaces=parse_mapping(surface, "--surface"), fps=fps,
             force=parse_force_options(channels=channels, time=time, units=units, sensitivity=sensitivity,
                                       gain=gain, fs_hz=fs_hz, t0_s=force_t0_s),
             surface_height_mm=parse_mapping(surface_height_mm, "--surface-height-mm",
                                             convert=_number("--surface-height-mm"), allow_default=True),
-            description=description)
+            **given)
 
     def force_fields(self, fmt: str) -> dict:
         """The manifest ``force`` fields for files of format ``fmt``."""
