@@ -34,6 +34,7 @@ from ..forces import (
 from ..forces.readers import channel_scale
 from ..selfcheck import SelfCheckError, SelfCheckParams, TrialChecks, check_trial
 from ..study.manifest import Study, TrialRecord, load_manifest, resolve_path
+from ..study.records import FORCE_READER_KEYS
 from ..study.store import frames_table
 from ..surfaces import Surface, surface_from_spec
 from ..video import FLAG_REASONS, AnalysisOptions, FrameFlag, PositionSource, analyze_video
@@ -234,9 +235,6 @@ def run_video(trial: TrialInput, options: AnalysisOptions | Mapping | None = Non
                        surface_rows=np.asarray(res.calibration.surface_row, dtype=float))
 
 
-#: Fields of a manifest ``force`` entry passed to :func:`~fingerfriction.forces.read_force_file`.
-_FORCE_FIELDS = ("fs_hz", "channels", "format", "t0_s", "n_samples", "units", "sensitivity_n_per_v",
-                 "gain_v_per_n", "time", "delimiter")
 
 
 def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRecord | Mapping) -> ForceRecord:
@@ -281,7 +279,7 @@ def read_trial_forces(study_dir: str | os.PathLike, trial: TrialInput | TrialRec
     except ValueError as exc:
         raise ValueError(f"trial {tid!r}: force.{exc}") from None
     target = resolve_path(study_dir, force["path"], where=f"trial {tid!r}: force.path")
-    kw = {k: force[k] for k in _FORCE_FIELDS if force.get(k) is not None}
+    kw = {k: force[k] for k in FORCE_READER_KEYS if force.get(k) is not None}
     kw.setdefault("t0_s", 0.0)
     return read_force_file(target, **kw)
 

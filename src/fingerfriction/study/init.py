@@ -27,14 +27,14 @@ from ..surfaces import SURFACE_NAMES, surface_from_spec
 from ..video.readers import FPS_TOLERANCE, probe_video
 from .manifest import Study, write_manifest
 from .patterns import MatchResult, list_candidates, match_recordings
-from .records import MANIFEST_NAME
+from .records import FORCE_READER_KEYS, MANIFEST_NAME
 
 __all__ = ["InitOptions", "InitTrial", "InitResult", "build_manifest", "write_init", "FORCE_OPTION_KEYS",
            "parse_force_options", "parse_mapping"]
 
-#: Manifest ``force`` fields that :attr:`InitOptions.force` may set.
-FORCE_OPTION_KEYS = ("channels", "time", "units", "sensitivity_n_per_v", "gain_v_per_n", "fs_hz", "t0_s",
-                     "delimiter")
+#: Manifest ``force`` fields that :attr:`InitOptions.force` may set: those the files do not
+#: answer (every reader keyword of the manifest but ``format`` and ``n_samples``).
+FORCE_OPTION_KEYS = tuple(k for k in FORCE_READER_KEYS if k not in ("format", "n_samples"))
 
 #: video format names of the readers -> manifest ``video.format``
 _VIDEO_FORMAT = {"tiff": "tiff", "cine": "cine", "mkv": "mkv", "avi": "avi", "mp4": "mp4", "mov": "mov"}

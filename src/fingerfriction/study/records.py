@@ -14,20 +14,21 @@ from __future__ import annotations
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._check import SamplingRate, option_message
-from ..forces.readers import FORCE_FORMATS, FORCE_UNITS, channel_scale, infer_force_format
+from ..forces.readers import DEFAULT_CHANNELS, FORCE_FORMATS, FORCE_UNITS, channel_scale, infer_force_format
 
 __all__ = [
     "MANIFEST_NAME",
     "VIDEO_FORMATS",
     "VIDEO_SUFFIXES",
     "FORCE_FORMATS",
+    "FORCE_READER_KEYS",
     "ManifestError",
     "TrialIdTooLong",
     "MAX_ID_LENGTH",
@@ -469,7 +470,7 @@ class ForceInfo:
     format: str | None = None
     fs_hz: float | None = None
     n_samples: int | None = None
-    channels: dict = field(default_factory=lambda: {"F1": "F1", "F2": "F2"})
+    channels: dict = field(default_factory=lambda: dict(DEFAULT_CHANNELS))
     units: str = "N"
     t0_s: float = 0.0
     sensitivity_n_per_v: Any = None
@@ -515,12 +516,10 @@ class ForceInfo:
         return tuple(k for k in ("fs_hz", "n_samples") if getattr(self, k) is None)
 
     def reader_options(self) -> dict:
-        """Keywords of :func:`fingerfriction.forces.read_force_file` for this file."""
-        kw = {"fs_hz": self.fs_hz, "channels": dict(self.channels), "format": self.format,
-              "t0_s": self.t0_s, "n_samples": self.n_samples, "units": self.units,
-              "sensitivity_n_per_v": self.sensitivity_n_per_v, "gain_v_per_n": self.gain_v_per_n,
-              "time": self.time, "delimiter": self.delimiter}
-        return {k: v for k, v in kw.items() if v is not None}
+        """Keywords of :func:`fingerfriction.forces.read_force_file` for this file: every field
+        but ``path`` that is set (:data:`FORCE_READER_KEYS`)."""
+        d = self.to_dict()
+        return {k: d[k] for k in FORCE_READER_KEYS if k in d}
 
     def sample_times(self):
         """Times in s of every sample on the common clock, ``(n_samples,)`` ndarray."""
@@ -530,10 +529,9 @@ class ForceInfo:
         return self.t0_s + np.arange(self.n_samples) / self.fs_hz
 
     def to_dict(self) -> dict:
-        d = {"path": self.path, "format": self.format, "fs_hz": self.fs_hz, "n_samples": self.n_samples,
-             "channels": dict(self.channels), "units": self.units, "t0_s": self.t0_s,
-             "sensitivity_n_per_v": self.sensitivity_n_per_v, "gain_v_per_n": self.gain_v_per_n,
-             "time": self.time, "delimiter": self.delimiter}
+        """The manifest ``force`` object: every field that is set, in the fields' order."""
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d["channels"] = dict(self.channels)
         return {k: v for k, v in d.items() if v is not None}
 
     @classmethod
@@ -546,11 +544,16 @@ class ForceInfo:
             format=c(string, d, "format", where, allowed=FORCE_FORMATS, **opt),
             fs_hz=c(rate, d, "fs_hz", where, **opt),
             n_samples=c(number, d, "n_samples", where, positive=True, integer=True, **opt),
-            channels=d.get("channels", {"F1": "F1", "F2": "F2"}),
-            units=c(string, d, "units", where, allowed=FORCE_UNITS, default="N"),
-            t0_s=c(number, d, "t0_s", where, default=0.0),
+            channels=d.get("channels", dict(DEFAULT_CHANNELS)),
+            units=c(string, d, "units", where, allowed=FORCE_UNITS, default=cls.units),
+            t0_s=c(number, d, "t0_s", where, default=cls.t0_s),
             sensitivity_n_per_v=d.get("sensitivity_n_per_v"),
             gain_v_per_n=d.get("gain_v_per_n"),
             time=d.get("time"),
             delimiter=d.get("delimiter"),
         ))
+
+
+#: The manifest ``force`` fields that are keywords of
+#: :func:`fingerfriction.forces.read_force_file` (every field of :class:`ForceInfo` but ``path``).
+FORCE_READER_KEYS = tuple(f.name for f in fields(ForceInfo) if f.name != "path")
