@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._check import check_bool, check_option
+from .._check import check_bool, check_option, integer, nonnegative, positive
 from .common import check_kernel
 from .mu import FlatGroundMu
 
@@ -97,22 +97,15 @@ class LoadFitOptions:
                     raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
             elif isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be 'fit' or {what}, got {v!r}")
-        for name in ("inset_max", "kappa_max", "transient_max_mm", "nominal_load", "min_flat_mm",
-                     "hac_mm"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
-        m = self.min_load
-        if not (isinstance(m, (int, float)) and math.isfinite(m) and m >= 0):
-            raise ValueError(f"min_load must be a force >= 0 in N, got {self.min_load!r}")
+        for name, unit in (("inset_max", "mm"), ("kappa_max", "1/mm"), ("transient_max_mm", "mm"),
+                           ("nominal_load", "N"), ("min_flat_mm", "mm"), ("hac_mm", "mm")):
+            object.__setattr__(self, name, positive(name, getattr(self, name), unit))
+        object.__setattr__(self, "min_load", nonnegative("min_load", self.min_load, "N", what="force"))
         check_option("mu_per", self.mu_per, MU_PER)
-        if isinstance(self.n_boot, bool) or not isinstance(self.n_boot, int) or self.n_boot < 100:
-            raise ValueError(f"n_boot must be an integer >= 100, got {self.n_boot!r}")
+        object.__setattr__(self, "n_boot", integer("n_boot", self.n_boot, 100))
         if not (isinstance(self.level, float) and 0.5 < self.level < 1):
             raise ValueError(f"level must be a confidence level in (0.5, 1), got {self.level!r}")
-        if isinstance(self.search_trials, bool) or not isinstance(self.search_trials, int) \
-                or self.search_trials < 1:
-            raise ValueError(f"search_trials must be an integer >= 1, got {self.search_trials!r}")
+        object.__setattr__(self, "search_trials", integer("search_trials", self.search_trials, 1))
         object.__setattr__(self, "transient", check_bool("transient", self.transient))
 
 

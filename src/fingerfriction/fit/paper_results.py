@@ -3,13 +3,12 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._check import check_option
+from .._check import check_bool, check_option, integer, nonnegative, positive
 from ..model import FrictionParams
 from .common import check_kernel
 
@@ -63,14 +62,12 @@ class FitOptions:
         check_option("objective", self.objective, OBJECTIVES)
         check_kernel(self.median_kernel)
         check_option("median_on", self.median_on, MEDIAN_ON)
-        if not (math.isfinite(self.flat_margin) and self.flat_margin >= 0):
-            raise ValueError(f"flat_margin must be >= 0 mm, got {self.flat_margin!r}")
+        object.__setattr__(self, "flat_margin",
+                           nonnegative("flat_margin", self.flat_margin, "mm", what="length"))
         for name in ("xatol", "fatol"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if int(self.maxiter) < 1:
-            raise ValueError(f"maxiter must be >= 1, got {self.maxiter!r}")
+            object.__setattr__(self, name, positive(name, getattr(self, name), "(relative)"))
+        object.__setattr__(self, "maxiter", integer("maxiter", self.maxiter, 1, what="iterations"))
+        object.__setattr__(self, "detrend", check_bool("detrend", self.detrend))
 
 
 @dataclass(frozen=True, eq=False)

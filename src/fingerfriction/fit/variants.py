@@ -34,11 +34,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._check import check_option
+from .._check import check_option, validate_type
 from ..model import FrictionModel, FrictionParams, LoadParams, T_matrix
 from .common import FitFlag, Trial, flat_detrend, flat_segment_mask, median_filter
 from .load import LoadFitOptions, fit_load_trials, load_estimate
-from .paper import FitOptions, fit_trials, mu_grid, paper_flags
+from .paper import METHODS, FitOptions, fit_trials, mu_grid, paper_flags
 from .pressure import fit_pressure_trials
 
 __all__ = ["FitSettings", "HeldOut", "Variant", "VARIANTS", "MODELS", "SELECTABLE", "get",
@@ -65,6 +65,11 @@ class FitSettings:
     load: LoadFitOptions = field(default_factory=LoadFitOptions)
     grid: np.ndarray = field(default_factory=mu_grid)
     method: str = "lstsq"
+
+    def __post_init__(self) -> None:
+        validate_type("FitSettings.paper", self.paper, FitOptions, "a FitOptions")
+        validate_type("FitSettings.load", self.load, LoadFitOptions, "a LoadFitOptions")
+        check_option("FitSettings.method", self.method, METHODS)
 
 
 @dataclass(frozen=True)

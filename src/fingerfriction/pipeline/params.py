@@ -9,7 +9,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from .._check import check_option
+from .._check import check_option, validate_type
 from ..forces import ForceProcessingParams
 from ..selfcheck import SelfCheckParams
 from ..video import AnalysisOptions
@@ -123,10 +123,8 @@ class AnalysisParams:
 
     def __post_init__(self) -> None:
         for name in ("video", "forces", "selfcheck"):
-            v = getattr(self, name)
-            if not isinstance(v, Mapping):
-                raise TypeError(f"AnalysisParams.{name} must be a dict of options, got {type(v).__name__}")
-            object.__setattr__(self, name, dict(v))
+            object.__setattr__(self, name, dict(validate_type(f"AnalysisParams.{name}", getattr(self, name),
+                                                              Mapping, "a dict of options")))
 
     def resolved(self) -> dict:
         """``{'video': {...}, 'forces': {...}, 'selfcheck': {...}}`` with every stage parameter

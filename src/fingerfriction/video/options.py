@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._check import check_option
+from .._check import check_option, integer, nonnegative, positive
 from .binarize import Crop
 from .contact import CONTACT_METRICS
 
@@ -155,21 +155,14 @@ class AnalysisOptions:
     edge_calibration_mm: float = 1.0
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.contact_tol_px) and self.contact_tol_px > 0):
-            raise ValueError(f"contact_tol_px must be > 0 px, got {self.contact_tol_px!r}")
+        positive("contact_tol_px", self.contact_tol_px, "px")
         check_option("contact_metric", self.contact_metric, CONTACT_METRICS)
-        if not (math.isfinite(self.line_offset_mm) and self.line_offset_mm > 0):
-            raise ValueError(f"line_offset_mm must be > 0 mm, got {self.line_offset_mm!r}")
-        if int(self.chunk_size) < 1:
-            raise ValueError(f"chunk_size must be >= 1 frame, got {self.chunk_size!r}")
-        if int(self.calibration_frame) < 0:
-            raise ValueError(f"calibration_frame must be >= 0, got {self.calibration_frame!r}")
-        if int(self.n_max_regions) < 1:
-            raise ValueError(f"n_max_regions must be >= 1, got {self.n_max_regions!r}")
+        positive("line_offset_mm", self.line_offset_mm, "mm", what="length")
+        integer("chunk_size", self.chunk_size, 1, what="frames")
+        integer("calibration_frame", self.calibration_frame, 0, what="(a frame index)")
+        integer("n_max_regions", self.n_max_regions, 1, what="regions")
         for name in ("min_gap_px", "min_region_px"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a finite number of px >= 0, got {v!r}")
+            nonnegative(name, getattr(self, name), "px")
         w, o = self.outline_smooth_px, self.outline_smooth_order
         if isinstance(w, bool) or not isinstance(w, (int, np.integer)) or w < 0 or (w > 1 and w % 2 == 0):
             raise ValueError(f"outline_smooth_px must be 0, 1 or an odd number of columns, got {w!r}")
@@ -178,11 +171,7 @@ class AnalysisOptions:
                 f"outline_smooth_order must be an integer >= 0 and < outline_smooth_px ({w}), got {o!r}"
             )
         check_option("position", self.position, POSITIONS)
-        if not (math.isfinite(self.edge_height_mm) and self.edge_height_mm > 0):
-            raise ValueError(f"edge_height_mm must be > 0 mm, got {self.edge_height_mm!r}")
-        if not (math.isfinite(self.edge_calibration_mm) and self.edge_calibration_mm > 0):
-            raise ValueError(f"edge_calibration_mm must be > 0 mm, got {self.edge_calibration_mm!r}")
-        if not (math.isfinite(self.chord_height_mm) and self.chord_height_mm > 0):
-            raise ValueError(f"chord_height_mm must be > 0 mm, got {self.chord_height_mm!r}")
+        for name in ("edge_height_mm", "edge_calibration_mm", "chord_height_mm"):
+            positive(name, getattr(self, name), "mm", what="length")
         if self.level is not None and not math.isfinite(float(self.level)):
             raise ValueError(f"level must be a finite gray level, got {self.level!r}")
