@@ -111,7 +111,7 @@ def test_process_forces_with_a_second_order_sensor_per_transducer():
 
 
 def test_params_validate_the_model():
-    with pytest.raises(ValueError, match="highpass_model must be one of first-order, second-order, got 'thir"):
+    with pytest.raises(ValueError, match="highpass_model must be one of first-order, second-order, got 'th"):
         ForceProcessingParams(highpass_model="third")
     with pytest.raises(ValueError, match="highpass_model='second-order' needs sensor_highpass_hz"):
         ForceProcessingParams(highpass_model="second-order", sensor_highpass_hz=None)

@@ -2,8 +2,9 @@
 
 Each command only parses options, calls the stage's public function and prints the
 result; user errors (bad files, bad options) are caught and shown as one line, exit 2.
-The commands live by stage (``study``: init ... report and demo; ``stages``: one trial's
-overlay and forces; ``sim``: simulate; ``predict``: the forward model's commands); each
+The commands live by stage (``init``: the manifest from lab files; ``study``: check ...
+report and demo; ``stages``: one trial's overlay and forces; ``sim``: simulate;
+``predict``: the forward model's commands); each
 imports its stage when it runs, so ``--help`` stays fast. They are registered below, in
 the order ``--help`` lists them.
 """
@@ -13,7 +14,7 @@ from __future__ import annotations
 import typer
 
 from .. import __version__
-from . import predict, sim, stages, study
+from . import init, predict, sim, stages, study
 from ._common import console
 from ._help import readable_help_types
 
@@ -57,7 +58,7 @@ COMMANDS = [
     ("predict", predict.predict_cmd),
     ("render", predict.render_cmd),
     ("validate", predict.validate_cmd),
-    ("init", study.init_cmd),
+    ("init", init.init_cmd),
     ("calibrate-finger", predict.calibrate_finger_cmd),
 ]
 for _name, _command in COMMANDS:
