@@ -10,16 +10,24 @@ A surrogate of cached FE tables
 One FE table (a finger, a surface, a load, positions every 0.1 mm) costs tens of seconds of
 CPU at the coarse mesh, so the optimiser cannot call the FE solver at every evaluation.
 Instead the fitted parameters ``theta`` (a few :class:`FEFingerParams` fields, as ratios to
-the initial finger) are tabulated on a tensor grid of ``levels`` (default 0.75, 1, 1.25:
-the range the FE family's drawn fingers span, ``docs/mechanics-fe.md``), every node's
-tables are solved once (through :class:`~.provider.FEProvider` and its disk cache, with the
-finger's sliding friction), and the deformed outline at any ``theta`` inside the grid is
-the tensor-product Lagrange interpolation of the nodes' outlines (quadratic in each
-``log(ratio)`` for three levels): smooth in ``theta``, so the least squares sees smooth
-residuals, and exact at the nodes. The grid depends on the initial finger and the options
-only, never on the data, so the calibrations of one subject on different subsets of its
-surfaces (leave-one-surface-out) share it, and so do studies with the same subject finger.
-The optimiser stays inside the grid (its bounds).
+the initial finger) are tabulated at ``levels`` (default 0.75, 1, 1.25: the range the FE
+family's drawn fingers span, ``docs/mechanics-fe.md``), every node's tables are solved once
+(through :class:`~.provider.FEProvider` and its disk cache, with the finger's sliding
+friction), and the deformed outline at any ``theta`` inside the grid interpolates the
+nodes' outlines with Lagrange polynomials in ``log(ratio)`` (quadratic for three levels):
+smooth in ``theta``, so the least squares sees smooth residuals, and exact at the nodes.
+
+* ``design='star'`` (default): the initial finger and, for each fitted field, the finger
+  with that field at each other level (``1 + 2k`` nodes for ``k`` fields and three levels);
+  the outline is the sum of each field's interpolation along its axis minus ``k - 1`` times
+  the initial finger's (no cross terms: a change of two fields is the sum of their changes).
+* ``design='tensor'``: every combination of levels (``3^k`` nodes), the tensor-product
+  interpolation (cross terms included).
+
+The grid depends on the initial finger and the options only, never on the data, so the
+calibrations of one subject on different subsets of its surfaces (leave-one-surface-out)
+share it, and so do studies with the same subject finger. The optimiser stays inside the
+grid (its bounds).
 
 With ``verify`` (default) the FE finger at the optimum is solved exactly (one more set of
 tables) and the per-surface figures (end-point RMS, blind spots measured -> predicted) are
@@ -51,7 +59,7 @@ from .params import FEFingerParams, FEMeshParams
 from .provider import FEProvider, default_mesh
 
 __all__ = ["FE_FIT_FIELDS", "FECalibrationOptions", "FECalibrationProblem", "calibrate_fe_finger",
-           "finger_with", "fe_tables", "table_positions"]
+           "finger_with", "fe_tables", "table_positions", "grid_nodes"]
 
 log = logging.getLogger(__name__)
 
@@ -82,6 +90,8 @@ class FECalibrationOptions:
     ----------
     fit : tuple of str
         Fields fitted, a subset of :data:`FE_FIT_FIELDS`.
+    design : {'star', 'tensor'}
+        The grid's nodes (module notes).
     levels : tuple of float
         Grid nodes of every fitted field, as ratios to the initial finger, increasing, with
         1 among them; the fit stays within the first and the last.
@@ -106,8 +116,9 @@ class FECalibrationOptions:
     """
 
     fit: tuple = ("tissue_modulus", "radius")
+    design: str = "star"
     levels: tuple = (0.75, 1.0, 1.25)
-    loads: tuple = (0.22, 0.3, 0.38)
+    loads: tuple = (0.26, 0.34)
     step: float = 0.1
     grid_step: float = 0.04
     clearance: float = 2.0
@@ -137,6 +148,7 @@ class FECalibrationOptions:
         if not fit or len(set(fit)) != len(fit):
             raise ValueError(f"{own}.fit must be a non-empty subset of {FE_FIT_FIELDS}, got {self.fit!r}")
         object.__setattr__(self, "fit", fit)
+        check_option(f"{own}.design", self.design, ("star", "tensor"))
         lv = np.asarray(self.levels, float)
         if lv.ndim != 1 or lv.size < 2 or not np.all(lv > 0) or np.any(np.diff(lv) <= 0) or 1.0 not in lv:
             raise ValueError(f"{own}.levels must be increasing positive ratios including 1, "
@@ -180,6 +192,18 @@ def _lagrange(nodes: np.ndarray, t: float) -> np.ndarray:
             if j != i:
                 w[i] *= (t - nodes[j]) / (nodes[i] - nodes[j])
     return w
+
+
+def grid_nodes(k: int, levels, design: str) -> list[tuple]:
+    """The grid's nodes as tuples of level indices, one per fitted field (module notes)."""
+    n = len(levels)
+    if design == "tensor":
+        return list(itertools.product(range(n), repeat=k))
+    c = list(levels).index(1.0)
+    nodes = [(c,) * k]
+    for a in range(k):
+        nodes += [tuple(i if b == a else c for b in range(k)) for i in range(n) if i != c]
+    return nodes
 
 
 def table_positions(surface, half_width: float, step: float) -> np.ndarray:
@@ -291,7 +315,7 @@ class FECalibrationProblem(CalibrationProblem):
         self.fe_unconverged = 0
         self.fe_positions = 0
         self.axes = np.log(np.asarray(opts.levels))
-        self.nodes = list(itertools.product(range(len(opts.levels)), repeat=len(self.fit)))
+        self.nodes = grid_nodes(len(self.fit), opts.levels, opts.design)
         self._node_tabs: dict | None = None
 
     # the fixed cells and loads are the options', not the data's: the grid is shared
@@ -334,9 +358,17 @@ class FECalibrationProblem(CalibrationProblem):
                            for sd in self.surfaces}
 
     def weights(self, z: np.ndarray) -> np.ndarray:
-        """Tensor-product Lagrange weights of the grid nodes at ``z`` (``log`` ratios), ``(n_nodes,)``."""
+        """Interpolation weights of the grid's nodes at ``z`` (``log`` ratios), ``(n_nodes,)``."""
         per = [_lagrange(self.axes, float(t)) for t in np.asarray(z, float)]
-        return np.array([math.prod(per[a][i] for a, i in enumerate(node)) for node in self.nodes])
+        if self.opts.design == "tensor":
+            return np.array([math.prod(per[a][i] for a, i in enumerate(node)) for node in self.nodes])
+        # star: the sum over the axes of each axis' interpolation, minus (k - 1) centres
+        c = self.opts.levels.index(1.0)
+        w = np.zeros(len(self.nodes))
+        for i, node in enumerate(self.nodes):
+            off = [a for a, j in enumerate(node) if j != c]
+            w[i] = per[off[0]][node[off[0]]] if off else sum(p[c] for p in per) - (len(per) - 1)
+        return w
 
     def tables(self, z: np.ndarray, level: str, step: float, perturbed: bool = False) -> dict:
         if self._node_tabs is None:
@@ -400,11 +432,12 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     if not any(t.usable().any() for t in trials):
         raise CalibrationError("no trial has a usable frame (finite position, positive load, at least "
                                "one contact region): nothing to calibrate on")
-    for node in itertools.product(opts.levels, repeat=len(opts.fit)):  # every node a valid finger
+    for node in grid_nodes(len(opts.fit), opts.levels, opts.design):  # every node a valid finger
+        ratios = tuple(opts.levels[i] for i in node)
         try:
-            finger_with(initial, dict(zip(opts.fit, node, strict=True)))
+            finger_with(initial, dict(zip(opts.fit, ratios, strict=True)))
         except ValueError as exc:
-            raise ValueError(f"the calibration grid leaves the valid fingers at ratios {node}: "
+            raise ValueError(f"the calibration grid leaves the valid fingers at ratios {ratios}: "
                              f"{exc}") from None
     pb = FECalibrationProblem(trials, initial, opts, cache_dir=cache_dir)
     if pb.n_trials < opts.min_trials:
