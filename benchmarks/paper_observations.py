@@ -63,7 +63,7 @@ from fingerfriction.model.blindspots import blind_spots  # noqa: E402
 from fingerfriction.pipeline.analyze import analyze  # noqa: E402
 from fingerfriction.pipeline.params import AnalysisParams, sim_params  # noqa: E402
 from fingerfriction.sim import WORLD_NAMES  # noqa: E402
-from fingerfriction.study.store import ResultsStore, regions_from_table  # noqa: E402
+from fingerfriction.study.store import ResultsStore  # noqa: E402
 from fingerfriction.surfaces import surface_from_spec  # noqa: E402
 
 FLAT_END = -9.0  # mm: beyond the flat segment of every paper surface (docs/forces.md)
@@ -116,7 +116,7 @@ def load(study: Path, results: Path) -> tuple[np.ndarray, list[dict]]:
         truth["ft_true"] = truth["ft_true"] - line
         rows.append({"subject": str(tr["subject"]), "surface": tr["surface"],
                      "speed": float(tr["speed_mm_s"]), "ft": f["F_T_N"].to_numpy(),
-                     "regions": regions_from_table(store.read_frames(tr["id"])),
+                     "regions": store.read_trial(tr["id"]).regions,
                      "regions_geom": regions_geom, **truth})
     return grid, rows
 
