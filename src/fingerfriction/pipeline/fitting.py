@@ -34,7 +34,8 @@ from ..fit.select import Evidence, Selection, residual_structure, select_model
 from ..fit.variants import MODELS, FitSettings, get
 from ..model import FrictionModel
 from ..model.stats import correlation_table
-from ..study.store import FitResult, ResultsStore, now
+from ..study.results import FitResult
+from ..study.store import ResultsStore, now
 from .trial import one_line
 from .validation import OutOfSample, validate_models, write_validation
 

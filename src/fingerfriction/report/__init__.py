@@ -27,7 +27,8 @@ from markupsafe import Markup
 from .._atomic import atomic_write_text
 from .._progress import ProgressBar
 from ..forces.signals import describe_history
-from ..study.store import FitResult, write_table
+from ..study.results import FitResult
+from ..study.store import write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
 from .flags import collect_flags, comparison_notes, flagged_trials, group_flags

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..study.store import AnalysedTrial, FitResult, ResultsStore
+from ..study.results import AnalysedTrial, FitResult
+from ..study.store import ResultsStore
 from ..surfaces import Surface
 
 __all__ = ["ReportData", "load_report_data"]

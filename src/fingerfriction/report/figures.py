@@ -2,7 +2,7 @@
 
 Each function takes a :class:`~fingerfriction.report.data.ReportData` and returns a
 :class:`matplotlib.figure.Figure` built without pyplot (so it works in any thread and
-never opens a window), at print size in the package's style (:mod:`.style`: full page
+never opens a window), at print size in the package's style (:mod:`fingerfriction._style`: full page
 width, no text under 7 pt, Okabe-Ito colours); :func:`save_figure` writes it as PNG and
 SVG (text kept as text).
 
@@ -33,12 +33,7 @@ from matplotlib.patches import Patch
 
 from .._atomic import atomic_write_bytes
 from .._check import check_option
-from ..model.blindspots import blind_spots, occupancy
-from ..model.stats import shape_label
-from ..regions import region_lengths
-from ..study.store import AnalysedTrial, FitResult
-from .data import ReportData
-from .style import (
+from .._style import (
     BLIND_SPOT,
     CYCLE,
     F_DEF,
@@ -50,6 +45,11 @@ from .style import (
     figure_style,
     new_figure,
 )
+from ..model.blindspots import blind_spots, occupancy
+from ..model.stats import shape_label
+from ..regions import region_lengths
+from ..study.results import AnalysedTrial, FitResult
+from .data import ReportData
 
 __all__ = ["fig3_occupancy", "fig4_forces", "fig6_model", "figS1_lengths", "figS3_components",
            "save_figure", "FIGURES", "pooled_regions", "measured_footing", "fit_footing",

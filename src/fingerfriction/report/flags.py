@@ -29,7 +29,7 @@ from collections import OrderedDict
 import numpy as np
 
 from ..flags import LEVELS, Flag
-from ..study.store import AnalysedTrial, FitResult
+from ..study.results import AnalysedTrial, FitResult
 from .data import ReportData
 
 __all__ = ["LEVELS", "collect_flags", "comparison_notes", "flagged_trials", "group_flags", "position_gaps"]

@@ -11,7 +11,8 @@ import numpy as np
 import pandas as pd
 
 from ..model.stats import BOTH, blind_spot_table, correlation_table, shape_label
-from ..study.store import FitResult, ResultsStore
+from ..study.results import FitResult
+from ..study.store import ResultsStore
 from .data import ReportData
 
 __all__ = ["table1", "blindspot_table", "fit_parameter_table", "truth_tables", "format_p", "P_COLUMNS",

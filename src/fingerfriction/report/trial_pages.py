@@ -26,13 +26,14 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .._atomic import atomic_write_text
+from .._style import CYCLE, MEASURED, MODEL, OKABE_ITO, figure_style
 from ..forces.signals import describe_history
-from ..study.store import AnalysedTrial, ResultsStore
+from ..study.results import AnalysedTrial
+from ..study.store import ResultsStore
 from ..video.overlay import write_results_overlay
 from .data import ReportData
 from .figures import measured_series, region_events, surface_title
 from .flags import position_gaps
-from .style import CYCLE, MEASURED, MODEL, OKABE_ITO, figure_style
 
 __all__ = ["choose_pages", "trial_plots", "write_trial_pages", "PAGE_DIR", "page_href"]
 

@@ -87,16 +87,13 @@ from ..video import AnalysisOptions
 from .digests import input_fingerprint, params_digest, sha256_file, sha256_input
 from .fitstore import FitFolder, read_fit_table, read_json_object
 from .manifest import resolve_path, validate_id
-from .results import AnalysedTrial, FitResult, VideoInput
+from .results import AnalysedTrial, VideoInput
 from .tables import atomic_write_parquet, clipped_on_grid, frames_table, regions_from_table
 
 __all__ = [
     "RESULTS_FORMAT",
     "RESULTS_SCHEMA_VERSION",
     "ResultsStore",
-    "AnalysedTrial",
-    "FitResult",
-    "VideoInput",
     "atomic_write_parquet",
     "sha256_file",
     "sha256_input",
