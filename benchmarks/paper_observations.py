@@ -75,7 +75,7 @@ from fingerfriction.pipeline.params import AnalysisParams, force_params, sim_par
 from fingerfriction.pipeline.trial import TrialInput, process_trial_forces  # noqa: E402
 from fingerfriction.sim import WORLD_NAMES  # noqa: E402
 from fingerfriction.study import load_manifest  # noqa: E402
-from fingerfriction.study.store import ResultsStore, regions_from_table  # noqa: E402
+from fingerfriction.study.store import ResultsStore  # noqa: E402
 from fingerfriction.surfaces import surface_from_spec  # noqa: E402
 from forces import reference_profile, rel_rms  # noqa: E402
 
@@ -146,7 +146,7 @@ def load(study: Path, results: Path, forces: dict) -> tuple[np.ndarray, list[dic
         truth["ft_true"] = truth["ft_true"] - line
         rows.append({"subject": str(tr["subject"]), "surface": tr["surface"],
                      "speed": float(tr["speed_mm_s"]), "ft": f["F_T_N"].to_numpy(),
-                     "regions": regions_from_table(store.read_frames(tr["id"])),
+                     "regions": store.read_trial(tr["id"]).regions,
                      "regions_geom": regions_geom, "stage": stage, **truth})
     return grid, rows
 
