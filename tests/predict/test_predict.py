@@ -200,14 +200,23 @@ def test_load_params_forms(tmp_path):
     b.write_text(json.dumps({"subjects": subjects}))
     assert load_params(b, 2) == FrictionParams(0.6, 1.0, 2.0)
     b2 = tmp_path / "b2.json"
-    b2.write_text(json.dumps({"S1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}}))  # foundation-style labels
+    b2.write_text(json.dumps({"subjects": {"S1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}}}))  # labels as 'S1'
     assert load_params(b2, 1) == FrictionParams(0.5, 0.1, 0.2)
+    lp = tmp_path / "lp.json"
+    lp.write_text(json.dumps({"subjects": {"2": json.loads(LoadParams(0.6, 0.1, 0.5, 0.2).to_json())}}))
+    assert load_params(lp, 2) == LoadParams(0.6, 0.1, 0.5, 0.2)
+    # one shape: a subject's parameters are the parameters' own JSON (no other layout is read)
     c = tmp_path / "c.json"
     trials = [{"p0": v, "p1": 10 * v} for v in (0.1, 0.3, 0.2)]
     c.write_text(json.dumps({"subjects": {"1": {"mu": 0.55, "trials": trials}}}))
-    assert load_params(c, 1) == FrictionParams(0.55, 0.2, 2.0)
+    with pytest.raises(ValueError, match=r"c\.json: subject 1: malformed parameters \(missing 'p0'\); exp"):
+        load_params(c, 1)
     with pytest.raises(ValueError, match=r"c\.json: no parameters for subject 2"):
         load_params(c, 2)
+    flat = tmp_path / "flat.json"
+    flat.write_text(json.dumps({"1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}}))  # no 'subjects' level
+    with pytest.raises(ValueError, match=r"flat\.json: malformed parameters"):
+        load_params(flat, 1)
     d = tmp_path / "d.json"
     d.write_text("{not json")
     with pytest.raises(ValueError, match=r"d\.json: not valid JSON"):

@@ -37,7 +37,7 @@ from ..mechanics.calibrate import (
 from ..mechanics.fe import FE_SUBJECTS, FEFingerParams
 from ..mechanics.fe.calibration import FECalibrationOptions, calibrate_fe_finger
 from ..predict.defaults import load_params
-from ..study.store import ResultsStore, regions_from_table
+from ..study.store import ResultsStore
 from ..surfaces import surface_from_spec
 
 __all__ = ["trials_from_results", "calibrate_results", "HeldOutCalibration", "calibrate_held_out",
@@ -161,10 +161,10 @@ def trials_from_results(results: str | os.PathLike, subject, *, load: float | No
             continue
         try:
             surf = surface_from_spec(specs[m["surface"]])
-            fr = store.read_frames(tid)
-            fo = store.read_forces(tid)
+            at = store.read_trial(m, status=st)
+            fr, fo = at.frames, at.forces
             x = _trusted_positions(fr)
-            reg = regions_from_table(fr)
+            reg = at.regions
             if load is not None:
                 F = np.full(x.size, float(load))
             else:
