@@ -31,7 +31,7 @@ argues is well-posed is the one judged (marked ``*``):
   conditions of one speed. Paper: "slightly higher variability at higher speeds";
   accepted SD(120) >= SD(40).
 * **Extent** (raised features): the span between the first and last position where the
-  mean profile of a surface (both subjects, all speeds) reaches half* (or a fifth) of its
+  mean profile of a surface (both subjects, all speeds) reaches a fifth* (or half) of its
   largest magnitude. Paper: "the force variations extended over a length scale of about
   10 mm"; accepted 8-12 mm (the median over the raised features). Step Down's span is
   printed, not judged (its force is the normal force's wander).
@@ -312,15 +312,16 @@ def report(world: str, obs: dict, n: int) -> list[str]:
     ext = obs["extent"]
     for surf, (half, fifth) in sorted(ext.items()):
         judged = not surf.startswith("step-down")
-        print(f"{'extent, ' + surf:44s} {'~10 mm':>16s} {half:6.1f} half*, {fifth:5.1f} fifth (mm)  "
-              f"{ok[8 <= half <= 12] if judged else '(not judged)'}")
+        print(f"{'extent, ' + surf:44s} {'~10 mm':>16s} {fifth:6.1f} fifth*, {half:5.1f} half (mm)  "
+              f"{ok[8 <= fifth <= 12] if judged else '(not judged)'}")
     rs = [v for surf, v in ext.items() if not surf.startswith("step-down")]
     if rs:
-        med = float(np.median([v[0] for v in rs]))
         half, fifth = [v[0] for v in rs], [v[1] for v in rs]
-        summary.append(f"{'extent, raised features (half*)':44s} {'~10 mm':>16s} {med:9.1f} mm  "
-                       f"{ok[8 <= med <= 12]:4s} (each {min(half):.1f}-{max(half):.1f}; "
-                       f"fifth: {min(fifth):.1f}-{max(fifth):.1f} mm)")
+        med, med_half = float(np.median(fifth)), float(np.median(half))
+        summary.append(f"{'extent, raised features, median (fifth*)':44s} {'~10 mm':>16s} {med:9.1f} mm  "
+                       f"{ok[8 <= med <= 12]:4s} (each {min(fifth):.1f}-{max(fifth):.1f}, "
+                       f"{sum(8 <= v <= 12 for v in fifth)} of {len(fifth)} in 8-12; half: median "
+                       f"{med_half:.1f}, each {min(half):.1f}-{max(half):.1f} mm)")
     if "blind" in obs:
         a, t = obs["blind"]
         line = f"{'Step Up 2 mm blind spot (analysed / truth)':44s} {'0.47 mm':>16s} {a:6.2f} / {t:.2f} mm"
