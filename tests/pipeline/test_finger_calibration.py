@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pandas as pd
@@ -231,8 +232,8 @@ def test_fe_family_from_a_results_folder_takes_the_fits_friction(tmp_path, monke
     assert res.finger.friction == 0.6 and not any("frictionless" in f for f in res.flags)
     # the fit's flat-ground mu, rounded to FRICTION_STEP
     monkeypatch.setattr(fc, "load_params", lambda *a, **k: LoadParams(mu=0.5735, p1=0.1))
-    assert fitted_friction(tmp_path / "r", "7") == (0.55, "")
-    assert calibrate_results(tmp_path / "r", "7", model="fe", options=opts).finger.friction == 0.55
+    assert fitted_friction(tmp_path / "r", "7") == (0.6, "")
+    assert calibrate_results(tmp_path / "r", "7", model="fe", options=opts).finger.friction == 0.6
     with pytest.raises(ValueError, match="model must be one of halfspace, fe"):
         calibrate_results(tmp_path / "r", "7", model="bem")
     opts1 = dataclasses.replace(opts, min_trials=1)
@@ -242,3 +243,11 @@ def test_fe_family_from_a_results_folder_takes_the_fits_friction(tmp_path, monke
     assert set(fingers) == {s for s, _ in held.calibrations if held.calibrations[(s, "7")].success}
     for (surf, _), r in held.calibrations.items():  # each calibrated without its held-out surface
         assert [s.surface for s in r.surfaces] == [n for n in ("step-up-2mm", "bump-4mm") if n != surf]
+    # what validate writes beside its table: each held-out surface's finger, as a finger file's
+    from fingerfriction.mechanics.finger_file import fe_finger_from_mapping
+
+    d = json.loads(json.dumps(held.to_dict()))
+    assert sorted(d) == ["bump-4mm", "step-up-2mm"]
+    one = d["bump-4mm"]["7"]
+    assert fe_finger_from_mapping(one["finger"]) == held.calibrations[("bump-4mm", "7")].finger
+    assert one["success"] == held.calibrations[("bump-4mm", "7")].success

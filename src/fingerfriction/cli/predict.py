@@ -248,6 +248,14 @@ def validate_cmd(
                               highlight=False, soft_wrap=True)
         res = validate_results(results, out=None if out is None else output_file(out), fingers=fingers,
                                calibrated_fingers=held and held.fingers(), **given(forward_step=step))
+        if held is not None:  # which finger predicted each held-out surface, beside the table
+            from .._atomic import atomic_write_json  # small; only with calibrated fingers
+            from ..study.store import ResultsStore  # likewise
+
+            table = output_file(out) if out is not None else ResultsStore(results).loso_path
+            fingers_path = os.path.splitext(os.fspath(table))[0] + "-fingers.json"
+            atomic_write_json(fingers_path, held.to_dict())
+            console.print(f"held-out fingers: {fingers_path}", highlight=False)
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc))
     t = Table(title="out-of-sample validation (leave one surface out)")

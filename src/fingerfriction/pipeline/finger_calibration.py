@@ -34,7 +34,7 @@ from ..mechanics.calibrate import (
     FingerCalibration,
     calibrate_finger,
 )
-from ..mechanics.fe import FE_SUBJECTS, FEFingerParams
+from ..mechanics.fe import LITERATURE_FINGER, FEFingerParams
 from ..mechanics.fe.calibration import FECalibrationOptions, calibrate_fe_finger
 from ..predict.defaults import load_params
 from ..study.store import ResultsStore
@@ -50,8 +50,9 @@ FINGER_FAMILIES = ("halfspace", "fe")
 
 #: The FE finger's sliding friction is the fit's flat-ground ``mu`` rounded to this step: the
 #: patch moves ~0.46 mm per unit of ``mu`` (docs/mechanics-fe.md), so rounding moves it by at
-#: most ~0.012 mm, and studies whose fits land near the same coefficient share the FE tables.
-FRICTION_STEP = 0.05
+#: most ~0.023 mm (one pixel of the paper's video), and subjects and studies whose fits round
+#: alike share one grid of FE tables (an FE table costs tens of seconds of CPU).
+FRICTION_STEP = 0.1
 
 log = logging.getLogger(__name__)
 
@@ -202,11 +203,13 @@ def fitted_friction(results: str | os.PathLike, subject) -> tuple[float | None, 
 
 
 def _fe_initial(subject, initial, friction, results) -> tuple[FEFingerParams, list[str]]:
-    """The FE calibration's starting finger (default: the subject's FE default, else subject
-    1's) with its sliding friction: ``friction``, else the fit's (:func:`fitted_friction`)."""
+    """The FE calibration's starting finger (default: the layered finger of literature values,
+    :data:`~fingerfriction.mechanics.fe.LITERATURE_FINGER`, for every subject: subjects with the
+    same friction share the grid of FE tables) with its sliding friction: ``friction``, else
+    the fit's (:func:`fitted_friction`)."""
     notes = []
     if initial is None:
-        initial = FE_SUBJECTS.get(str(subject), FE_SUBJECTS["1"])
+        initial = LITERATURE_FINGER
     if not isinstance(initial, FEFingerParams):
         raise TypeError(f"an FE calibration starts from an FEFingerParams, got {type(initial).__name__}")
     if friction is None:
@@ -230,8 +233,9 @@ def calibrate_results(results: str | os.PathLike, subject, *, initial=None, opti
     subject : str or int
         Subject label.
     initial : FingerParams or FEFingerParams, optional
-        Starting finger (default: the subject's default finger of the family, 1 or 2 when
-        the label is one of them, else subject 1's).
+        Starting finger (default: the half-space family's default finger of subject 1 or 2
+        when the label is one of them, else subject 1's; the FE family's layered finger of
+        literature values for every subject).
     options : CalibrationOptions or FECalibrationOptions, optional
     load : float, optional
         Assumed constant normal force in N (default: the measured ``F_N_abs_N``); the
@@ -309,6 +313,21 @@ class HeldOutCalibration:
         for (surface, subject), res in self.calibrations.items():
             if res.success:
                 out.setdefault(surface, {})[subject] = res.finger
+        return out
+
+    def to_dict(self) -> dict:
+        """JSON-ready: ``{held-out surface: {subject: {"success", "message", "flags", "finger"}}}``
+        (the finger in the form of a finger file, ``"model": "fe"`` for an FE finger), with
+        the errors of the subjects that have no calibration."""
+        out: dict = {}
+        for (surface, subject), res in sorted(self.calibrations.items()):
+            f = res.finger.to_dict()
+            if isinstance(res.finger, FEFingerParams):
+                f = {"model": "fe", **f}
+            out.setdefault(surface, {})[subject] = {"success": res.success, "message": res.message,
+                                                    "flags": list(res.flags), "finger": f}
+        for (surface, subject), why in sorted(self.errors.items()):
+            out.setdefault(surface, {}).setdefault(subject, {"success": False, "message": why})
         return out
 
 
