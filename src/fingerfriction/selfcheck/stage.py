@@ -25,6 +25,7 @@ from .clock import check_force_clock, mains_frequency
 from .flags import Check, SelfCheckParams, first_error
 from .geometry import check_geometry, check_speed, measure_feature, sliding_speed
 from .sync import OnsetData, onset_data
+from .touchdown import touch_force, touch_video
 
 __all__ = ["TrialChecks", "check_trial", "ORDER"]
 
@@ -102,6 +103,24 @@ class TrialChecks:
         }
 
 
+def _with_touch(onset: OnsetData, t_frames, gap_mm, record: ForceRecord, mains, fs_manifest: float,
+                figures: dict) -> OnsetData:
+    """``onset`` with the touch-down in both recordings (:mod:`.touchdown`); what each found
+    goes to ``figures['touch']``."""
+    tv = touch_video(t_frames, gap_mm) if gap_mm is not None else None
+    # the hum on the record's clock (the manifest's, or the mains-corrected one of --sync auto)
+    hum = mains.frequency_hz * record.fs_hz / fs_manifest if mains.found else math.nan
+    tf = touch_force(record.f1, record.f2, record.fs_hz, record.t0_s, mains_hz=hum)
+    figures["touch"] = {
+        "video": "not measured: the video stage gave no gap" if tv is None else tv.message,
+        "force": tf.message,
+    }
+    if tv is None or not tv.measured:
+        return replace(onset, touch_force_s=tf.t_s, touch_force_se_s=tf.se_s)
+    return replace(onset, touch_video_s=tv.t_s, touch_video_se_s=tv.se_s, touch_force_s=tf.t_s,
+                   touch_force_se_s=tf.se_s)
+
+
 def _direction(x_frames) -> int:
     x = np.asarray(x_frames, float)
     x = x[np.isfinite(x)]
@@ -118,6 +137,7 @@ def check_trial(
     signals: ForceSignals,
     t_frames,
     x_frames,
+    gap_mm=None,
     surface_rows=None,
     surface: Surface | None = None,
     height_mm: float = math.nan,
@@ -136,6 +156,9 @@ def check_trial(
         Its forces after the sensor's steps (:func:`fingerfriction.forces.sensor_signals`).
     t_frames, x_frames : (n_frames,) array_like
         Frame times (s, the manifest's video clock) and x(t) (mm, NaN unknown).
+    gap_mm : (n_frames,) array_like, optional
+        The finger's lowest point above the surface per frame (mm, NaN unknown), for the
+        touch-down (:mod:`.touchdown`).
     surface_rows : (width,) array_like, optional
         The calibration frame's surface profile in rows
         (:attr:`fingerfriction.video.calibrate.Calibration.surface_row`).
@@ -153,6 +176,7 @@ def check_trial(
     """
     P = params or SelfCheckParams()
     t_start = time.perf_counter()
+    fs_manifest = record.fs_hz
     figures: dict = {}
     direction = _direction(x_frames)
     fig = force_figures(signals.f_n, signals.f_t, signals.fs_hz, direction)
@@ -202,5 +226,5 @@ def check_trial(
         if isinstance(got, str):
             onset_message = got
         else:
-            onset = got
+            onset = _with_touch(got, t_frames, gap_mm, record, mains, fs_manifest, figures)
     return TrialChecks(tuple(checks), onset, onset_message, record, figures, time.perf_counter() - t_start)

@@ -39,6 +39,7 @@ from scipy.optimize import minimize_scalar
 
 from .._check import check_option
 from .onsets import MOTION_MM, WINDOW_S, OnsetData, onset_data
+from .touchdown import touch_level
 
 __all__ = ["OnsetData", "OffsetEstimate", "onset_data", "estimate_offsets", "MOTION_MM", "PRIOR_D_MM"]
 
@@ -103,6 +104,10 @@ class OffsetEstimate:
         Trials of the finger the estimate rests on.
     message : str
         What was done, or why nothing could be.
+    level_by : str
+        What fixed the offset the finger's trials share: ``'touch-down'`` (the touch-downs,
+        :mod:`.touchdown`), ``'starts'`` (the starts of the slides alone: their differences
+        in acceleration, or the pre-sliding prior) or ``''``.
     """
 
     trial_id: str
@@ -114,6 +119,7 @@ class OffsetEstimate:
     method: str = "relative"
     n_reference: int = 0
     message: str = ""
+    level_by: str = ""
 
     @property
     def measured(self) -> bool:
@@ -132,6 +138,7 @@ class OffsetEstimate:
             "method": self.method,
             "n_reference": self.n_reference,
             "message": self.message,
+            "level_by": self.level_by,
         }
 
 
@@ -437,9 +444,15 @@ def _check_group(items, ref, se_floor_s: float, common_floor_s: float) -> dict[s
         med = float(np.median(ref_t[ok]))
         mad = float(np.median(np.abs(ref_t[ok] - med))) * 1.4826
     se = max(mad, se_floor_s)
-    common, common_se = _common_offset(ref, np.zeros(len(ref)))
-    if math.isfinite(common_se):
-        common_se = max(common_se, common_floor_s)
+    level = touch_level(ref, {o.trial_id: taus[o.trial_id] for o in ref})
+    if level is not None:  # the touch-downs fix what the trials share
+        common, common_se = level.at(1.0)
+        how = f"; the offset its trials share from {level.n} touch-downs"
+    else:
+        common, common_se = _common_offset(ref, np.zeros(len(ref)))
+        if math.isfinite(common_se):
+            common_se = max(common_se, common_floor_s)
+        how = ""
     out = {}
     for o in items:
         t = taus[o.trial_id]
@@ -452,7 +465,8 @@ def _check_group(items, ref, se_floor_s: float, common_floor_s: float) -> dict[s
             common_se,
             "relative",
             len(ref),
-            f"against the pre-sliding law of {len(ref)} trials of finger {o.group!r}",
+            f"against the pre-sliding law of {len(ref)} trials of finger {o.group!r}{how}",
+            level_by="touch-down" if level is not None else "starts",
         )
     return out
 
@@ -471,14 +485,30 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
     period = float(np.median([o.frame_period for o in items]))
     tight = fin.sum() >= MIN_TRIALS and np.mean(np.abs(offs[fin]) <= 2 * period) >= 0.7
     if tight:
-        return {
-            k: replace(
+        # the consensus's own offset from the touch-downs: a common shift, and one as
+        # speed^-1/4 (what the starts cannot tell from a change of the pre-sliding law)
+        sp = {o.trial_id: _speed(o) for o in items}
+        level = touch_level(items, {k: e.offset_s for k, e in checked.items()}, speeds=sp)
+        out = {}
+        for o in items:
+            e = checked[o.trial_id]
+            if level is not None and e.measured and math.isfinite(sp[o.trial_id]):
+                c, c_se = level.at(sp[o.trial_id])
+                e = replace(
+                    e,
+                    offset_s=e.offset_s + c,
+                    se_s=math.hypot(e.se_s, c_se),
+                    common_s=c,
+                    common_se_s=c_se,
+                    message=e.message + f" ({1e3 * c:+.2f} ms for this trial's speed, applied)",
+                    level_by="touch-down",
+                )
+            out[o.trial_id] = replace(
                 e,
                 message=e.message + "; the manifest's clocks agree among themselves: the others "
                 "are put on their consensus",
             )
-            for k, e in checked.items()
-        }
+        return out
     mid = math.sqrt(PRIOR_D_MM[0] * PRIOR_D_MM[1])
     out = {}
     usable, start, prior_se = [], [], []
@@ -510,7 +540,32 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
         taus = new
     resid = taus - start
     se_rel = max(float(np.median(np.abs(resid - np.median(resid)))) * 1.4826, se_floor_s)
-    for o, t, pse in zip(usable, taus, prior_se, strict=True):
+    # what the starts cannot tell (a common shift and one as speed^-1/4) from the touch-downs
+    level = touch_level(
+        usable,
+        {o.trial_id: float(t) for o, t in zip(usable, taus, strict=True)},
+        speeds={o.trial_id: float(v) for o, v in zip(usable, speeds, strict=True)},
+    )
+    for o, t, pse, v in zip(usable, taus, prior_se, speeds, strict=True):
+        text = (
+            f"the manifest's clocks disagree among themselves: {len(usable)} trials of finger "
+            f"{o.group!r} aligned on each other from their half rise at {mid:.2g} mm of pre-sliding "
+        )
+        if level is not None and math.isfinite(v):
+            c, c_se = level.at(float(v))
+            out[o.trial_id] = OffsetEstimate(
+                o.trial_id,
+                float(t) + c,
+                math.hypot(se_rel, c_se),
+                float(t - np.median(taus)),
+                float(np.median(taus)) + c,
+                c_se,
+                "joint",
+                len(usable),
+                text + f"and placed by {level.n} touch-downs",
+                level_by="touch-down",
+            )
+            continue
         out[o.trial_id] = OffsetEstimate(
             o.trial_id,
             float(t),
@@ -520,9 +575,8 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
             float(np.median(prior_se)),
             "joint",
             len(usable),
-            f"the manifest's clocks disagree among themselves: {len(usable)} trials of finger {o.group!r} "
-            f"aligned on each other from their half rise at {mid:.2g} mm of pre-sliding "
-            f"(range {PRIOR_D_MM[0]:g}-{PRIOR_D_MM[1]:g} mm)",
+            text + f"(range {PRIOR_D_MM[0]:g}-{PRIOR_D_MM[1]:g} mm)",
+            level_by="starts",
         )
     return out
 
