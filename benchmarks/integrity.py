@@ -158,7 +158,9 @@ def main() -> int:
     total_n = times[("analyze", "now")] + times[("fit", "now")] + times[("report", "now")]
     print(f"analyze + fit + report: before {total_b:.1f} s, now {total_n:.1f} s, "
           f"ratio {total_n / total_b:.3f}")
-    sync_s = (read_json(results["now"] / "run.json").get("runs") or [{}])[-1].get("sync", {}).get("elapsed_s")
+    runs = read_json(results["now"] / "run.json").get("runs") or []
+    computed = [r for r in runs if r.get("computed")]  # the run that analysed the trials, not a resume
+    sync_s = (computed[0].get("sync") or {}).get("elapsed_s") if computed else None
     if sync_s is not None:
         print(f"  of now's analyze: the consistency stage's study-level synchronisation step {sync_s:.1f} s "
               f"({sync_s / times[('analyze', 'now')]:.1%}; a budget of its own, not integrity)")
