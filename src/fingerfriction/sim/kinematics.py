@@ -49,36 +49,9 @@ from scipy.optimize import brentq
 from scipy.signal import butter, sosfiltfilt
 
 from .._check import check_fs, positive
+from .pad import PadLaw
 
 __all__ = ["KinematicsParams", "Kinematics", "PadLaw", "simulate_kinematics", "min_jerk", "smooth_noise"]
-
-
-@dataclass(frozen=True)
-class PadLaw:
-    """The fingertip pad's normal force against its indentation: ``F = (k / b) (exp(b
-    delta) - 1)`` (Serina, Mote & Rempel 1997, the exponential law of the pulp compressed by
-    a flat; Pawluk & Howe 1999).
-
-    Parameters
-    ----------
-    stiffness : float
-        Initial stiffness ``k`` in N/mm (the slope at zero load).
-    stiffening : float
-        Stiffening rate ``b`` in 1/mm.
-    """
-
-    stiffness: float
-    stiffening: float
-
-    def force(self, delta):
-        """Force in N at the indentation ``delta`` in mm (0 for ``delta <= 0``)."""
-        d = np.maximum(np.asarray(delta, float), 0.0)
-        return self.stiffness / self.stiffening * np.expm1(self.stiffening * d)
-
-    def indentation(self, force):
-        """Indentation in mm at the force ``force`` in N (0 for ``force <= 0``)."""
-        f = np.maximum(np.asarray(force, float), 0.0)
-        return np.log1p(self.stiffening * f / self.stiffness) / self.stiffening
 
 
 @dataclass(frozen=True)

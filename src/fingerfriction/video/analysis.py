@@ -122,10 +122,7 @@ class VideoResult:
         Happens near the ends of the 26 mm window, where the pad's contact extends beyond
         the paper's 29 mm field of view (``position='hybrid'``).
     gap_px : (n_frames,) ndarray or None
-        The finger's lowest point above the surface in px (the smallest vertical distance
-        between its outline and the surface's in the crop; 0 once it touches), in every
-        frame whose finger outline was found, NaN elsewhere: what the consistency stage
-        times the touch-down with (:mod:`fingerfriction.selfcheck.touchdown`).
+        The finger's lowest point above the surface, px (0: touching; NaN: no outline).
     """
 
     path: str
@@ -354,8 +351,7 @@ class FrameAnalyzer:
             ``h_left``, ``h_right`` the outline's edges at the edge row (mm; NaN unless the
             finger touches the surface). With ``position='hybrid'``, ``x`` is NaN (only
             known for the whole video) and ``regions`` are filled for every frame that may
-            get a hybrid position. ``gap`` (k,) px: the finger's lowest point above the
-            surface (:attr:`VideoResult.gap_px`).
+            get a hybrid position. ``gap`` (k,) px: :attr:`VideoResult.gap_px`.
         """
         opt, cal = self.opt, self.cal
         f, flags = self.outlines(frames)
@@ -555,8 +551,7 @@ def _analyze_frames(reader: VideoReader, an: FrameAnalyzer, opt: AnalysisOptions
     the per-frame arrays (frames the file does not hold stay flagged CORRUPT) and the time
     spent decoding and analysing."""
     m = stop - start
-    a = {k: np.full(m, np.nan) for k in ("x", "x_cf", "x_chord", "h_chord", "h_left", "h_right", "line_row",
-                                         "gap")}
+    a = {k: np.full(m, np.nan) for k in "x x_cf x_chord h_chord h_left h_right line_row gap".split()}
     a["flags"] = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
     a["regions"] = np.full((m, opt.n_max_regions, 2), np.nan)
     a["too_many"] = np.zeros(m, bool)
