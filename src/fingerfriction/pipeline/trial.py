@@ -358,7 +358,7 @@ def check_trial_inputs(trial: TrialInput, video: VideoOutput, record: ForceRecor
     rec = trial.record
     checks = check_trial(trial_id=trial.id, group=str(rec.subject), record=record, signals=sensor.signals,
                          t_frames=video.t_s, x_frames=video.x_mm, gap_mm=video.gap_mm,
-                         surface_rows=video.surface_rows,
+                         regions=video.regions, surface_rows=video.surface_rows,
                          surface=trial.surface, height_mm=trial.height_mm, speed_mm_s=rec.speed_mm_s,
                          params=sc)
     return replace(checks, sensor=sensor if checks.record.fs_hz == record.fs_hz else None)

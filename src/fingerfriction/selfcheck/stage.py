@@ -24,6 +24,7 @@ from .channels import check_channels, force_figures
 from .clock import check_force_clock, mains_frequency
 from .flags import Check, SelfCheckParams, first_error
 from .geometry import check_geometry, check_speed, measure_feature, sliding_speed
+from .scale import flat_contact_length
 from .sync import OnsetData, onset_data
 from .touchdown import touch_force, touch_video
 
@@ -64,6 +65,8 @@ class TrialChecks:
         The measured figures (JSON-serialisable).
     elapsed_s : float
         Time the checks took, s.
+    cpu_s : float
+        CPU time the checks took in this process, s.
     sensor : object or None
         The force signals the checks used, for the force stage to reuse
         (:class:`fingerfriction.forces.SensorSignals`; None when the record changed).
@@ -75,6 +78,7 @@ class TrialChecks:
     record: ForceRecord
     figures: dict = field(default_factory=dict)
     elapsed_s: float = 0.0
+    cpu_s: float = 0.0
     sensor: object | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -100,6 +104,7 @@ class TrialChecks:
             "onset": None if self.onset is None else self.onset.to_dict(),
             "onset_message": self.onset_message,
             "elapsed_s": round(self.elapsed_s, 4),
+            "cpu_s": round(self.cpu_s, 4),
         }
 
 
@@ -138,6 +143,7 @@ def check_trial(
     t_frames,
     x_frames,
     gap_mm=None,
+    regions=None,
     surface_rows=None,
     surface: Surface | None = None,
     height_mm: float = math.nan,
@@ -159,6 +165,9 @@ def check_trial(
     gap_mm : (n_frames,) array_like, optional
         The finger's lowest point above the surface per frame (mm, NaN unknown), for the
         touch-down (:mod:`.touchdown`).
+    regions : (n_frames, k, 2) array_like, optional
+        The video's contact regions per frame (mm), for the contact length on flat ground
+        the force's scale is compared with across a finger's trials (:mod:`.scale`).
     surface_rows : (width,) array_like, optional
         The calibration frame's surface profile in rows
         (:attr:`fingerfriction.video.calibrate.Calibration.surface_row`).
@@ -175,7 +184,7 @@ def check_trial(
     TrialChecks
     """
     P = params or SelfCheckParams()
-    t_start = time.perf_counter()
+    t_start, c_start = time.perf_counter(), time.process_time()
     fs_manifest = record.fs_hz
     figures: dict = {}
     direction = _direction(x_frames)
@@ -212,6 +221,9 @@ def check_trial(
         else:
             figures["feature"] = feature.to_dict()
         checks += check_geometry(feature, surface, height_mm, params=P)
+    if regions is not None and surface is not None:
+        length = flat_contact_length(x_frames, regions, surface.feature_extent)
+        figures["contact_flat_mm"] = None if not math.isfinite(length) else round(length, 4)
     if speed_mm_s:
         v = sliding_speed(t_frames, x_frames)
         figures["speed_mm_s"] = None if not math.isfinite(v) else round(v, 4)
@@ -227,4 +239,5 @@ def check_trial(
             onset_message = got
         else:
             onset = _with_touch(got, t_frames, gap_mm, record, mains, fs_manifest, figures)
-    return TrialChecks(tuple(checks), onset, onset_message, record, figures, time.perf_counter() - t_start)
+    return TrialChecks(tuple(checks), onset, onset_message, record, figures, time.perf_counter() - t_start,
+                       time.process_time() - c_start)
