@@ -15,7 +15,8 @@ def _finger(n=9, seed=0, group="1"):
     rng = np.random.default_rng(seed)
     f = rng.uniform(0.25, 0.35, n)
     length = 10.0 * np.sqrt(f / 0.3) * (1 + 0.02 * rng.standard_normal(n))
-    return {f"{group}-{i}": (group, float(a), float(b)) for i, (a, b) in enumerate(zip(f, length, strict=True))}
+    pairs = zip(f, length, strict=True)
+    return {f"{group}-{i}": (group, float(a), float(b)) for i, (a, b) in enumerate(pairs)}
 
 
 def test_clean_trials_are_not_flagged_and_a_harder_press_with_its_contact_is_not_either():
