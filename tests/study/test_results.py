@@ -31,7 +31,8 @@ def _store(tmp_path, *, study=None, entry=True) -> tuple[ResultsStore, np.ndarra
     reg[10:20, 1] = np.column_stack([x[10:20] + 0.5, x[10:20] + 2.0])
     frames = frames_table(0.01 * np.arange(50), x, reg)
     forces = pd.DataFrame({"x_mm": x, "F_T_N": np.zeros(50)})
-    status = {"info": {"forces": {"flags": [Flag("error", "e", "an error").to_dict(), "old-code: a message"]}},
+    stored_flags = [Flag("error", "e", "an error").to_dict(), "old-code: a message"]
+    status = {"info": {"forces": {"flags": stored_flags}},
               "inputs": {"video": {"path": "videos/t.mkv"}}}
     if entry:
         status["entry"] = {"id": TID, "surface": "bump-2mm", "video": {"path": "videos/t.mkv",
