@@ -151,8 +151,8 @@ def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=Non
     training parameters on the trial's own video regions with its measured normal force
     (``rho_heldout_params_video``).
 
-    ``model='interlock'``: the same with the median weights of the ascending and the
-    descending slopes. ``model='pressure'``: Eq. (4) with the constant pressure, on the
+    ``model='interlock'``: the same with the median slope-push weights of the ascending
+    and the descending slopes. ``model='pressure'``: Eq. (4) with the constant pressure, on the
     absolute footing, with the subject's flat-ground ``mu`` and the median ``p0, p1``.
 
     ``model='paper'``: Eq. (4) as printed, ``mu`` by grid search and the median ``p0, p1``
@@ -350,7 +350,7 @@ def _loso_row(model: str, subject, surf: Surface, trials, ins, got: dict, params
         "p_out_of_sample": out[1],
         "rho_out_of_sample_measured_load": _rho(got["lm"], got["lg"])[0],
         **(variant_of_params(params).row_params(params) if params is not None else
-           dict.fromkeys(("mu", "p0", "p1", "p1_down", "inset_mm", "kappa_per_mm"), nan)),
+           dict.fromkeys(("mu", "p0", "p1", "push_up", "push_down", "inset_mm", "kappa_per_mm"), nan)),
         "note": "",
     }
 
