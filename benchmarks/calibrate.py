@@ -141,9 +141,9 @@ def warm_start_table(results: str, subject: str, finger) -> None:
               f"({it1 / n1:5.1f} it/solve), {base / t1:4.2f}x the cold start")
 
 
-def transfer(exe: str, results: str, true: dict) -> list:
+def transfer(exe: list[str], results: str, true: dict) -> list:
     """Part D; returns the summary lines."""
-    run([exe, "fit", results])
+    run([*exe, "fit", results])
     t0 = time.process_time()
     held = calibrate_held_out(results)
     dt = time.process_time() - t0
@@ -200,16 +200,17 @@ def main() -> None:
     ap.add_argument("--full-results", default=None, help="its results (C; default: analysed beside it)")
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
-    exe = str(Path(sys.executable).with_name("fingerfriction"))
+    # the command line through this interpreter (a venv's console script need not exist)
+    exe = [sys.executable, "-m", "fingerfriction.cli"]
     study = args.study or str(STUDIES / f"finger-seed{args.finger_seed}")
     results = args.results or study.rstrip("/") + "-results"
     summary = []
 
     print("A. Recovery of unknown fingers")
     print(f"   finger seed {args.finger_seed}; 2 subjects x 6 surfaces x 3 speeds x 2 repetitions")
-    run([exe, "simulate", "--out", study, "--reps", "2", "--finger-seed", str(args.finger_seed),
+    run([*exe, "simulate", "--out", study, "--reps", "2", "--finger-seed", str(args.finger_seed),
          "--workers", str(args.workers)])
-    run([exe, "analyze", study, "--out", results, "--workers", str(args.workers)])
+    run([*exe, "analyze", study, "--out", results, "--workers", str(args.workers)])
     truth = json.loads((Path(study) / "truth" / "study.json").read_text())
     true = {s: finger_from_mapping(v["finger"]) for s, v in truth["subjects"].items()}
     print(f"   drawn fingers (seed {truth['options'].get('finger_seed')}), relative to the defaults:")

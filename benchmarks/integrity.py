@@ -38,6 +38,7 @@ against the command's measured time (the command without it would take that much
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import os
 import resource
@@ -104,6 +105,8 @@ def which(src: Path) -> str:
 
 
 def main() -> int:
+    # no options: --help says what it does (without it, any argument would start the 30 min run)
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     study = simulated_study("paper-seed0", "--seed", "0")
     size = sum(p.stat().st_size for p in (study / "trials").rglob("*") if p.is_file())
     n_trials = len(list((study / "trials").iterdir()))
@@ -158,7 +161,9 @@ def main() -> int:
     total_n = times[("analyze", "now")] + times[("fit", "now")] + times[("report", "now")]
     print(f"analyze + fit + report: before {total_b:.1f} s, now {total_n:.1f} s, "
           f"ratio {total_n / total_b:.3f}")
-    sync_s = (read_json(results["now"] / "run.json").get("runs") or [{}])[-1].get("sync", {}).get("elapsed_s")
+    runs = read_json(results["now"] / "run.json").get("runs") or []
+    computed = [r for r in runs if r.get("computed")]  # the run that analysed the trials, not a resume
+    sync_s = (computed[0].get("sync") or {}).get("elapsed_s") if computed else None
     if sync_s is not None:
         print(f"  of now's analyze: the consistency stage's study-level synchronisation step {sync_s:.1f} s "
               f"({sync_s / times[('analyze', 'now')]:.1%}; a budget of its own, not integrity)")

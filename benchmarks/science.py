@@ -229,9 +229,8 @@ def part_c(s) -> None:
 
 
 def part_c_mu(work: Path) -> None:
-    rec = ResultsStore(work).read_fit_record()
-    paper = rec["models"]["paper"]
-    print("  paper mu: " + ", ".join(f"subject {k} {v:.3f}" for k, v in paper["mu"].items()))
+    fit = ResultsStore(work).read_fit()
+    print("  paper mu: " + ", ".join(f"subject {k} {v:.3f}" for k, v in fit.mu("paper").items()))
 
 
 def part_d(results: Path, study: Path, tmp: Path) -> bool:

@@ -229,3 +229,21 @@ def test_modules_stay_under_600_lines(mod):
     if str(path.relative_to(PKG)) in LONG_MODULES:
         return
     assert n <= 600, f"{path.relative_to(PKG)} has {n} lines"
+
+
+#: Private names imported from another module of the package, each with why.
+PRIVATE_IMPORTS = {
+    "mechanics/bem.py: _cgkernels": "a private module of bem's own package (its numba kernels), not a name "
+                                    "taken out of another module",
+}
+
+
+def test_no_private_name_imported_across_modules():
+    found = {}
+    for path in MODULES.values():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").startswith(ROOT)):
+                for a in node.names:
+                    if a.name.startswith("_") and not a.name.startswith("__"):
+                        found[f"{path.relative_to(PKG)}: {a.name}"] = node.lineno
+    assert set(found) <= set(PRIVATE_IMPORTS), f"private names imported across modules: {found}"

@@ -13,6 +13,8 @@ as one padded array:
 list of frames) to this array and validates it; every public function that takes
 regions calls it, so bad input fails at the door with the frame and slot named.
 :func:`regions_on_grid` maps per-frame regions onto finger positions (the force grid).
+In a table (the results store's ``frames.parquet``) they are the columns ``a1, b1, a2, b2,
+...``: :func:`region_columns` and :func:`regions_from_columns`, the one place that names them.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import numpy as np
 
 __all__ = [
     "as_regions", "regions_from_mask", "region_lengths", "n_regions", "inset_regions", "regions_on_grid",
+    "region_columns", "regions_from_columns",
 ]
 
 
@@ -283,3 +286,40 @@ def regions_on_grid(x_frames: np.ndarray, regions: np.ndarray, x_grid: np.ndarra
     shift = np.where(g < xs[0], g - xs[0], np.where(g > xs[-1], g - xs[-1], 0.0))
     out += shift[:, None, None]  # NaN slots stay NaN
     return (out, translated) if return_translated else out
+
+
+def region_columns(regions) -> dict[str, np.ndarray]:
+    """Regions ``(n_frames, n_max, 2)`` as table columns ``{"a1": ..., "b1": ..., ...}`` in mm
+    (NaN-padded; as many pairs as ``n_max``)."""
+    reg = as_regions(regions)
+    cols: dict[str, np.ndarray] = {}
+    for i in range(reg.shape[1]):
+        cols[f"a{i + 1}"] = reg[:, i, 0]
+        cols[f"b{i + 1}"] = reg[:, i, 1]
+    return cols
+
+
+def regions_from_columns(table, *, empty_ok: bool = False) -> np.ndarray:
+    """Regions ``(n_frames, n_max, 2)`` in mm from the columns ``a1, b1, ...`` of a table
+    (a pandas DataFrame, or a mapping of column name to array) written by
+    :func:`region_columns`.
+
+    Raises
+    ------
+    ValueError
+        A table without the columns ``a1, b1`` (unless ``empty_ok``: one NaN slot per row).
+    """
+    names = list(table.columns) if hasattr(table, "columns") else list(table)
+    k = 0
+    while f"a{k + 1}" in names and f"b{k + 1}" in names:
+        k += 1
+    n = len(table[names[0]]) if names else 0
+    if k == 0:
+        if empty_ok:
+            return np.full((n, 1, 2), np.nan)
+        raise ValueError("per-frame table has no region columns a1, b1")
+    out = np.empty((n, k, 2))
+    for i in range(k):
+        out[:, i, 0] = np.asarray(table[f"a{i + 1}"], dtype=float)
+        out[:, i, 1] = np.asarray(table[f"b{i + 1}"], dtype=float)
+    return out

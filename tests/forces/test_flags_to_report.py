@@ -13,9 +13,10 @@ from fingerfriction.fit.common import fit_flag
 from fingerfriction.flags import LEVELS, Flag
 from fingerfriction.forces import process_forces
 from fingerfriction.pipeline.trial import force_info
-from fingerfriction.report.data import ReportData, TrialData
+from fingerfriction.report.data import ReportData
 from fingerfriction.report.flags import collect_flags
 from fingerfriction.selfcheck import Check
+from fingerfriction.study.results import AnalysedTrial as TrialData
 
 from .test_forces_processing import synthetic_trial
 

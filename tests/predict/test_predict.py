@@ -200,14 +200,23 @@ def test_load_params_forms(tmp_path):
     b.write_text(json.dumps({"subjects": subjects}))
     assert load_params(b, 2) == FrictionParams(0.6, 1.0, 2.0)
     b2 = tmp_path / "b2.json"
-    b2.write_text(json.dumps({"S1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}}))  # foundation-style labels
+    b2.write_text(json.dumps({"subjects": {"S1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}}}))  # labels as 'S1'
     assert load_params(b2, 1) == FrictionParams(0.5, 0.1, 0.2)
+    lp = tmp_path / "lp.json"
+    lp.write_text(json.dumps({"subjects": {"2": json.loads(LoadParams(0.6, 0.1, 0.5, 0.2).to_json())}}))
+    assert load_params(lp, 2) == LoadParams(0.6, 0.1, 0.5, 0.2)
+    # one shape: a subject's parameters are the parameters' own JSON (no other layout is read)
     c = tmp_path / "c.json"
     trials = [{"p0": v, "p1": 10 * v} for v in (0.1, 0.3, 0.2)]
     c.write_text(json.dumps({"subjects": {"1": {"mu": 0.55, "trials": trials}}}))
-    assert load_params(c, 1) == FrictionParams(0.55, 0.2, 2.0)
+    with pytest.raises(ValueError, match=r"c\.json: subject 1: malformed parameters \(missing 'p0'\); exp"):
+        load_params(c, 1)
     with pytest.raises(ValueError, match=r"c\.json: no parameters for subject 2"):
         load_params(c, 2)
+    flat = tmp_path / "flat.json"
+    flat.write_text(json.dumps({"1": {"mu": 0.5, "p0": 0.1, "p1": 0.2}}))  # no 'subjects' level
+    with pytest.raises(ValueError, match=r"flat\.json: malformed parameters"):
+        load_params(flat, 1)
     d = tmp_path / "d.json"
     d.write_text("{not json")
     with pytest.raises(ValueError, match=r"d\.json: not valid JSON"):
@@ -555,3 +564,39 @@ def test_loso_heldout_fingers_replace_the_finger_of_one_surface_only(forward_stu
                                                          ["rho_out_of_sample"].iloc[0]))
     assert np.isnan(got["S2", "bump-2mm"]) and np.isnan(got["Both subjects", "bump-2mm"])
     assert np.isnan(got["S1", "step-up-4mm"])
+
+
+def test_predict_takes_an_fe_finger_file(tmp_path, monkeypatch):
+    """``predict --finger FE.json``: the layered FE finger (with its friction) is the forward
+    model; the solve itself is replaced here by a stand-in (tests/mechanics/test_fe.py runs it)."""
+    import dataclasses
+
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+    from fingerfriction.mechanics.fe import LITERATURE_FINGER, FEFingerParams
+    from fingerfriction.mechanics.finger_file import write_finger_file
+    from fingerfriction.model import LoadParams
+    from fingerfriction.predict import forward, predict
+
+    seen = []
+
+    def stand_in(surface, finger, x, load, contact):
+        seen.append(finger)
+        reg = np.stack([x - 3.0, x + 3.0], axis=1)[:, None, :]
+        return reg
+
+    monkeypatch.setattr(forward, "_fe_regions", stand_in)
+    f = dataclasses.replace(LITERATURE_FINGER, friction=0.55, name="calibrated FE")
+    path = write_finger_file(tmp_path / "fe.json", f)
+    params = LoadParams(mu=0.55, p1=0.1)
+    pred = predict("bump-2mm", 1, params, finger=f, step=0.1)
+    assert seen[-1] == f and pred.finger == f and np.allclose(pred.F_T[0], 0.55 * 0.3)
+    (tmp_path / "p.json").write_text(params.to_json())
+    r = CliRunner().invoke(app, ["predict", "--surface", "bump-2mm", "--subject", "1", "--params",
+                                 str(tmp_path / "p.json"), "--finger", str(path), "--step", "0.1",
+                                 "--no-figures", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert isinstance(seen[-1], FEFingerParams) and seen[-1].friction == 0.55
+    with pytest.raises(TypeError, match="FingerParams or an FEFingerParams"):
+        predict("bump-2mm", 1, params, finger=f.to_dict())

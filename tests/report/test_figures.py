@@ -13,7 +13,8 @@ from matplotlib.colors import to_hex
 from matplotlib.image import AxesImage
 from matplotlib.text import Text
 
-from fingerfriction.report.data import TrialData, load_report_data
+from fingerfriction._style import FULL_WIDTH_IN, MIN_FONT_PT, OKABE_ITO
+from fingerfriction.report.data import load_report_data
 from fingerfriction.report.figures import (
     FIGURES,
     fig3_occupancy,
@@ -22,7 +23,7 @@ from fingerfriction.report.figures import (
     region_events,
     save_figure,
 )
-from fingerfriction.report.style import FULL_WIDTH_IN, MIN_FONT_PT, OKABE_ITO
+from fingerfriction.study.results import AnalysedTrial as TrialData
 from fingerfriction.study.store import frames_table
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.signal import butter, lfilter, sosfreqz
+from scipy.signal import bilinear, butter, freqz, lfilter, sosfreqz
 
 from fingerfriction.sim import KinematicsParams
 from fingerfriction.sim.chain import (
@@ -19,6 +19,7 @@ from fingerfriction.sim.chain import (
     highpass2,
     poles_of_cutoff,
     speed_scaled_kinematics,
+    tray_response,
 )
 from fingerfriction.sim.contact import build_table
 from fingerfriction.sim.kinematics import Kinematics
@@ -175,3 +176,43 @@ def test_the_labs_calibration_leaves_only_its_error_of_the_crosstalk():
     assert "calibration" not in draw_device(3, RealisticChain(crosstalk_calibration=None))
     # the option does not change the device's other draws
     assert draw_device(3, RealisticChain(crosstalk_calibration=None))["crosstalk"] == d["crosstalk"]
+
+
+def test_the_tray_is_flat_to_500_hz_and_rings_at_its_resonance():
+    """The tray's second-order resonance: unit gain at rest, within about 1 dB of flat up to
+    500 Hz at every corner of the default ranges ("a nearly flat frequency response from 15
+    to 500 Hz"), |H| = q at the resonance, and, where the force clock resolves the ringing,
+    a step's overshoot that of a second-order system, exp(-pi / sqrt(4 q^2 - 1))."""
+    ch = RealisticChain()
+    for f_r in ch.tray_hz:
+        for q in ch.tray_q:
+            w = 2.0 * FS * math.tan(math.pi * f_r / FS)
+            b, a = bilinear([w * w], [1.0, w / q, w * w], FS)
+            _, h = freqz(b, a, worN=[1e-3, 15.0, 100.0, 500.0, f_r], fs=FS)
+            g = np.abs(h)
+            assert g[0] == pytest.approx(1.0, abs=1e-9) and abs(g[1] - 1) < 1e-4 and abs(g[2] - 1) < 0.01
+            assert 1.0 < g[3] < 10 ** (1.05 / 20)
+            assert g[4] == pytest.approx(q, rel=1e-6)  # prewarped: the resonance stays at f_r
+            step = tray_response(np.ones(4000), f_r, q, FS)
+            assert step[-1] == pytest.approx(1.0, abs=1e-9)
+    step = tray_response(np.ones(4000), 1500.0, 2.0, FS)
+    assert step.max() - 1.0 == pytest.approx(math.exp(-math.pi / math.sqrt(15.0)), rel=0.01)
+
+
+def test_the_tray_acts_on_the_plates_axes_before_the_transducers():
+    quiet = SensorParams(drift_offset_n=0, drift_rate_n_per_s=0, mains_n=(0, 0, 0), noise_n=0)
+    n = 3000
+    t = np.arange(n) / FS
+    fn = 0.3 + 0.05 * (t > 0.1)
+    ft = 0.15 * np.sin(2 * np.pi * 300 * t) * (t > 0.05)
+    tray = np.array([[1800.0, 3.0], [2400.0, 6.0]])
+    chain = ChainDraws(np.zeros((2, 2)), np.eye(2), np.zeros((2, n)), tray=tray)
+    fn2, ft2 = from_channels(*apply_sensor(fn, ft, np.random.default_rng(0), quiet, chain=chain))
+    np.testing.assert_allclose(fn2, tray_response(fn, 1800.0, 3.0, FS), atol=quiet.lsb_n)
+    np.testing.assert_allclose(ft2, tray_response(ft, 2400.0, 6.0, FS), atol=quiet.lsb_n)
+    d = draw_device(5, RealisticChain())
+    assert all(1500 <= f <= 3000 for f in d["tray_hz"]) and all(2 <= q <= 8 for q in d["tray_q"])
+    draws = draw_trial_chain(np.random.default_rng(0), 100, FS, RealisticChain(), d)
+    np.testing.assert_array_equal(draws.tray, np.column_stack([d["tray_hz"], d["tray_q"]]))
+    with pytest.raises(ValueError, match="tray_hz must lie in"):
+        RealisticChain(tray_hz=(300.0, 1000.0))

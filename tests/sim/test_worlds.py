@@ -144,6 +144,33 @@ def test_interlocking_varies_within_and_between_trials(tables):
     assert a.truth["psi_up_trial"] != b.truth["psi_up_trial"]  # between trials
 
 
+def test_interlocking_static_peak_is_the_aging_law_erased_by_slip():
+    """Hand computation of the rate-and-state aging law at constant speed: the contact
+    touches at t = 0 and slides from t = 0.02 s, so theta0 = 0.02 s; at slip d the
+    friction's gain is 1 + b ln(1 + (v theta0 / D_c - 1) exp(-d / D_c)). Two speeds at the
+    same slip differ only through C = v theta0 / D_c: the memory is erased by slip, not by
+    time."""
+    w = Interlocking(aging=0.05, memory_mm=0.1)
+    t = np.arange(4001) / 1e4
+    for v in (40.0, 120.0):
+        d = np.maximum(t - 0.02, 0.0) * v
+        m = TrialMotion(t=t, x=-15.0 + d, f_n=np.full(t.size, 0.3), sliding_distance=d,
+                        in_contact=np.ones(t.size, bool), mean_speed=v, f_target=0.3, t_slide_start=0.02)
+        c = v * 0.02 / 0.1
+        g = w.static_peak(m)
+        assert g[0] == pytest.approx(1 + 0.05 * np.log(c), rel=1e-12)
+        for dd in (0.1, 0.3, 1.0):
+            k = np.searchsorted(d, dd)
+            assert g[k] == pytest.approx(1 + 0.05 * np.log1p((c - 1) * np.exp(-d[k] / 0.1)), rel=1e-12)
+        assert g[-1] - 1 < 1e-10  # gone after 10 mm of slip ...
+        k1 = np.searchsorted(d, 1.0)
+        assert 0 < g[k1] - 1 < 1e-4 * c  # ... and nearly so after 1 mm, whatever the speed
+    # a contact with no age (it slides as it touches) has no static peak
+    m0 = TrialMotion(t=t, x=np.zeros(t.size), f_n=np.full(t.size, 0.3), sliding_distance=t * 80.0,
+                     in_contact=np.ones(t.size, bool), mean_speed=80.0, f_target=0.3, t_slide_start=0.0)
+    assert np.all(w.static_peak(m0) == 1.0)
+
+
 def test_world_names_and_errors():
     assert WORLD_NAMES == ("load-sharing", "constant-pressure", "interlocking")
     for name in WORLD_NAMES:

@@ -160,6 +160,10 @@ class Trial:
         Positions whose contact the camera's field cut (a region ends at the edge of the
         frame, ``frames.parquet`` ``clipped``): the regions there are shorter than the
         contact that makes the force. None: none known.
+    translated : (n,) bool ndarray, optional
+        Positions whose regions were translated from the nearest tracked frame (x(t)
+        extrapolated there; :func:`~fingerfriction.regions.regions_on_grid`). None: none
+        known.
 
     Raises
     ------
@@ -178,6 +182,7 @@ class Trial:
     force_abs: np.ndarray | None = None
     normal_abs: np.ndarray | None = None
     clipped: np.ndarray | None = None
+    translated: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         x = np.asarray(self.x, dtype=float)
@@ -232,12 +237,14 @@ class Trial:
                     f"Trial.{name} has a non-finite value {float(v[i])!r} at index {i} (x={x[i]:g} mm)"
                 )
             object.__setattr__(self, name, v)
-        if self.clipped is not None:
-            c = np.asarray(self.clipped)
+        for name in ("clipped", "translated"):
+            if getattr(self, name) is None:
+                continue
+            c = np.asarray(getattr(self, name))
             if c.shape != x.shape or c.dtype != bool:
-                raise ValueError(f"Trial.clipped must be a bool array with one value per position, got "
+                raise ValueError(f"Trial.{name} must be a bool array with one value per position, got "
                                  f"dtype {c.dtype} and shape {c.shape} for {x.size} positions")
-            object.__setattr__(self, "clipped", c)
+            object.__setattr__(self, name, c)
         object.__setattr__(self, "x", x)
         object.__setattr__(self, "force", f)
         object.__setattr__(self, "regions", r)

@@ -9,7 +9,9 @@ chosen (or forced) variant is the one that ``predict``, ``validate`` and ``rende
 whose flags are the study's, and that the report and the console show first; the other
 variants are shown beside it as a comparison, their flags as notes on it. The trials are
 read by :meth:`fingerfriction.study.store.ResultsStore.read_fit_trial`, the same reader
-the validation uses; everything is written through the store.
+the validation uses; everything is written through the store (``fit.json`` as a
+:class:`~fingerfriction.study.results.FitResult`), and the fit's settings reach the
+validation in memory.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from ..fit.select import Evidence, Selection, residual_structure, select_model
 from ..fit.variants import MODELS, FitSettings, get
 from ..model import FrictionModel
 from ..model.stats import correlation_table
+from ..study.results import FitResult
 from ..study.store import ResultsStore, now
 from .trial import one_line
 from .validation import OutOfSample, validate_models, write_validation
@@ -224,7 +227,7 @@ def fit(
     record["analysis"] = {"trials": analysis}  # per trial: the digest of its stored tables
     record["loso"] = {"computed": loso is not None, "message": loso_message,
                       "csv": "loso.csv" if loso is not None else None}
-    store.write_fit_record(record)
+    store.write_fit(FitResult(record))
     return FitSummary(model=used, requested=model, selection=selection, mu=record["mu"],
                       mu_ci={s: tuple(v) for s, v in record["mu_ci"].items()},
                       n_trials=len(trials), n_failed=len(failures), failures=tuple(failures),
@@ -340,7 +343,6 @@ def _fit_record(requested: str, used: str, selection: Selection, fits: dict, cpu
                     "step": float(s.grid[1] - s.grid[0]) if s.grid.size > 1 else 0.0, "n": int(s.grid.size)},
         "method": s.method, "options": dataclasses.asdict(s.paper),
         "load_options": dataclasses.asdict(s.load),
-        "curves": get("paper").record(fits["paper"])["curves"],
         "messages": {sub: sf.message for sub, sf in fits[used].items()},
         "flags": [f.to_dict() for f in flags],
         "notes": [f.to_dict() for f in notes],
@@ -355,7 +357,8 @@ def _read_trials(store: ResultsStore, meta: dict, surfaces: dict, flat_margin: f
     trials, grids, failures = [], {}, []
     for tid in meta:
         try:  # a trial without a flat segment (the fit detrends over it) must not stop the others
-            trial, grids[tid] = store.read_fit_trial(meta[tid], surfaces, flat_margin=flat_margin)
+            trial = store.read_fit_trial(meta[tid], surfaces, flat_margin=flat_margin)
+            grids[tid] = trial.translated
             trials.append(trial)
         except (ValueError, KeyError, OSError) as exc:
             failures.append((tid, one_line(exc)))

@@ -27,7 +27,7 @@ from ..selfcheck import ORDER, Check, OffsetEstimate, OnsetData, estimate_offset
 from ..study.check import check_study
 from ..study.manifest import Study
 from ..study.records import Problem
-from ..study.store import ResultsStore, regions_from_table
+from ..study.store import ResultsStore
 from .params import AnalysisParams, force_params, video_options
 from .trial import (
     TrialInput,
@@ -280,7 +280,8 @@ def _reprocess(
     """The trial's forces processed again with its force clock moved by the estimate."""
     rec = study.trial(tid)
     trial = TrialInput(Path(study.root), rec, dict(study.surfaces[rec.surface]))
-    frames = store.read_frames(tid)
+    stored = store.read_trial(tid)
+    frames = stored.frames
     record = read_trial_forces(trial.root, rec)
     old = (info.get("forces") or {}).get("history") or []
     fs = next(
@@ -292,7 +293,7 @@ def _reprocess(
         trial,
         frames["x_mm"].to_numpy(float),
         params=force_params(params.forces),
-        regions=regions_from_table(frames),
+        regions=stored.regions,
         on_error="raise",
         record=shifted,
     )

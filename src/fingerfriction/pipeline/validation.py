@@ -19,6 +19,7 @@ from .._atomic import atomic_write
 from .._style import figure_style
 from ..fit import FitOptions, LoadFitOptions, Trial
 from ..fit.load import load_estimate
+from ..fit.select import DEFAULT_MODEL
 from ..fit.variants import MODELS as VARIANT_NAMES
 from ..fit.variants import FitSettings, HeldOut, get, variant_of_params
 from ..model import FrictionModel, LoadParams
@@ -126,7 +127,7 @@ class OutOfSample:
         return p
 
 
-def leave_one_surface_out(trials, *, model: str = "load", fingers=None, grid=None, options=None,
+def leave_one_surface_out(trials, *, model: str = DEFAULT_MODEL, fingers=None, grid=None, options=None,
                           load_options: LoadFitOptions | None = None, load: float = DEFAULT_LOAD_N,
                           forward_step: float = 0.01, contact: str = "geometric",
                           forward_cache: dict | None = None, in_sample=None,
@@ -371,12 +372,12 @@ def trials_from_results(results: str | os.PathLike) -> list:
     """
     store = ResultsStore(results)
     surfaces = store.surfaces()
-    _, options = store.fit_settings()
-    margin = (options or FitOptions()).flat_margin
+    fitted = store.read_fit()
+    margin = (fitted.settings.paper if fitted is not None else FitOptions()).flat_margin
     trials, skipped = [], []
     for m in store.analysed_trials():
         try:
-            trials.append(store.read_fit_trial(m, surfaces, flat_margin=margin)[0])
+            trials.append(store.read_fit_trial(m, surfaces, flat_margin=margin))
         except (ValueError, KeyError, OSError) as exc:
             skipped.append((m["id"], str(exc)))
     for tid, why in skipped:
@@ -396,8 +397,9 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
     Validates each model variant of ``models`` (default: the fit's model first, then the
     other variants it fitted; all share the forward-model sweeps), with ``settings`` (the
     fit passes its own, and ``in_sample``, model -> its Table 1) or else the ``mu`` grid
-    and the options recorded by ``fingerfriction fit`` in ``RESULTS/fit/fit.json`` when
-    present (so ``rho_in_sample`` is the study's Table 1), else the defaults. The table, one block of
+    and the options of the fit the store holds (:meth:`~fingerfriction.study.store.ResultsStore.read_fit`)
+    when there is one (so ``rho_in_sample`` is the study's Table 1), else the defaults. The
+    table, one block of
     rows per model (column ``model``), goes to ``out`` (default ``RESULTS/fit/loso.csv``)
     and a figure of the first model's held-out trials beside it (``loso.png``). This is
     the function the fit stage and ``fingerfriction validate`` call. ``fingers``
@@ -415,16 +417,11 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
     """
     root = os.fspath(results)
     store = ResultsStore(root)
-    if settings is None:
-        grid, options = store.fit_settings()
-        record = store.read_fit_record() or {}
-        settings = FitSettings(paper=options or FitOptions(), load=_load_options(record.get("load_options")),
-                               **({} if grid is None else {"grid": grid}),
-                               **({"method": record["method"]} if record.get("method") else {}))
-        if models is None:
-            first = record.get("model") or "load"
-            fitted = [m for m in (record.get("models") or {}) if m in VARIANT_NAMES] or list(VARIANT_NAMES)
-            models = (first, *[m for m in fitted if m != first])
+    if settings is None:  # a later validation of a fit: the fit's own settings and variants
+        fitted = store.read_fit()
+        settings = fitted.settings if fitted is not None else FitSettings()
+        if models is None and fitted is not None:
+            models = fitted.fitted_models
     if models is None:
         models = VARIANT_NAMES
     for m in models:
@@ -491,10 +488,3 @@ def _with_calibrated(table: pd.DataFrame, cal: pd.DataFrame, calibrated_fingers:
             out.loc[i, cols] = math.nan
     return out
 
-
-def _load_options(d) -> LoadFitOptions:
-    """The load-consistent fit's options recorded in ``fit.json`` (defaults otherwise)."""
-    if not isinstance(d, dict):
-        return LoadFitOptions()
-    known = set(LoadFitOptions.__dataclass_fields__)
-    return LoadFitOptions(**{k: v for k, v in d.items() if k in known})

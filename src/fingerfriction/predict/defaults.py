@@ -8,14 +8,17 @@ from __future__ import annotations
 import functools
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 
 from .._check import parse_json
+from ..fit.select import DEFAULT_MODEL
 from ..fit.variants import get
 from ..mechanics import FingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
-from ..study.store import ResultsStore, read_fit_table
+from ..study.results import subject_keys
+from ..study.store import ResultsStore
 from ..surfaces import Surface, get_surface
 from .forward import DEFAULT_LOAD_N, flat_length, forward_regions, resolve_finger, sweep_window
 
@@ -89,90 +92,42 @@ def default_params(subject, *, load: float = DEFAULT_LOAD_N, step: float = 0.05,
     return _default_params_cached(key, finger, float(load), float(step))
 
 
-def _subject_keys(subject) -> list:
-    """Keys a subject may have in a parameters file: '1', 1, 'S1', 's1'."""
-    keys = [str(subject), subject]
-    digits = "".join(c for c in str(subject) if c.isdigit())
-    if digits:
-        keys += [digits, f"S{digits}", f"s{digits}"]
-    return [k for k in keys if isinstance(k, (str, int))]
+def _params_of(d, where: str):
+    """Parameters from their JSON object (``FrictionParams.to_json()`` or
+    ``LoadParams.to_json()``, told apart by its ``model``, a variant's name)."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{where}: parameters must be a JSON object, got {type(d).__name__}")
+    try:
+        if d.get("model") is not None:
+            ptype = get(d["model"]).params_type
+            return (LoadParams if ptype is LoadParams else FrictionParams).from_json(json.dumps(d))
+        return FrictionParams.from_json(json.dumps(d))
+    except KeyError as exc:
+        raise ValueError(f"{where}: malformed parameters (missing {exc}); {PARAMS_SHAPE}") from None
+    except TypeError as exc:
+        raise ValueError(f"{where}: malformed parameters ({exc})") from None
 
 
-def _params_from_mapping(d: dict, subject, where: str) -> FrictionParams:
-    """FrictionParams from a JSON object (see :func:`load_params` for the accepted forms)."""
-    if {"mu", "p0", "p1"} <= set(d):
-        return FrictionParams(mu=d["mu"], p0=d["p0"], p1=d["p1"])
-    subjects = d.get("subjects", d)
-    if not isinstance(subjects, dict):
-        raise ValueError(f"{where}: 'subjects' must be an object keyed by subject")
-    entry = next((subjects[k] for k in _subject_keys(subject) if k in subjects), None)
-    if entry is None:
-        raise ValueError(
-            f"{where}: no parameters for subject {subject!r}; the file has {sorted(map(str, subjects))}. "
-            "Expected {'mu','p0','p1'} or {'subjects': {'<subject>': {...}}}"
-        )
-    if not isinstance(entry, dict) or "mu" not in entry:
-        raise ValueError(f"{where}: subject {subject!r} entry must be an object with 'mu'")
-    if "p0" in entry and "p1" in entry:
-        return FrictionParams(mu=entry["mu"], p0=entry["p0"], p1=entry["p1"])
-    trials = entry.get("trials")
-    if isinstance(trials, list) and trials:
-        try:
-            p0 = float(np.median([float(t["p0"]) for t in trials]))
-            p1 = float(np.median([float(t["p1"]) for t in trials]))
-        except (KeyError, TypeError, ValueError):
-            raise ValueError(
-                f"{where}: subject {subject!r} trials must each have numbers p0 and p1"
-            ) from None
-        return FrictionParams(mu=entry["mu"], p0=p0, p1=p1)
-    raise ValueError(f"{where}: subject {subject!r} entry needs 'p0' and 'p1' or a non-empty 'trials' list")
-
-
-def _params_from_pipeline_fit(d: dict, subject, path: str, model: str | None = None):
-    """``fingerfriction fit`` output: mu per subject in fit.json, p0/p1 per trial in the
-    trials.csv beside it; the subject's medians over its successful trials are used.
-
-    ``model`` picks the variant (default: the fit's model, ``fit.json`` ``model``; a fit
-    written before the load-consistent model has only the paper's)."""
-    model = model or d.get("model") or "paper"
-    variant = get(model)
-    per_model = (d.get("models") or {}).get(model)
-    if per_model is None and model != d.get("model", "paper"):
-        raise ValueError(f"{path}: the fit has no {model!r} model (it has {d.get('model', 'paper')!r})")
-    mus = per_model["mu"] if per_model else d["mu"]
-    key = next((k for k in _subject_keys(subject) if k in mus), None)
-    if key is None:
-        raise ValueError(f"{path}: no fitted mu for subject {subject!r}; the fit has subjects {sorted(mus)}")
-    tcsv = os.path.join(os.path.dirname(path), "trials.csv")
-    t = read_fit_table(os.path.dirname(path))
-    missing = {"subject", "p0", "p1"} - set(t.columns)
-    if missing:
-        raise ValueError(f"{tcsv}: missing column(s) {sorted(missing)}")
-    sel = t[t["subject"] == key]
-    if "model" in sel.columns:
-        sel = sel[sel["model"] == model]
-    if "success" in sel.columns:
-        sel = sel[sel["success"].astype(str).str.lower() == "true"]
-    if sel.empty:
-        raise ValueError(f"{tcsv}: no successful {model!r} trial fit for subject {subject!r}")
-    return variant.params_from_record({**(per_model or {}), "mu": mus}, sel, key)
+#: The one shape of a parameters file, as error messages name it.
+PARAMS_SHAPE = ("expected the JSON of FrictionParams or LoadParams ({'mu', 'p0', 'p1'} or {'model': 'load', "
+                "'mu', 'p1', ...}), or {'subjects': {'<subject>': <those>}}, or a fit's results folder")
 
 
 def load_params(path: str | os.PathLike, subject=None, *, model: str | None = None):
-    """Read Eq. (4) parameters from a JSON file.
+    """Read Eq. (4) parameters from a JSON file or from a fit.
 
-    Accepted forms: ``FrictionParams.to_json()`` (``{"mu", "p0", "p1"}``); a per-subject
-    object ``{"subjects": {"1": {"mu", "p0", "p1"}}}`` (or without the ``subjects``
-    level); or a fit output with per-trial values ``{"subjects": {"1": {"mu": ...,
-    "trials": [{"p0": ..., "p1": ...}, ...]}}}``, whose subject-level ``p0, p1`` are the
-    medians over trials (a prediction has no trial of its own to fit); or the output of
-    ``fingerfriction fit`` (``RESULTS``, ``RESULTS/fit`` or ``RESULTS/fit/fit.json``: mu
-    per subject, p0 and p1 medians over the subject's successful trials in ``trials.csv``):
-    the fit's default model, or ``model`` (``'load'``: :class:`~fingerfriction.model.LoadParams`
-    with the subject's flat-ground mu, load-bearing inset, pressure rise kappa and median p1;
-    ``'paper'``: :class:`~fingerfriction.model.FrictionParams`). A JSON object with
-    ``"model": "load"`` and ``mu, p1`` (optionally ``inset``, ``kappa``) gives LoadParams
-    (``LoadParams.to_json()``).
+    A parameters file has one shape: the JSON of the parameters
+    (:meth:`FrictionParams.to_json() <fingerfriction.model.FrictionParams.to_json>`,
+    ``{"mu", "p0", "p1"}``; or :meth:`LoadParams.to_json() <fingerfriction.model.LoadParams.to_json>`,
+    ``{"model": "load", "mu", "p1", "inset", "kappa"}``), for every subject, or per subject
+    under ``subjects``: ``{"subjects": {"1": {...}, "2": {...}}}`` (a subject found as
+    ``'1'``, ``'S1'`` or ``'s1'``).
+
+    The output of ``fingerfriction fit`` is read through the results store
+    (``RESULTS``, ``RESULTS/fit`` or ``RESULTS/fit/fit.json``,
+    :meth:`~fingerfriction.study.store.ResultsStore.prediction_params`): the subject's ``mu``
+    and contact of the fit's variant (or ``model``), and the medians of its successful trial
+    fits' weights.
 
     Returns
     -------
@@ -184,13 +139,9 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
         Naming the file and what is missing or malformed.
     """
     path = os.fspath(path)
-    if os.path.isdir(path):  # a results folder or its fit/ folder
-        for cand in (os.fspath(ResultsStore(path).fit_dir / "fit.json"), os.path.join(path, "fit.json")):
-            if os.path.exists(cand):
-                path = cand
-                break
-        else:
-            raise ValueError(f"{path}: a folder without fit/fit.json; run 'fingerfriction fit' first")
+    store = _results_of(path)
+    if store is not None:
+        return store.prediction_params(subject, model=model)
     try:
         with open(path, "rb") as fh:
             d = parse_json(fh.read(), str(path))  # bounded depth and size: no run out of memory
@@ -198,27 +149,45 @@ def load_params(path: str | os.PathLike, subject=None, *, model: str | None = No
         raise ValueError(f"{path}: cannot read parameters ({exc.strerror})") from None
     if not isinstance(d, dict):
         raise ValueError(f"{path}: expected a JSON object, got {type(d).__name__}")
-    if isinstance(d.get("mu"), dict):
-        return _params_from_pipeline_fit(d, subject, path, model)
-    try:
-        if d.get("model") is not None and get(d["model"]).params_type is LoadParams:  # LoadParams.to_json()
-            return LoadParams.from_json(json.dumps(d))
-        return _params_from_mapping(d, subject, path)
-    except (TypeError, KeyError) as exc:
-        raise ValueError(f"{path}: malformed parameters ({exc})") from None
+    if "subjects" not in d:
+        return _params_of(d, path)
+    subjects = d["subjects"]
+    if not isinstance(subjects, dict):
+        raise ValueError(f"{path}: 'subjects' must be an object keyed by subject")
+    entry = next((subjects[k] for k in subject_keys(subject) if k in subjects), None)
+    if entry is None:
+        raise ValueError(f"{path}: no parameters for subject {subject!r}; the file has "
+                         f"{sorted(map(str, subjects))}")
+    return _params_of(entry, f"{path}: subject {subject!r}")
+
+
+def _results_of(path: str) -> ResultsStore | None:
+    """The results store a path names (``RESULTS``, ``RESULTS/fit``, ``RESULTS/fit/fit.json``),
+    None for a parameters file."""
+    p = Path(path)
+    if p.is_dir():
+        root = p.parent if p.name == "fit" and not (p / "fit").is_dir() and (p / "fit.json").is_file() else p
+        store = ResultsStore(root)
+        if not store.fit_json.is_file():
+            raise ValueError(f"{path}: a folder without fit/fit.json; run 'fingerfriction fit' first")
+        return store
+    if p.name == "fit.json" and p.parent.name == "fit":
+        return ResultsStore(p.parent.parent)
+    return None
 
 
 def resolve_params(params, subject, load: float, model: str | None = None,
                    finger: FingerParams | None = None):
     """``(params, description)`` of the Eq. (4) parameters a prediction uses: the documented
-    defaults of ``model`` (default ``'load'``) for ``subject`` at ``load`` (N) when ``params``
+    defaults of ``model`` (default :data:`fingerfriction.fit.select.DEFAULT_MODEL`) for
+    ``subject`` at ``load`` (N) when ``params``
     is None (:func:`default_params`, :func:`default_load_params`); ``params`` itself when it is
     a :class:`LoadParams` or :class:`FrictionParams`; a JSON file's read by :func:`load_params`
     when it is a path. ValueError for an unknown ``model``, TypeError for anything else."""
     if model is not None:
         get(model)  # an unknown name: ValueError naming the known ones
     if params is None:
-        if get(model or "load").params_type is FrictionParams:  # a constant pressure
+        if get(model or DEFAULT_MODEL).params_type is FrictionParams:  # a constant pressure
             return (default_params(subject, load=load, finger=finger),
                     "default (paper mu; p0 = F_N/L_flat; p1: 50 mN peak F_def)")
         return (default_load_params(subject, load=load, finger=finger),

@@ -27,7 +27,8 @@ from markupsafe import Markup
 from .._atomic import atomic_write_text
 from .._progress import ProgressBar
 from ..forces.signals import describe_history
-from ..study.store import ResultsStore, write_table
+from ..study.results import FitResult
+from ..study.store import write_table
 from .data import ReportData, load_report_data
 from .figures import FIGURES, save_figure
 from .flags import collect_flags, comparison_notes, flagged_trials, group_flags
@@ -197,54 +198,39 @@ def _write_tables(data: ReportData, out: Path, has_fit: bool, files: list[Path])
     return t1, loso, bs, truth, fit_parameter_table(data)
 
 
-def _title(fit: dict, m: str) -> str:
-    """A variant's title as the fit recorded it (its name for a fit that did not)."""
-    return ((fit.get("models") or {}).get(m) or {}).get("title") or m
-
-
-def _models(fit: dict) -> list[str]:
-    """The fit's model variants, the one it used first (a fit of one model: that one)."""
-    default = fit.get("model", "paper")
-    return [default, *[m for m in (fit.get("models") or {}) if m != default]]
-
-
-def _mu_rows(fit: dict) -> list[dict]:
+def _mu_rows(fit: FitResult) -> list[dict]:
     """Per subject: mu of the variant the fit used, with its confidence interval, and the
     fit's own warning about that subject's mu when it has one (e.g. mu at an end of the
     paper variant's search grid)."""
-    used = _models(fit)[0]
-    per_model = fit.get("models") or {used: {"mu": fit.get("mu", {})}}
-    rec = per_model.get(used, {})
+    used = fit.model
     subject_flags = {}
-    for f in fit.get("flags") or []:
-        if isinstance(f, dict) and not f.get("trial") and f.get("subject") and f.get("model") == used \
-                and f.get("level") in ("error", "warning"):
-            subject_flags.setdefault(str(f["subject"]), f.get("message", ""))
+    for f in fit.flags or []:
+        if not f.trial and f.subject and f.model == used and f.level in ("error", "warning"):
+            subject_flags.setdefault(f.subject, f.message)
     rows = []
-    for s, mu in (rec.get("mu") or {}).items():
+    for s, mu in fit.mu(used).items():
         text = f"subject {s}: &mu; = {mu:.4g}"
-        lo, hi = ((rec.get("mu_ci") or {}).get(s) or [None, None])
+        lo, hi = (fit.mu_ci(used).get(s) or [None, None])
         if lo is not None and hi is not None and math.isfinite(lo):
             text += f" (95 % CI {lo:.4f}-{hi:.4f})"
-        rows.append({"model": f"{_title(fit, used)} ({used})", "text": Markup(text),
+        rows.append({"model": f"{fit.title(used)} ({used})", "text": Markup(text),
                      "warn": subject_flags.get(str(s), "")})
     return rows
 
 
-def _by_model(df: pd.DataFrame | None, fit: dict, render) -> list[dict]:
+def _by_model(df: pd.DataFrame | None, fit: FitResult, render) -> list[dict]:
     """One block per model of a table with a ``model`` column (the variant used first)."""
     if df is None:
         return []
-    notes = fit.get("model_notes") or {}
     if "model" not in df.columns:
         return [{"title": "", "note": "", "html": render(df)}]
     out = []
-    for m in _models(fit):
+    for m in fit.order:
         sel = df[df["model"] == m].drop(columns="model")
         if sel.empty:
             continue
-        title = f"{_title(fit, m)} ({m})" + (" - the model used" if m == _models(fit)[0] else " - comparison")
-        out.append({"title": title, "note": notes.get(m, ""), "html": render(sel)})
+        title = f"{fit.title(m)} ({m})" + (" - the model used" if m == fit.model else " - comparison")
+        out.append({"title": title, "note": fit.note(m), "html": render(sel)})
     return out
 
 
@@ -271,11 +257,11 @@ def comparison_frame(records) -> pd.DataFrame:
     return rows
 
 
-def _selection(fit: dict, notes: list[dict]) -> dict | None:
+def _selection(fit: FitResult, notes: list[dict]) -> dict | None:
     """The model choice for the page: how it was made, its reason, the comparison table and
     the comparison variants' flags as notes (grouped by variant and kind)."""
-    sel = fit.get("selection")
-    if not isinstance(sel, dict):
+    sel = fit.selection
+    if sel is None:
         return None
     rows = comparison_frame(sel.get("comparison"))
     table = None
@@ -292,10 +278,10 @@ def _selection(fit: dict, notes: list[dict]) -> dict | None:
     for g in group_flags(notes):
         grouped.append({"model": g["example"]["model"], "level": g["level"], "code": g["code"],
                         "n_trials": g["n_trials"], "count": g["count"], "example": g["example"]})
-    requested = fit.get("requested", "auto")
     bars = sel.get("bars") or {}
-    return {"rejected": bool(sel.get("rejected")), "reason": sel.get("reason", ""), "requested": requested,
-            "used": fit.get("model"), "auto": sel.get("model"), "bars": bars,
+    return {"rejected": bool(sel.get("rejected")), "reason": sel.get("reason", ""),
+            "requested": fit.requested,
+            "used": fit.model, "auto": sel.get("model"), "bars": bars,
             "cross_validated": sel.get("cross_validated", True),
             "table": Markup(_html_table(table, float_format="{:.3f}")) if table is not None else None,
             "notes": grouped}
@@ -352,9 +338,8 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
             bar.advance(stem)
 
         t1, loso, bs, truth, params = _write_tables(data, out, has_fit, files)
-        loso_png = ResultsStore(data.root).loso_figure_path
-        loso_img = (base64.b64encode(loso_png.read_bytes()).decode("ascii")
-                    if loso is not None and loso_png.is_file() else None)
+        loso_img = (base64.b64encode(data.loso_figure).decode("ascii")
+                    if loso is not None and data.loso_figure is not None else None)
         bar.advance("tables")
 
         pages = write_trial_pages(data, flags, page_ids, out / "trials", animations=animations,
@@ -376,12 +361,11 @@ def make_report(results: str | os.PathLike, *, progress: bool = False, sample: i
         bar.advance("index.html")
     finally:
         bar.close()
-    sel = (data.fit or {}).get("selection") if has_fit else None
-    sel = sel if isinstance(sel, dict) else {}
+    sel = (data.fit.selection if has_fit else None) or {}
     return ReportResult(html=out / "index.html", files=tuple(files), table1=t1, blindspots=bs, truth=truth,
                         n_trials=len(data.trials), n_failed=len(data.failed), loso=loso, fitted=has_fit,
                         notices=tuple(notices), flags=tuple(flags), pages=pages, stale_fit=data.stale_fit,
-                        model=(data.fit or {}).get("model") if has_fit else None,
+                        model=data.fit.model if has_fit else None,
                         rejection=sel.get("reason", "") if sel.get("rejected") else "",
                         comparison=comparison_frame(sel["comparison"]) if sel.get("comparison") else None,
                         notes=tuple(comparison_notes(data)) if has_fit else ())
@@ -408,11 +392,11 @@ def _render_index(data: ReportData, *, has_fit, figures, tables, loso_img, flags
         resources.files("fingerfriction.report").joinpath("templates/report.html.j2").read_text("utf-8"))
     run = data.run
     record = run_record(data)
-    fit = data.fit or {}
+    fit = data.fit if data.fit is not None else FitResult({})
     ft = data.fit_trials
     n_neg_p0 = 0
     if ft is not None:  # the variant used: a constant pressure p0 < 0 is unphysical
-        used_rows = ft[ft["model"] == fit.get("model")] if "model" in ft.columns else ft
+        used_rows = ft[ft["model"] == data.fit.model] if "model" in ft.columns else ft
         n_neg_p0 = int((used_rows["p0"] < 0).sum())
     return template.render(
         flag_groups=group_flags(flags), n_flagged=len(flagged), links=links, all_flags=flags,
@@ -436,7 +420,7 @@ def _render_index(data: ReportData, *, has_fit, figures, tables, loso_img, flags
         has_fit=has_fit, failed=data.failed, notes=data.notes,
         table1=t1 is not None, loso=loso is not None,
         loso_calibrated=loso is not None and "rho_out_of_sample_calibrated_finger" in loso.columns,
-        loso_message=((data.fit or {}).get("loso") or {}).get("message", "not computed by this fit"),
+        loso_message=fit.loso.get("message", "not computed by this fit"),
         blindspots=Markup(_html_table(bs)),
         truth=[(_TRUTH_TITLES.get(k, k), Markup(_html_table(df))) for k, df in truth.items()],
         params=Markup(_html_table(params)) if params is not None else None,

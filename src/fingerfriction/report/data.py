@@ -1,92 +1,24 @@
-"""Loading a results folder into memory for the figures and tables of the report."""
+"""Loading a results folder into memory for the figures and tables of the report: what the
+results store returns (:class:`~fingerfriction.study.results.AnalysedTrial` per trial, the
+:class:`~fingerfriction.study.results.FitResult`), nothing read around it."""
 
 from __future__ import annotations
 
-import json
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
-from ..study.store import ResultsStore, regions_from_table
+from ..study.results import AnalysedTrial, FitResult
+from ..study.store import ResultsStore
 from ..surfaces import Surface
 
-__all__ = ["TrialData", "ReportData", "load_report_data"]
+__all__ = ["ReportData", "load_report_data"]
 
 logger = logging.getLogger(__name__)
-
-
-@dataclass(eq=False)
-class TrialData:
-    """One analysed trial.
-
-    Attributes
-    ----------
-    id, subject, surface : str
-    speed_mm_s : float
-    repetition : int or None
-    frames : pandas.DataFrame
-        Per-frame table (``frame, t_s, x_mm, n_regions, a1, b1, ..., flag``).
-    regions : (n_frames, n_max, 2) ndarray
-        Contact regions in mm.
-    forces : pandas.DataFrame
-        Per-position table (``x_mm, F_T_N, t_s``).
-    model : pandas.DataFrame or None
-        Fit output per position (``x_mm, F_T_N, F_hat_N, F_model_N, F_int_N, F_def_N``)
-        when :func:`fingerfriction.pipeline.fitting.fit` has run.
-    status : dict
-        The trial's ``status.json`` (inputs, stage diagnostics under ``info``).
-    """
-
-    id: str
-    subject: str
-    surface: str
-    speed_mm_s: float
-    repetition: int | None
-    frames: pd.DataFrame
-    regions: np.ndarray
-    forces: pd.DataFrame
-    model: pd.DataFrame | None = None
-    status: dict = field(default_factory=dict)
-
-    def sliding(self, *, min_speed_fraction: float = 0.2, half_span: int = 10) -> np.ndarray:
-        """Frames in which the finger slides through the analysis window, ``(n_frames,)`` bool.
-
-        The frames whose position x(t) lies inside the span of the force grid (the
-        paper's 26 mm window, "Force data processing") and whose speed, a central
-        difference over ``2 * half_span`` frames, is at least ``min_speed_fraction`` of
-        the median speed of those frames. This leaves out the rest at touch-down (and
-        any pause), in which a recording can spend a tenth of its frames with the
-        finger still: counted as contact time, it lights up the resting contact's span
-        in the occupancy map (Fig. 3) with a step at its edge.
-        """
-        fr = self.frames
-        x = fr["x_mm"].to_numpy(float)
-        t = fr["t_s"].to_numpy(float)
-        xg = self.forces["x_mm"].to_numpy(float) if len(self.forces) else np.array([np.nan])
-        lo, hi = (np.nanmin(xg), np.nanmax(xg)) if np.isfinite(xg).any() else (-np.inf, np.inf)
-        with np.errstate(invalid="ignore"):
-            inside = np.isfinite(x) & (x >= lo) & (x <= hi)
-        k = int(half_span)
-        v = np.full(x.size, np.nan)
-        if x.size > 2 * k:
-            v[k:-k] = (x[2 * k:] - x[:-2 * k]) / (t[2 * k:] - t[:-2 * k])
-        ok = inside & np.isfinite(v)
-        if not ok.any():
-            return inside
-        v_ref = float(np.median(np.abs(v[ok])))
-        with np.errstate(invalid="ignore"):
-            return inside & (np.abs(v) >= min_speed_fraction * v_ref)
-
-    @property
-    def force_history(self) -> list | None:
-        """Every step of the trial's force processing with its parameters and fitted values
-        (``status.json``, ``info.forces.history``); None for a trial analysed before the
-        history was stored."""
-        return ((self.status.get("info") or {}).get("forces") or {}).get("history")
 
 
 @dataclass(eq=False)
@@ -100,12 +32,12 @@ class ReportData:
     run : dict
         The run record (``run.json``).
     surfaces : dict of str to Surface
-    trials : list of TrialData
-        The trials that finished OK, in manifest order.
+    trials : list of AnalysedTrial
+        The trials that finished OK, in manifest order, with the fit's model forces.
     failed : list of (str, str)
         ``(trial_id, reason)`` of failed or unfinished trials.
-    fit : dict or None
-        ``fit/fit.json`` if present.
+    fit : FitResult or None
+        The fit (``fit/fit.json``) if present (a JSON object given here is read as one).
     fit_trials : pandas.DataFrame or None
         ``fit/trials.csv`` if present.
     loso : pandas.DataFrame or None
@@ -120,14 +52,16 @@ class ReportData:
     truth : dict or None
         ``truth/study.json`` of a simulated study, if the study folder is reachable.
     truth_dir : Path or None
+    loso_figure : bytes or None
+        ``fit/loso.png``, the figure of the out-of-sample validation, if drawn.
     """
 
     root: Path
     run: dict
     surfaces: dict[str, Surface]
-    trials: list[TrialData]
+    trials: list[AnalysedTrial]
     failed: list[tuple[str, str]]
-    fit: dict | None = None
+    fit: FitResult | None = None
     fit_trials: pd.DataFrame | None = None
     truth: dict | None = None
     truth_dir: Path | None = None
@@ -135,6 +69,11 @@ class ReportData:
     loso: pd.DataFrame | None = None
     fit_table1: pd.DataFrame | None = None
     stale_fit: str | None = None
+    loso_figure: bytes | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.fit, Mapping):
+            self.fit = FitResult.from_dict(self.fit)
 
     @property
     def surface_names(self) -> list[str]:
@@ -154,7 +93,7 @@ class ReportData:
     def speeds(self) -> list[float]:
         return sorted({float(t.speed_mm_s) for t in self.trials})
 
-    def select(self, *, surface=None, subject=None, speed=None) -> list[TrialData]:
+    def select(self, *, surface=None, subject=None, speed=None) -> list[AnalysedTrial]:
         return [
             t for t in self.trials
             if (surface is None or t.surface == surface)
@@ -181,17 +120,11 @@ def load_report_data(results) -> ReportData:
         if st is None or st.get("status") != "ok":
             failed.append((tid, (st or {}).get("reason") or "not analysed (run interrupted?)"))
             continue
-        frames = store.read_frames(tid)
-        model = store.read_model(tid)
-        trials.append(TrialData(
-            id=tid, subject=str(m.get("subject")), surface=str(m.get("surface")),
-            speed_mm_s=float(m.get("speed_mm_s") or math.nan), repetition=m.get("repetition"),
-            frames=frames, regions=regions_from_table(frames), forces=store.read_forces(tid), model=model,
-            status=st))
+        trials.append(store.read_trial(m, status=st, model=True))
     if not trials:
         raise ValueError(f"{str(store.root)!r}: no trial finished OK; nothing to report")
-    fit = store.read_fit_record()
-    fit_trials = loso = fit_table1 = None
+    fit = store.read_fit()
+    fit_trials = loso = fit_table1 = loso_figure = None
     stale_fit = store.fit_staleness(fit) if fit is not None else None
     if stale_fit is not None:  # a fit of other data is not shown as this data's fit
         fit = None
@@ -201,15 +134,8 @@ def load_report_data(results) -> ReportData:
         fit_trials = store.read_fit_table()
         loso = store.read_loso()
         fit_table1 = store.read_fit_csv("table1")
-    truth = truth_dir = None
-    notes = []
-    if run.get("truth"):
-        truth_dir = Path(run["truth"])
-        try:
-            truth = json.loads((truth_dir / "study.json").read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            notes.append(f"ground truth not readable ({exc}); the comparison with the truth is left out")
-            truth_dir = None
+        loso_figure = store.read_loso_figure() if loso is not None else None
+    truth, truth_dir, notes = store.read_truth()
     return ReportData(root=store.root, run=run, surfaces=surfaces, trials=trials, failed=failed, fit=fit,
                       fit_trials=fit_trials, truth=truth, truth_dir=truth_dir, notes=notes, loso=loso,
-                      fit_table1=fit_table1, stale_fit=stale_fit)
+                      fit_table1=fit_table1, stale_fit=stale_fit, loso_figure=loso_figure)

@@ -2,7 +2,7 @@
 
 Each function takes a :class:`~fingerfriction.report.data.ReportData` and returns a
 :class:`matplotlib.figure.Figure` built without pyplot (so it works in any thread and
-never opens a window), at print size in the package's style (:mod:`.style`: full page
+never opens a window), at print size in the package's style (:mod:`fingerfriction._style`: full page
 width, no text under 7 pt, Okabe-Ito colours); :func:`save_figure` writes it as PNG and
 SVG (text kept as text).
 
@@ -33,11 +33,7 @@ from matplotlib.patches import Patch
 
 from .._atomic import atomic_write_bytes
 from .._check import check_option
-from ..model.blindspots import blind_spots, occupancy
-from ..model.stats import shape_label
-from ..regions import region_lengths
-from .data import ReportData, TrialData
-from .style import (
+from .._style import (
     BLIND_SPOT,
     CYCLE,
     F_DEF,
@@ -49,6 +45,11 @@ from .style import (
     figure_style,
     new_figure,
 )
+from ..model.blindspots import blind_spots, occupancy
+from ..model.stats import shape_label
+from ..regions import region_lengths
+from ..study.results import AnalysedTrial, FitResult
+from .data import ReportData
 
 __all__ = ["fig3_occupancy", "fig4_forces", "fig6_model", "figS1_lengths", "figS3_components",
            "save_figure", "FIGURES", "pooled_regions", "measured_footing", "fit_footing",
@@ -93,7 +94,7 @@ def _empty(ax, text: str = "no trial") -> None:
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", color="0.45")
 
 
-def pooled_regions(trials: list[TrialData], masks: list[np.ndarray] | None = None) -> np.ndarray:
+def pooled_regions(trials: list[AnalysedTrial], masks: list[np.ndarray] | None = None) -> np.ndarray:
     """Concatenate the regions of several trials into one ``(n, n_max, 2)`` array
     (optionally only the frames selected by one boolean mask per trial)."""
     if not trials:
@@ -186,7 +187,7 @@ def fig3_occupancy(data: ReportData) -> Figure:
     as the blind-spot table) shaded on the profile and labelled with their widths.
 
     The occupancy counts the frames in which the finger slides through the analysis
-    window (:meth:`TrialData.sliding`): the rest at touch-down is left out. Counted, it
+    window (:meth:`AnalysedTrial.sliding`): the rest at touch-down is left out. Counted, it
     added the resting contact's time to every location it covered, a step in every
     panel at the resting contact's leading edge (x = -9.6 mm in the simulated studies:
     touch-down at x = -15.5 mm, the contact reaching 5.9 mm ahead).
@@ -254,7 +255,7 @@ def measured_footing(data: ReportData) -> str:
     return "absolute" if data.trials else "paper"
 
 
-def _flat_level(t: TrialData, x: np.ndarray, y: np.ndarray) -> float:
+def _flat_level(t: AnalysedTrial, x: np.ndarray, y: np.ndarray) -> float:
     """Mean of ``y`` over the trial's flat segment (from the force stage, else the first 2 mm)."""
     seg = (t.status.get("info") or {}).get("forces", {}).get("flat_segment_mm")
     if seg and len(seg) == 2 and all(v is not None and math.isfinite(v) for v in seg):
@@ -264,7 +265,7 @@ def _flat_level(t: TrialData, x: np.ndarray, y: np.ndarray) -> float:
     return float(np.mean(y[m])) if m.any() else float(np.nanmean(y[:50]))
 
 
-def measured_series(t: TrialData, footing: str):
+def measured_series(t: AnalysedTrial, footing: str):
     """A trial's measured ``(x mm, F_T N)``: 'absolute' less its mean on the flat, else the paper's."""
     x = t.forces["x_mm"].to_numpy(float)
     if footing == "absolute":
@@ -350,16 +351,10 @@ def fig4_forces(data: ReportData, *, footing: str = "auto") -> Figure:
 
 def fit_footing(data: ReportData) -> str:
     """How the fit put measurement and model on one footing, in words (from ``fit.json``)."""
-    fit = data.fit or {}
-    if isinstance(fit.get("footing"), str):
-        return fit["footing"]
-    detrend = (fit.get("options") or {}).get("detrend", True)
-    if detrend:
-        return "detrended (a line fitted on the flat before the feature, subtracted from both)"
-    return "absolute (no detrend)"
+    return (data.fit if data.fit is not None else FitResult({})).footing
 
 
-def region_events(t: TrialData, *, min_jump_mm: float = 0.2) -> np.ndarray:
+def region_events(t: AnalysedTrial, *, min_jump_mm: float = 0.2) -> np.ndarray:
     """Finger positions (mm) at which a contact region appears or vanishes, ``(n,)``.
 
     Consecutive tracked frames whose number of regions differs and whose total contact
@@ -477,9 +472,9 @@ def figS3_components(data: ReportData) -> Figure:
     """Fig. S3: model F_int (Eq. 2) and F_def (Eq. 3), mean +- 1 SD over all trials, for
     the model variant the fit used and, beside it, each variant it fitted only to compare
     with the paper (not selectable: the paper's Eq. 4 as printed)."""
-    fit = data.fit or {}
-    default = fit.get("model", "paper")
-    recorded = fit.get("models") or {}
+    fit = data.fit if data.fit is not None else FitResult({})
+    default = fit.model
+    recorded = fit.record.get("models") or {}
     models = [default] + [m for m, rec in recorded.items()
                           if m != default and isinstance(rec, dict) and rec.get("selectable") is False]
     if not any("selectable" in (rec or {}) for rec in recorded.values()):  # a fit of the two variants
@@ -507,7 +502,7 @@ def figS3_components(data: ReportData) -> Figure:
                     drawn = True
                 if not drawn:
                     _empty(ax)
-                what = "" if m is None else f" - {(recorded.get(m) or {}).get('title') or m}"
+                what = "" if m is None else f" - {fit.title(m)}"
                 ax.set_title(f"{surface_title(data, name)}{what}"
                              + (" (default)" if m == default and len(models) > 1 else ""))
                 if j == 0:

@@ -29,7 +29,8 @@ from collections import OrderedDict
 import numpy as np
 
 from ..flags import LEVELS, Flag
-from .data import ReportData, TrialData
+from ..study.results import AnalysedTrial, FitResult
+from .data import ReportData
 
 __all__ = ["LEVELS", "collect_flags", "comparison_notes", "flagged_trials", "group_flags", "position_gaps"]
 
@@ -42,7 +43,7 @@ def _flag(level, code, message, *, trial=None, subject=None, model=None) -> Flag
                 subject="" if subject is None else str(subject), model="" if model is None else str(model))
 
 
-def position_gaps(t: TrialData, *, min_frames: int = MIN_GAP_FRAMES) -> list[dict]:
+def position_gaps(t: AnalysedTrial, *, min_frames: int = MIN_GAP_FRAMES) -> list[dict]:
     """Runs of frames without x(t) between the first and last tracked frame.
 
     Returns one ``{"row", "frame", "n", "x_before", "x_after"}`` per run of at least
@@ -61,7 +62,7 @@ def position_gaps(t: TrialData, *, min_frames: int = MIN_GAP_FRAMES) -> list[dic
     return gaps
 
 
-def _gap_reasons(t: TrialData, first_row: int, n: int) -> str:
+def _gap_reasons(t: AnalysedTrial, first_row: int, n: int) -> str:
     flags = t.frames["flag"].astype(str).to_numpy()[first_row:first_row + n]
     reasons = OrderedDict()
     for f in flags:
@@ -72,7 +73,7 @@ def _gap_reasons(t: TrialData, first_row: int, n: int) -> str:
     return ", ".join(f"{r} ({c})" for r, c in reasons.items()) or "no reason recorded"
 
 
-def _trial_flags(t: TrialData) -> list[dict]:
+def _trial_flags(t: AnalysedTrial) -> list[dict]:
     out = []
     missing = t.status.get("input_missing") or {}
     if missing:  # analyze kept the last results of a trial whose files are gone: say so
@@ -80,10 +81,8 @@ def _trial_flags(t: TrialData) -> list[dict]:
                          f"{missing.get('reason', 'input files missing')} (since "
                          f"{missing.get('since', '?')}): these are the trial's last results, kept",
                          trial=t.id, subject=t.subject))
-    info = t.status.get("info") or {}
-    # Flag records, their level kept (results written before: 'code: message' strings, warnings)
-    for s in (info.get("forces") or {}).get("flags") or []:
-        out.append(Flag.from_dict(s if isinstance(s, dict) else str(s)).at(trial=t.id, subject=t.subject))
+    info = t.info
+    out += t.flags  # the force and consistency stages' flags, their level kept
     for g in position_gaps(t):
         out.append(_flag("warning", "position-gap",
                          f"x(t) missing in {g['n']} frames from frame {g['frame']} (between x = "
@@ -115,25 +114,18 @@ def collect_flags(data: ReportData) -> list[Flag]:
                            subject=labels.get(tid, {}).get("subject")))
     for t in data.trials:
         flags += _trial_flags(t)
-    fit = data.fit or {}
+    fit = data.fit if data.fit is not None else FitResult({})
     by_id = {t.id: t for t in data.trials}
-    recorded = fit.get("flags")
-    used = fit.get("model")
-    if isinstance(recorded, list):  # the fit's own flags, those of the variant it used
-        for f in recorded:
-            if not isinstance(f, dict) or (f.get("model") and used and f.get("model") != used):
-                continue  # a comparison variant's (a fit.json written before "notes"): a note
-            if f.get("message"):
-                flags.append(_flag(f.get("level", "warning") if f.get("level") in LEVELS else "warning",
-                                   f.get("code", "fit"), f["message"], trial=f.get("trial"),
-                                   subject=f.get("subject"), model=f.get("model")))
-    else:
-        for f in fit.get("failures") or []:
+    recorded = fit.flags
+    if recorded is not None:  # the fit's own flags, those of the variant it used
+        flags += recorded
+    else:  # a fit.json written before the fit recorded its flags
+        for f in fit.failures:
             tid = f.get("trial")
             subj = by_id[tid].subject if tid in by_id else labels.get(tid, {}).get("subject")
             flags.append(_flag("warning", "fit-failed", f.get("reason", ""), trial=tid, subject=subj))
-        grid = fit.get("mu_grid") or {}
-        for s, mu in (fit.get("mu") or {}).items():
+        grid = fit.mu_grid
+        for s, mu in fit.mu().items():
             lo, hi = grid.get("start"), grid.get("stop")
             if lo is not None and hi is not None and (math.isclose(mu, lo) or math.isclose(mu, hi)):
                 flags.append(_flag("warning", "mu-at-bound",
@@ -141,8 +133,7 @@ def collect_flags(data: ReportData) -> list[Flag]:
                                    "minimum inside the grid; the true value may lie beyond it (widen the "
                                    "grid)",
                                    subject=s))
-    loso = fit.get("loso") or {}
-    msg = str(loso.get("message") or "")
+    msg = str(fit.loso.get("message") or "")
     if msg.startswith("failed"):
         flags.append(_flag("warning", "loso-failed", f"out-of-sample validation {msg}"))
     order = {lv: i for i, lv in enumerate(LEVELS)}
@@ -153,16 +144,7 @@ def collect_flags(data: ReportData) -> list[Flag]:
 
 def comparison_notes(data: ReportData) -> list[Flag]:
     """The flags of the model variants fitted for comparison (not the one the fit used)."""
-    fit = data.fit or {}
-    used = fit.get("model")
-    if isinstance(fit.get("notes"), list):
-        recorded = fit["notes"]
-    else:  # a fit.json written before "notes": the other variants' flags were among "flags"
-        recorded = [f for f in fit.get("flags") or [] if isinstance(f, dict) and f.get("model")
-                    and f.get("model") != used]
-    return [_flag(f.get("level", "warning") if f.get("level") in LEVELS else "warning", f.get("code", "fit"),
-                  f.get("message", ""), trial=f.get("trial"), subject=f.get("subject"), model=f.get("model"))
-            for f in recorded if isinstance(f, dict)]
+    return data.fit.notes if data.fit is not None else []
 
 
 def flagged_trials(flags: list[Flag], *, levels=("error", "warning")) -> list[str]:

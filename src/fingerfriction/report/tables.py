@@ -11,6 +11,8 @@ import numpy as np
 import pandas as pd
 
 from ..model.stats import BOTH, blind_spot_table, correlation_table, shape_label
+from ..study.results import FitResult
+from ..study.store import ResultsStore
 from .data import ReportData
 
 __all__ = ["table1", "blindspot_table", "fit_parameter_table", "truth_tables", "format_p", "P_COLUMNS",
@@ -80,7 +82,7 @@ def table1(data: ReportData) -> pd.DataFrame | None:
     computed from the stored model forces of the fit's one model."""
     if data.fit_table1 is not None and not data.fit_table1.empty:
         out = data.fit_table1.copy()
-        default = (data.fit or {}).get("model", "paper")
+        default = data.fit.model if data.fit is not None else None
         out["_o"] = (out["model"] != default).astype(int)
         out = out.sort_values("_o", kind="stable").drop(columns="_o").reset_index(drop=True)
         if out[out["subject"] != BOTH]["subject"].nunique() < 2:
@@ -163,13 +165,11 @@ def realised_mu(data: ReportData) -> dict[str, float]:
     if data.truth_dir is None:
         return {}
     by: dict[str, list[float]] = {}
+    store = ResultsStore(data.root)
     for t in data.trials:
-        p = data.truth_dir / f"{t.id}.npz"
-        if not p.is_file():
-            continue
-        with np.load(p, allow_pickle=False) as z:
-            if "mu_trial" in z.files:
-                by.setdefault(t.subject, []).append(float(z["mu_trial"]))
+        z = store.trial_truth(data.truth_dir, t.id, ("mu_trial",))
+        if "mu_trial" in z:
+            by.setdefault(t.subject, []).append(float(z["mu_trial"]))
     return {s: float(np.mean(v)) for s, v in by.items() if v}
 
 
@@ -187,14 +187,12 @@ def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
         return out
     nominal = _truth_mu(data.truth)
     true_mu = {**nominal, **realised_mu(data)}
-    fit = data.fit or {}
-    default = fit.get("model", "paper")
-    per_model = fit.get("models") or {default: {"mu": fit.get("mu", {}), "mu_ci": fit.get("mu_ci", {})}}
+    fit = data.fit if data.fit is not None else FitResult({})  # no fit: no fitted mu
     if true_mu:
         rows = []
-        for m in [default, *[k for k in per_model if k != default]]:
-            fitted = per_model.get(m, {}).get("mu", {})
-            ci = per_model.get(m, {}).get("mu_ci") or {}
+        for m in fit.order:
+            fitted = fit.mu(m)
+            ci = fit.mu_ci(m)
             for s in sorted(set(true_mu) | set(fitted)):
                 t, f = true_mu.get(s, math.nan), fitted.get(s, math.nan)
                 lo, hi = (ci.get(s) or [math.nan, math.nan])
@@ -205,19 +203,17 @@ def truth_tables(data: ReportData) -> dict[str, pd.DataFrame]:
                              "truth_in_ci": bool(lo <= t <= hi) if math.isfinite(lo) else None})
         out["mu"] = pd.DataFrame(rows)
     if data.truth_dir is not None:
+        store = ResultsStore(data.root)
         rows, track = [], []
         for name in data.surface_names:
             regs, rms = [], []
             for t in data.select(surface=name):
-                p = data.truth_dir / f"{t.id}.npz"
-                if not p.is_file():
-                    continue
-                with np.load(p, allow_pickle=False) as z:
-                    if "regions_geom" in z.files:
-                        regs.append(np.asarray(z["regions_geom"], float))
-                    if "x_finger_video" in z.files:
-                        x_true = np.asarray(z["x_finger_video"], float)
-                        rms.append(_x_rms(t.frames["x_mm"].to_numpy(float), x_true))
+                z = store.trial_truth(data.truth_dir, t.id, ("regions_geom", "x_finger_video"))
+                if "regions_geom" in z:
+                    regs.append(np.asarray(z["regions_geom"], float))
+                if "x_finger_video" in z:
+                    x_true = np.asarray(z["x_finger_video"], float)
+                    rms.append(_x_rms(t.frames["x_mm"].to_numpy(float), x_true))
             rms = [r for r in rms if np.isfinite(r)]
             if rms:
                 track.append({"surface": name, "n_trials": len(rms), "x_rms_median_mm": float(np.median(rms)),
@@ -337,14 +333,14 @@ def run_record(data: ReportData) -> dict[str, pd.DataFrame]:
             prm.append({"stage": stage, "parameter": "", "value": _value(d)})
     if prm:
         out["parameters"] = pd.DataFrame(prm)
-    if data.fit:
+    if data.fit is not None:
         f = data.fit
-        grid = f.get("mu_grid") or {}
-        frows = [("method", f.get("method")),
+        grid = f.mu_grid
+        frows = [("method", f.method),
                  ("mu grid", f"{grid.get('start'):g} to {grid.get('stop'):g} by {grid.get('step'):g} "
                              f"({grid.get('n')} values)" if grid else None),
-                 *[(f"option: {k}", v) for k, v in (f.get("options") or {}).items()],
-                 ("trials fitted", f.get("n_trials")), ("finished", f.get("finished"))]
+                 *[(f"option: {k}", v) for k, v in f.options.items()],
+                 ("trials fitted", f.n_trials), ("finished", f.finished)]
         out["fit"] = pd.DataFrame([{"item": k, "value": _value(v)} for k, v in frows if v is not None])
     ver = [{"package": k, "version": str(v)} for k, v in (run.get("versions") or {}).items()]
     ver += [{"package": f"platform: {k}", "version": str(v)} for k, v in (run.get("platform") or {}).items()]

@@ -4,7 +4,8 @@ trial looks odd.
 Each page (``report/trials/<trial-id>.html``, self-contained: images embedded) shows the
 trial's flags with their reasons, the overlay animation (the video's frames with the
 finger outline, x(t) and the contact regions C_i drawn, as ``fingerfriction overlay``
-makes, from the stored results: :func:`fingerfriction.video.overlay.write_results_overlay`),
+makes, from the stored results: :func:`fingerfriction.video.overlay.write_results_overlay`; the
+video opened through the store's record of the inputs, the manifest not read again),
 and three plots: x(t) with the source of each frame's position, F_T(x) measured with the
 model, and F_N(x).
 
@@ -25,15 +26,14 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .._atomic import atomic_write_text
+from .._style import CYCLE, MEASURED, MODEL, OKABE_ITO, figure_style
 from ..forces.signals import describe_history
-from ..pipeline.params import video_options
-from ..pipeline.trial import TrialInput
-from ..study.manifest import load_manifest
+from ..study.results import AnalysedTrial
+from ..study.store import ResultsStore
 from ..video.overlay import write_results_overlay
-from .data import ReportData, TrialData
+from .data import ReportData
 from .figures import measured_series, region_events, surface_title
 from .flags import position_gaps
-from .style import CYCLE, MEASURED, MODEL, OKABE_ITO, figure_style
 
 __all__ = ["choose_pages", "trial_plots", "write_trial_pages", "PAGE_DIR", "page_href"]
 
@@ -89,7 +89,7 @@ def _new(h: float = 2.3) -> Figure:
     return fig
 
 
-def trial_plots(t: TrialData, data: ReportData) -> dict[str, str]:
+def trial_plots(t: AnalysedTrial, data: ReportData) -> dict[str, str]:
     """The page's three plots as base64 SVG: ``x_t``, ``f_t``, ``f_n``."""
     out = {}
     fr = t.frames
@@ -135,7 +135,7 @@ def trial_plots(t: TrialData, data: ReportData) -> dict[str, str]:
             ev = ev[(ev >= xm.min()) & (ev <= xm.max())] if xm.size else ev
             ax.plot(ev, np.zeros_like(ev), ls="none", marker="|", ms=6, color=MODEL,
                     transform=ax.get_xaxis_transform(), label="a contact region appears or vanishes")
-            footing = str((data.fit or {}).get("footing") or "the fit's").split(" (")[0]
+            footing = (data.fit.footing if data.fit is not None else "the fit's").split(" (")[0]
             ax.set_title(f"F_T(x): measured and the fit's default model, {footing} footing")
         else:  # not fitted: the measurement on its footings (one scale: the flat level taken off)
             ax.set_title("F_T(x) measured (not fitted)")
@@ -168,27 +168,17 @@ def trial_plots(t: TrialData, data: ReportData) -> dict[str, str]:
     return out
 
 
-def _study(data: ReportData):
-    """The analysed study (its manifest), or the reason it cannot be read from here."""
-    study = data.run.get("study")
-    if not study:
-        return None, "the run record names no study"
+def _animation(t: AnalysedTrial, store: ResultsStore, tmp_dir: Path, max_frames: int):
+    """(base64 GIF, None) or (None, why there is none): the stored results drawn on the
+    trial's video, opened through the store's record of the analysis' inputs."""
     try:
-        return load_manifest(study), None
-    except (OSError, ValueError) as exc:
-        return None, f"the study's manifest is not reachable from here ({exc})"
-
-
-def _animation(t: TrialData, data: ReportData, study, tmp_dir: Path, max_frames: int):
-    """(base64 GIF, None) or (None, why there is none)."""
+        video = store.trial_video(t.id)
+    except (KeyError, ValueError, TypeError, OSError) as exc:
+        return None, str(exc)
     try:
-        trial = TrialInput.from_study(study, t.id)
-        video = trial.path(trial.record.video.path, "video.path")
-        opts = video_options((data.run.get("parameters") or {}).get("video"),
-                             trial.record.video.calibration_frame)
         out = tmp_dir / f".{t.id}.overlay.gif"
-        write_results_overlay(video, t.frames, trial.height_mm, out, surface=trial.surface, options=opts,
-                              max_frames=max_frames)
+        write_results_overlay(video.path, t.frames, video.height_mm, out, surface=video.surface,
+                              options=video.options, max_frames=max_frames, regions=t.regions)
         blob = out.read_bytes()
         out.unlink()
     except (KeyError, ValueError, TypeError, OSError) as exc:
@@ -239,7 +229,7 @@ def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str],
     env.filters["readable"] = readable
     template = env.from_string(
         resources.files("fingerfriction.report").joinpath("templates/trial.html.j2").read_text("utf-8"))
-    study, no_study = _study(data) if animations else (None, "animations switched off for this report")
+    store = ResultsStore(data.root) if animations else None
     by_id = {t.id: t for t in data.trials}
     failed = dict(data.failed)
     labels = {m["id"]: m for m in data.run.get("trials", [])}
@@ -268,10 +258,10 @@ def write_trial_pages(data: ReportData, flags: list[dict], trial_ids: list[str],
                            "n_frames": info.get("n_frames"), "n_flagged_frames": info.get("n_flagged_frames")}
             hist = t.force_history
             ctx["history"] = describe_history(hist) if hist is not None else None
-            if study is not None:
-                ctx["animation"], ctx["animation_note"] = _animation(t, data, study, out_dir, max_frames)
+            if store is not None:
+                ctx["animation"], ctx["animation_note"] = _animation(t, store, out_dir, max_frames)
             else:
-                ctx["animation_note"] = no_study
+                ctx["animation_note"] = "animations switched off for this report"
         path = out_dir / f"{tid}.html"
         atomic_write_text(path, template.render(**ctx))
         written[tid] = path

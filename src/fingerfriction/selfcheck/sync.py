@@ -162,9 +162,11 @@ def _design(o: OnsetData, tau: float):
     return _hat(d), o.ratio[sel]
 
 
-def _fit_g(data: list[OnsetData], taus) -> np.ndarray | None:
-    """G (knot values) and the trials' levels a_i by alternating least squares."""
-    designs = [_design(o, t) for o, t in zip(data, taus, strict=True)]
+def _fit_g(data: list[OnsetData], taus, designs=None) -> np.ndarray | None:
+    """G (knot values) and the trials' levels a_i by alternating least squares
+    (``designs``: the trials' :func:`_design` at ``taus``, when already built)."""
+    if designs is None:
+        designs = [_design(o, t) for o, t in zip(data, taus, strict=True)]
     designs = [(B, r) for B, r in designs if B is not None]
     if not designs:
         return None
@@ -187,10 +189,11 @@ def _fit_g(data: list[OnsetData], taus) -> np.ndarray | None:
     return g
 
 
-def _rss(o: OnsetData, g: np.ndarray, tau: float) -> float:
+def _rss(o: OnsetData, g: np.ndarray, tau: float, design=None) -> float:
     """The trial's misfit to ``a G`` at offset ``tau`` (its level ``a`` fitted), relative to
-    its own power over the window: a window that misses the rise cannot fit by ``a = 0``."""
-    B, r = _design(o, tau)
+    its own power over the window: a window that misses the rise cannot fit by ``a = 0``
+    (``design``: the trial's :func:`_design` at ``tau``, when already built)."""
+    B, r = _design(o, tau) if design is None else design
     if B is None:
         return math.inf
     p = B @ g
@@ -276,13 +279,17 @@ def _prior_estimate(o: OnsetData) -> OffsetEstimate:
 #: another pre-sliding law.
 MIN_SPEED_SPREAD = 1.3
 
+#: Most groups of the common offset's jackknife (one trial per group up to this many).
+JACKKNIFE_GROUPS = 20
+
 
 def _total_misfit(data: list[OnsetData], rel: np.ndarray, c: float) -> float:
     taus = rel + c
-    g = _fit_g(data, taus)
+    designs = [_design(o, t) for o, t in zip(data, taus, strict=True)]  # built once for both
+    g = _fit_g(data, taus, designs)
     if g is None:
         return math.inf
-    return float(sum(_rss(o, g, t) for o, t in zip(data, taus, strict=True)))
+    return float(sum(_rss(o, g, t, d) for o, t, d in zip(data, taus, designs, strict=True)))
 
 
 def _min_common(data: list[OnsetData], rel: np.ndarray, lo: float, hi: float, step: float) -> float:
@@ -306,7 +313,8 @@ def _min_common(data: list[OnsetData], rel: np.ndarray, lo: float, hi: float, st
 
 def _common_offset(data: list[OnsetData], rel: np.ndarray) -> tuple[float, float]:
     """The offset shared by a finger's trials (added to their relative offsets ``rel``) and
-    its standard error, by the jackknife over trials; (NaN, NaN) when it cannot be seen: the
+    its standard error, by the jackknife over trials (in at most :data:`JACKKNIFE_GROUPS`
+    groups); (NaN, NaN) when it cannot be seen: the
     trials' speeds are too alike (:data:`MIN_SPEED_SPREAD`), or the misfit has no minimum
     within +-10 ms."""
     speeds = np.array([_speed(o) for o in data])
@@ -316,14 +324,23 @@ def _common_offset(data: list[OnsetData], rel: np.ndarray) -> tuple[float, float
     c = _min_common(data, rel, -0.01, 0.01, 1e-3)
     if not math.isfinite(c):
         return math.nan, math.nan
+    # The delete-a-group jackknife (Efron & Tibshirani 1993, sec. 11.5): at most
+    # JACKKNIFE_GROUPS groups of trials, each left out in turn. With one trial per group
+    # (up to that many trials) it is the delete-one jackknife; beyond, it keeps the cost
+    # linear in the trials: each replicate refits the law on every other trial, so the
+    # delete-one jackknife grew as n^2 (docs/selfcheck.md). Groups interleave the trials,
+    # so that each replicate keeps every speed and surface.
     n = len(data)
+    n_groups = min(n, JACKKNIFE_GROUPS)
+    groups = [np.arange(g, n, n_groups) for g in range(n_groups)]
     jack = []
-    for k in range(n):
-        others = [o for j, o in enumerate(data) if j != k]
-        ck = _min_common(others, np.delete(rel, k), c - 0.004, c + 0.004, 1e-3)
+    for idx in groups:
+        left = set(idx.tolist())
+        others = [o for j, o in enumerate(data) if j not in left]
+        ck = _min_common(others, np.delete(rel, idx), c - 0.004, c + 0.004, 1e-3)
         if math.isfinite(ck):
             jack.append(ck)
-    if len(jack) < n - 1:
+    if len(jack) < len(groups) - 1:
         return c, math.inf
     jack = np.array(jack)
     se = math.sqrt((len(jack) - 1) / len(jack) * float(np.sum((jack - jack.mean()) ** 2)))

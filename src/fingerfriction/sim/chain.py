@@ -24,6 +24,11 @@ exactly (it is told the cut-off), and a normal force that ignores the relief.
   a fraction ``pole_ratio`` of it), with a small per-trial, per-channel spread
   (temperature); the drift adds, to the straight line of the ideal chain, a thermal
   settling ``A (1 - exp(-t / tau))`` and a smooth random wander.
+* **The tray** (:func:`tray_response`): the tray and its transducers are a mass on
+  springs, so the device's response is flat only well below their resonance ("a nearly
+  flat frequency response from 15 to 500 Hz", Methods): a second-order resonance per
+  axis (normal, tangential), drawn per study above 1.5 kHz, applied to the forces on
+  the plate before the transducers.
 
 The analysis is told none of this. Draws: the device (cut-off, pole ratio, crosstalk)
 from the study seed alone (:func:`draw_device`), the rest from the trial's own ``chain``
@@ -42,7 +47,7 @@ from scipy.signal import butter, lfilter
 
 from .contact import ContactTable
 from .kinematics import Kinematics, KinematicsParams, smooth_noise
-from .sensor import highpass2
+from .sensor import highpass2, tray_response
 
 __all__ = [
     "CHAIN_NAMES",
@@ -55,6 +60,7 @@ __all__ = [
     "highpass2",
     "cutoff_of_poles",
     "poles_of_cutoff",
+    "tray_response",
 ]
 
 #: The chains ``SimOptions.chain`` accepts.
@@ -117,6 +123,13 @@ class RealisticChain:
         white noise's density, 7 uN/sqrt(Hz), with a 10 Hz flicker corner).
     drift_wander_hz : float
         Its bandwidth in Hz (default 1).
+    tray_hz : (float, float)
+        Range in Hz of the tray's resonance on each axis, drawn per study (default
+        1500-3000: within +1 dB of flat up to 500 Hz, "a nearly flat frequency response
+        from 15 to 500 Hz").
+    tray_q : (float, float)
+        Range of its quality factor (default 2-8: aluminium on quartz transducers, damped
+        by the finger resting on the plate).
     """
 
     coupling_n_per_mm: float = 0.05
@@ -132,6 +145,8 @@ class RealisticChain:
     drift_settle_s: tuple = (2.0, 20.0)
     drift_wander_n: float = 3e-5
     drift_wander_hz: float = 1.0
+    tray_hz: tuple = (1500.0, 3000.0)
+    tray_q: tuple = (2.0, 8.0)
 
     def __post_init__(self) -> None:
         for k in ("coupling_n_per_mm", "coupling_sd", "control_hz", "motor_noise_exponent", "cutoff_jitter",
@@ -155,17 +170,24 @@ class RealisticChain:
         xt = _range("crosstalk", self.crosstalk)
         if xt[1] > 0.2:
             raise ValueError(f"RealisticChain.crosstalk must be at most 0.2, got {self.crosstalk!r}")
+        tray = _range("tray_hz", self.tray_hz)
+        if tray[0] <= 500 or tray[1] >= 4000:
+            raise ValueError(f"RealisticChain.tray_hz must lie in (500, 4000) Hz (above the 500 Hz the "
+                             f"device is flat to, below the 5 kHz Nyquist), got {self.tray_hz!r}")
+        tq = _range("tray_q", self.tray_q)
+        if tq[0] < 0.5:
+            raise ValueError(f"RealisticChain.tray_q must be >= 0.5, got {self.tray_q!r}")
         settle = _range("drift_settle_s", self.drift_settle_s)
         if settle[0] <= 0:
             raise ValueError(f"RealisticChain.drift_settle_s must be positive times in s, "
                              f"got {self.drift_settle_s!r}")
         for k, v in (("cutoff_hz", cut), ("pole_ratio", ratio), ("crosstalk", xt),
-                     ("drift_settle_s", settle)):
+                     ("drift_settle_s", settle), ("tray_hz", tray), ("tray_q", tq)):
             object.__setattr__(self, k, v)
 
     def to_dict(self) -> dict:
         d = asdict(self)
-        for k in ("cutoff_hz", "pole_ratio", "crosstalk", "drift_settle_s"):
+        for k in ("cutoff_hz", "pole_ratio", "crosstalk", "drift_settle_s", "tray_hz", "tray_q"):
             d[k] = list(d[k])
         return d
 
@@ -207,7 +229,9 @@ def draw_device(seed: int, chain: RealisticChain) -> dict:
         ``cutoff_hz``, ``pole_ratio``, ``poles_hz`` ([f1, f2]), ``crosstalk`` (2 x 2
         matrix ``M``: the transducers' outputs are ``M @ (F1, F2)``, ones on the diagonal)
         and, with ``crosstalk_calibration``, ``calibration`` (the lab's measurement of
-        ``M``; the files hold its inverse applied to the digitised channels).
+        ``M``; the files hold its inverse applied to the digitised channels), ``tray_hz``
+        and ``tray_q`` (the tray's resonance on the normal and tangential axes, Hz and
+        quality factor).
     """
     rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(zlib.crc32(b"sensor-device"),)))
     fc = float(rng.uniform(*chain.cutoff_hz))
@@ -222,6 +246,9 @@ def draw_device(seed: int, chain: RealisticChain) -> dict:
     if chain.crosstalk_calibration is not None:
         k = chain.crosstalk_calibration
         out["calibration"] = [[1.0, c12 * (1 + k * err[0])], [c21 * (1 + k * err[1]), 1.0]]
+    # drawn after the others, so that they are those of a chain without the tray
+    out["tray_hz"] = rng.uniform(*chain.tray_hz, size=2).tolist()
+    out["tray_q"] = rng.uniform(*chain.tray_q, size=2).tolist()
     return out
 
 
@@ -240,15 +267,21 @@ class ChainDraws:
     calibration : (2, 2) ndarray or None
         The lab's measurement of ``M``: the files hold its inverse applied to the
         digitised channels (None: uncalibrated).
+    tray : (2, 2) ndarray or None
+        Rows (normal, tangential): the tray's resonance in Hz and its quality factor
+        (:func:`tray_response`; None: a rigid tray).
     """
 
     poles_hz: np.ndarray
     crosstalk: np.ndarray
     drift: np.ndarray
     calibration: np.ndarray | None = None
+    tray: np.ndarray | None = None
 
     def truth(self, fs: float) -> dict:
         cal = {} if self.calibration is None else {"sensor_calibration": self.calibration}
+        if self.tray is not None:
+            cal["sensor_tray"] = self.tray
         return {**cal, "sensor_poles_hz": self.poles_hz, "sensor_crosstalk": self.crosstalk,
                 "sensor_cutoff_hz": np.array([cutoff_of_poles(p) for p in self.poles_hz]),
                 "sensor_extra_drift": self.drift.astype(np.float32)}
@@ -268,8 +301,9 @@ def draw_trial_chain(rng: np.random.Generator, n: int, fs: float, chain: Realist
         w = smooth_noise(rng, n, fs, chain.drift_wander_hz) if n > 1 else np.zeros(n)
         drift[c] = a * (1.0 - np.exp(-t / tau)) + chain.drift_wander_n * w
     cal = device.get("calibration")
+    tray = np.column_stack([device["tray_hz"], device["tray_q"]]) if "tray_hz" in device else None
     return ChainDraws(poles, np.asarray(device["crosstalk"], float), drift,
-                      None if cal is None else np.asarray(cal, float))
+                      None if cal is None else np.asarray(cal, float), tray)
 
 
 def speed_scaled_kinematics(params: KinematicsParams, speed_mm_s: float,

@@ -26,11 +26,12 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.signal import butter, lfilter, sosfilt
+from scipy.signal import bilinear, butter, lfilter, sosfilt
 
 from .._check import check_freq, check_fs, integer, nonnegative, positive
 
-__all__ = ["SensorParams", "to_channels", "from_channels", "apply_sensor", "highpass2", "SQRT2"]
+__all__ = ["SensorParams", "to_channels", "from_channels", "apply_sensor", "highpass2", "tray_response",
+           "SQRT2"]
 
 SQRT2 = math.sqrt(2.0)
 
@@ -117,6 +118,25 @@ def highpass2(x: np.ndarray, poles, fs: float) -> np.ndarray:
     return sosfilt(np.concatenate(secs), np.asarray(x, float))
 
 
+def tray_response(f: np.ndarray, resonance_hz: float, q: float, fs: float) -> np.ndarray:
+    """A force on the plate as the transducers feel it through the tray: the second-order
+    resonance ``w^2 / (s^2 + (w / q) s + w^2)`` (unit gain at rest), bilinear with the
+    resonance prewarped, from rest.
+
+    Parameters
+    ----------
+    f : (n,) ndarray
+        Force in N on the force clock.
+    resonance_hz, q : float
+        The axis' resonance in Hz (below ``fs / 2``) and quality factor.
+    fs : float
+        Sampling frequency in Hz.
+    """
+    w = 2.0 * fs * math.tan(math.pi * float(resonance_hz) / fs)
+    b, a = bilinear([w * w], [1.0, w / float(q), w * w], fs)
+    return lfilter(b, a, np.asarray(f, float))
+
+
 def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
                  params: SensorParams | None = None, *, chain=None) -> tuple[np.ndarray, np.ndarray]:
     """Recorded channels ``(F1, F2)`` in N for true forces sampled at ``params.fs_hz``.
@@ -129,8 +149,9 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
         Every draw of the ideal chain (the same draws with or without ``chain``).
     params : SensorParams, optional
     chain : ChainDraws, optional
-        A trial's realistic chain (:mod:`fingerfriction.sim.chain`): the channels are
-        mixed by its crosstalk matrix, go through its second-order high-pass (instead of
+        A trial's realistic chain (:mod:`fingerfriction.sim.chain`): the forces go through
+        the tray's resonance on each axis (when it has one), the channels are mixed by its
+        crosstalk matrix, go through its second-order high-pass (instead of
         the first-order ``params.highpass_hz``), get its extra drift, and, after the
         quantisation, the inverse of the lab's calibration matrix when it has one.
 
@@ -140,6 +161,9 @@ def apply_sensor(f_n: np.ndarray, f_t: np.ndarray, rng: np.random.Generator,
         Quantised channel readings in N.
     """
     P = params or SensorParams()
+    if chain is not None and chain.tray is not None:
+        f_n = tray_response(f_n, chain.tray[0, 0], chain.tray[0, 1], P.fs_hz)
+        f_t = tray_response(f_t, chain.tray[1, 0], chain.tray[1, 1], P.fs_hz)
     f1, f2 = to_channels(f_n, f_t)
     n = f1.size
     t = np.arange(n) / P.fs_hz

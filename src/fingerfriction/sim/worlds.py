@@ -269,25 +269,27 @@ class Interlocking:
     With ``q = F_N p / int p dx`` the line load (N/mm) the contact provider's pressure
     carries, ``a = atan(dh/dx)``::
 
-        F_int = g(d) mu_t(t) int q cos a dx
+        F_int = g(d) mu_t(d) int q cos a dx
         F_def = g(d) (1 + e(t)) [ (1 + psi_up(v)) int_{s>0} q sin a dx
                                  + r_down(v) int_{s<0} q sin a dx ]
 
     ``F_int`` is the horizontal part of the interfacial (Coulomb) shear; ``F_def`` the
     horizontal push of the normal stress on sloping ground, which the elastic contact
     gives symmetrically (back on rising ground, forward on falling ground) and the
-    finger's viscoelastic tissue makes asymmetric: the leading side, compressed against
-    rising ground, pushes harder (``psi_up``); on falling ground the skin lags behind the
-    receding surface and returns only a fraction ``r_down`` of the elastic forward push.
-    ``psi_up`` grows with the trial's speed ``v`` as ``(v / v_ref)^speed_exponent`` and
-    ``r_down`` falls as its inverse (the faster the slide, the less time the skin has to
-    follow); both are drawn per trial (log-normal, ``psi_sd``); ``e(t)`` is a smooth
-    random process (``fluct_hz``) whose size grows with speed: the interlocking at the
-    leading edge is the unsteady part, while the interfacial friction on talc-treated
-    aluminium is steady within a trial ("treated with a small amount of talc to reduce
-    stick-slip effects", Methods); ``mu_t(t) = mu (1 + transient exp(-(t -
-    t_slide) / transient_s))`` is a static-to-sliding peak decaying in *time*.
-    ``docs/worlds.md`` gives the paper's statements each term reproduces.
+    finger's viscoelastic tissue makes asymmetric: where the ground rises under it the
+    tissue is being compressed and pushes harder (``psi_up``); where it falls the surface
+    recedes faster than the relaxed tissue recovers and the skin stays behind, so only a
+    small fraction ``r_down`` of the elastic forward push is returned. ``psi_up`` grows
+    with the trial's speed ``v`` as ``(v / v_ref)^speed_exponent`` and ``r_down`` falls as
+    its inverse (the faster the slide, the less time the skin has to follow); both are
+    drawn per trial (log-normal, ``psi_sd``); ``e(t)`` is a smooth random process
+    (``fluct_hz``) whose size grows with speed: the interlocking at the leading edge is
+    the unsteady part, while the interfacial friction on talc-treated aluminium is steady
+    within a trial ("treated with a small amount of talc to reduce stick-slip effects",
+    Methods). ``mu_t(d) / mu`` (:meth:`static_peak`) is the static-to-sliding peak of the
+    rate-and-state aging law at the trial's speed: static friction grows with the
+    contact's age, and the slide erases it over a slip distance (``memory_mm``), not a
+    time. ``docs/worlds.md`` gives the paper's statements each term reproduces.
 
     Parameters
     ----------
@@ -295,8 +297,8 @@ class Interlocking:
         Relative increase of the push on rising ground at ``v_ref`` (>= 0).
     down_return : float
         Fraction of the elastic forward push on falling ground returned at ``v_ref``
-        (0..1; default 0.1: "negligibly small" deformation forces on the Step Down
-        surfaces, Fig. S3).
+        (0..1; default 0.02: "negligibly small" deformation forces on the Step Down
+        surfaces, Fig. S3; ``docs/worlds.md``).
     speed_exponent : float
         ``psi`` grows as ``(v / v_ref)^speed_exponent``.
     v_ref : float
@@ -311,29 +313,31 @@ class Interlocking:
         grows as ``sqrt(v / v_ref)``.
     fluct_hz : float
         Bandwidth of the within-trial fluctuations in Hz.
-    transient : float
-        Height of the static-to-sliding friction peak, relative (>= 0).
-    transient_s : float
-        Its decay time in s (> 0).
+    aging : float
+        Rate-and-state ``b / mu``: the static friction's relative gain per e-fold of
+        ``v theta0 / memory_mm`` (>= 0; 0: no start transient).
+    memory_mm : float
+        Slip distance in mm over which the slide erases the contact's memory (the
+        rate-and-state ``D_c``; > 0).
     """
 
     psi_up: float = 1.0
-    down_return: float = 0.1
+    down_return: float = 0.02
     speed_exponent: float = 0.3
     v_ref: float = 80.0
     psi_sd: float = 0.25
     mu_sd: float = 0.03
     fluct_sd: float = 0.15
     fluct_hz: float = 15.0
-    transient: float = 0.3
-    transient_s: float = 0.03
+    aging: float = 0.05
+    memory_mm: float = 0.1
 
     name = "interlocking"
 
     def __post_init__(self) -> None:
         _check_fields(self, nonneg=("psi_up", "down_return", "speed_exponent", "psi_sd", "mu_sd", "fluct_sd",
-                                    "transient"),
-                      positive=("v_ref", "fluct_hz", "transient_s"))
+                                    "aging"),
+                      positive=("v_ref", "fluct_hz", "memory_mm"))
         if self.down_return > 1:
             raise ValueError(f"Interlocking.down_return must be in [0, 1], got {self.down_return!r}")
         if self.mu_sd > 0.3 or self.fluct_sd > 0.5:
@@ -348,6 +352,22 @@ class Interlocking:
         k = (speed_mm_s / self.v_ref) ** self.speed_exponent
         return self.psi_up * k, min(self.down_return / k, 1.0)
 
+    def static_peak(self, motion: TrialMotion) -> np.ndarray:
+        """``mu_t / mu`` along the trial: the rate-and-state aging law at the trial's mean
+        speed ``v`` from the contact's age ``theta0`` at the slide's start (the time since
+        the first sample in contact),
+        ``1 + aging ln(1 + max(C - 1, 0) exp(-d / memory_mm))``, ``C = v theta0 / memory_mm``
+        (Dieterich's state ``theta`` at constant slip speed: ``theta0`` decays to the
+        steady ``memory_mm / v`` over the slip distance ``memory_mm``)."""
+        d = np.asarray(motion.sliding_distance, float)
+        touch = np.flatnonzero(np.asarray(motion.in_contact, bool))
+        t = np.asarray(motion.t, float)
+        age = max(float(motion.t_slide_start) - float(t[touch[0]]), 0.0) if touch.size else 0.0
+        c = float(motion.mean_speed) * age / self.memory_mm
+        if self.aging == 0 or c <= 1:
+            return np.ones_like(d)
+        return 1.0 + self.aging * np.log1p((c - 1.0) * np.exp(-np.maximum(d, 0.0) / self.memory_mm))
+
     def trial_forces(self, table: ContactTable, motion: TrialMotion, subject: str,
                      rng: np.random.Generator, *, mu_scale: float = 1.0, load_exponent: float = 0.0,
                      f_ref_n: float = 0.3) -> WorldForces:
@@ -357,7 +377,9 @@ class Interlocking:
         Returns
         -------
         WorldForces
-            ``truth``: ``mu_trial``, ``psi_up_trial``, ``down_return_trial``.
+            ``truth``: ``mu_trial``, ``psi_up_trial``, ``down_return_trial``,
+            ``static_gain_trial`` (the static friction's gain at the slide's start,
+            :meth:`static_peak`).
         """
         v = float(motion.mean_speed)
         mu = _mu(subject) * mu_scale * (1.0 + self.mu_sd * float(np.clip(rng.standard_normal(), -3.0, 3.0)))
@@ -376,15 +398,16 @@ class Interlocking:
         E = table.interp_extra(motion.x, np.maximum(f_n, 1e-9))
         i_n = I[:, 0]
         scale = np.where(motion.in_contact & (i_n > 0), f_n / np.where(i_n > 0, i_n, 1.0), 0.0)
-        since = np.maximum(np.asarray(motion.t) - motion.t_slide_start, 0.0)
-        mu_t = mu * (1.0 + self.transient * np.exp(-since / self.transient_s))
+        peak = self.static_peak(motion)
+        mu_t = mu * peak
         if load_exponent:
             mu_t = mu_t * (np.maximum(f_n, 1e-6) / f_ref_n) ** (-load_exponent)
         g = _start(motion)
         f_int = g * scale * mu_t * I[:, 2]
         f_def = g * scale * (1.0 + e_def) * ((1.0 + up) * E["sin_up"] + down * E["sin_down"])
         return WorldForces(f_int + f_def, f_int, f_def,
-                           {"mu_trial": mu, "psi_up_trial": up, "down_return_trial": down})
+                           {"mu_trial": mu, "psi_up_trial": up, "down_return_trial": down,
+                            "static_gain_trial": float(peak.max()) if peak.size else 1.0})
 
 
 _WORLDS = {"load-sharing": LoadSharing, "constant-pressure": ConstantPressure, "interlocking": Interlocking}

@@ -3,7 +3,9 @@
 * :mod:`.manifest` (with :mod:`.records`, the fields of its trial entries): the study
   folder's ``manifest.json``, the only manifest parser and path resolver
   (:func:`load_manifest`, :class:`Study`, :class:`TrialRecord`, ...);
-* :mod:`.store`: the results folder, its only reader and writer (:class:`ResultsStore`);
+* :mod:`.store` (with :mod:`.fitstore` and :mod:`.tables`): the results folder, its only
+  reader and writer (:class:`ResultsStore`), and :mod:`.results`, the typed boundary it
+  reads and writes (:class:`AnalysedTrial`, :class:`FitResult`);
 * :mod:`.init` and :mod:`.patterns`: a manifest built from a folder of lab recordings;
 * :mod:`.check`: every problem of a study listed at once.
 
@@ -30,6 +32,7 @@ from .manifest import (
     validate_id,
     write_manifest,
 )
+from .results import AnalysedTrial, FitResult, VideoInput
 from .store import RESULTS_FORMAT, RESULTS_SCHEMA_VERSION, ResultsStore, frames_table, regions_from_table
 
 __all__ = [
@@ -51,6 +54,9 @@ __all__ = [
     "RESULTS_FORMAT",
     "RESULTS_SCHEMA_VERSION",
     "ResultsStore",
+    "AnalysedTrial",
+    "FitResult",
+    "VideoInput",
     "frames_table",
     "regions_from_table",
 ]

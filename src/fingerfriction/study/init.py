@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .._check import integer, option_message, positive
 from ..forces.readers import FORCE_FORMATS, infer_force_format, read_force_file
 from ..surfaces import SURFACE_NAMES, surface_from_spec
 from ..video.readers import FPS_TOLERANCE, probe_video
@@ -87,28 +88,26 @@ class InitOptions:
             v = getattr(self, name)
             object.__setattr__(self, name, (v,) if isinstance(v, str) else tuple(v))
         if self.fps is not None:
-            fps = float(self.fps)
-            if not (math.isfinite(fps) and fps > 0):
-                raise ValueError(f"fps must be a positive frame rate in Hz, got {self.fps!r}")
-            object.__setattr__(self, "fps", fps)
+            object.__setattr__(self, "fps", positive("fps", self.fps, "Hz", what="frame rate"))
         t0 = float(self.video_t0_s)
         if not math.isfinite(t0):
             raise ValueError(f"video_t0_s must be a finite time in s, got {self.video_t0_s!r}")
         object.__setattr__(self, "video_t0_s", t0)
-        cf = self.calibration_frame
-        if isinstance(cf, bool) or not isinstance(cf, int) or cf < 0:
-            raise ValueError(f"calibration_frame must be a frame index >= 0, got {cf!r}")
+        if isinstance(self.calibration_frame, float):  # a frame index, never 3.0
+            raise ValueError(f"calibration_frame must be an integer >= 0 (a frame index), got "
+                             f"{self.calibration_frame!r}")
+        integer("calibration_frame", self.calibration_frame, 0, what="(a frame index)")
         for fmt, opts in self.force.items():
-            if fmt is not None and fmt not in FORCE_FORMATS:
-                raise ValueError(f"force options for format {fmt!r}: formats are {', '.join(FORCE_FORMATS)}")
+            if fmt is not None and fmt not in FORCE_FORMATS:  # (the message names the format first)
+                raise ValueError(f"force options for format {fmt!r}: {option_message(fmt, FORCE_FORMATS)}")
             unknown = set(opts) - set(FORCE_OPTION_KEYS)
             if unknown:
                 raise ValueError(f"unknown force option(s) {sorted(unknown)}; "
                                  f"allowed: {', '.join(FORCE_OPTION_KEYS)}")
         for key, h in self.surface_height_mm.items():
-            if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
-                where = "" if key is None else f" of {key!r}"
-                raise ValueError(f"surface height{where} must be a positive height in mm, got {h!r}")
+            if isinstance(h, bool):
+                raise ValueError(f"surface height must be a height in mm, got {h!r}")
+            positive("surface height" + ("" if key is None else f" of {key!r}"), h, "mm", what="height")
 
     @classmethod
     def from_command_line(cls, *, video, forces, surface=None, channels=None, time=None, units=None,

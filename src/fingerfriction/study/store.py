@@ -66,6 +66,7 @@ import hashlib
 import io
 import json
 import logging
+import math
 import os
 import shutil
 import stat
@@ -76,14 +77,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .._atomic import atomic_write, atomic_write_json, atomic_write_text
+from .._atomic import atomic_write, atomic_write_json
 from .._check import parse_json
 from .._outputs import write_table
-from ..fit import FitOptions, Trial, flat_segment_mask, mu_grid
+from ..fit import FitOptions, Trial, flat_segment_mask
 from ..regions import regions_on_grid
 from ..surfaces import Surface, surface_from_spec
+from ..video import AnalysisOptions
 from .digests import input_fingerprint, params_digest, sha256_file, sha256_input
-from .manifest import validate_id
+from .fitstore import FitFolder, read_fit_table, read_json_object
+from .manifest import resolve_path, validate_id
+from .results import AnalysedTrial, VideoInput
 from .tables import atomic_write_parquet, clipped_on_grid, frames_table, regions_from_table
 
 __all__ = [
@@ -127,8 +131,9 @@ class ResultsInUseError(ValueError):
     """Another command holds the results folder (:meth:`ResultsStore.lock`)."""
 
 
-class ResultsStore:
-    """A results folder (layout in the module docstring).
+class ResultsStore(FitFolder):
+    """A results folder (layout in the module docstring); its ``fit/`` part is
+    :class:`~fingerfriction.study.fitstore.FitFolder`'s.
 
     Parameters
     ----------
@@ -170,7 +175,7 @@ class ResultsStore:
                 f"{str(self.root)!r} is not a results folder (no run.json); "
                 "run `fingerfriction analyze STUDY --out RESULTS` first"
             )
-        rec = _read_json(self.run_path)
+        rec = read_json_object(self.run_path)
         if rec.get("format") != RESULTS_FORMAT:
             raise ValueError(f"{self.run_path}: format is {rec.get('format')!r}, expected {RESULTS_FORMAT!r}")
         if rec.get("schema_version") != RESULTS_SCHEMA_VERSION:
@@ -393,15 +398,109 @@ class ResultsStore:
         return [m for m in self.read_run().get("trials", [])
                 if (self.status(m["id"]) or {}).get("status") == "ok"]
 
+    def read_trial(self, entry: dict | str, *, status: dict | None = None,
+                   model: bool = False) -> AnalysedTrial:
+        """One trial analysed OK, as the analysis stored it: its tables, its regions as an
+        array (the only reader of the ``a1, b1, ...`` columns), its status record and, with
+        ``model``, the fit's model forces (None before the fit).
+
+        Parameters
+        ----------
+        entry : dict or str
+            The trial's run-record entry (:meth:`analysed_trials`) or its id.
+        status : dict, optional
+            Its status record when the caller has read it.
+        model : bool
+            Also read ``fit/model/<trial-id>.parquet``.
+
+        Raises
+        ------
+        ValueError, KeyError, OSError
+            An unknown trial, unreadable tables.
+        """
+        if isinstance(entry, str):
+            entry = next((m for m in self.read_run().get("trials", []) if m.get("id") == entry), None) or \
+                {"id": entry}
+        tid = entry["id"]
+        frames = self.read_frames(tid)
+        return AnalysedTrial(
+            id=tid, subject=str(entry.get("subject")), surface=str(entry.get("surface")),
+            speed_mm_s=float(entry.get("speed_mm_s") or math.nan), repetition=entry.get("repetition"),
+            frames=frames, regions=regions_from_table(frames), forces=self.read_forces(tid),
+            model=self.read_model(tid) if model else None,
+            status=(self.status(tid) or {}) if status is None else status)
+
+    def trial_video(self, trial_id: str) -> VideoInput:
+        """A trial's video as the store recorded its inputs (the run record's study folder,
+        the trial's entry and input paths, the video options of the analysis): what an
+        overlay of the stored results on the video needs, without reading the manifest.
+
+        Raises
+        ------
+        ValueError
+            The results do not record the trial's video, or the study is not reachable.
+        """
+        run = self.read_run()
+        st = self.status(trial_id) or {}
+        entry = st.get("entry")
+        rel = ((st.get("inputs") or {}).get("video") or {}).get("path") or \
+            ((entry or {}).get("video") or {}).get("path")
+        study = run.get("study")
+        if not study:
+            raise ValueError("the run record names no study")
+        root = Path(study)
+        if not (root / "manifest.json").is_file():
+            raise ValueError(f"the study's manifest is not reachable from here ({root}), nor are its videos")
+        if not isinstance(entry, dict) or not rel:
+            raise ValueError("the results do not record this trial's video inputs (analysed by an earlier "
+                             "version; run analyze again)")
+        spec = entry.get("surface_spec") or (run.get("surfaces") or {}).get(entry.get("surface"))
+        surface = surface_from_spec(spec)
+        height = (entry.get("calibration") or {}).get("surface_height_mm")
+        video = dict((run.get("parameters") or {}).get("video") or {})
+        video.setdefault("calibration_frame", int((entry.get("video") or {}).get("calibration_frame", 0)))
+        try:
+            options = AnalysisOptions(**video)
+        except TypeError as exc:  # an option of another version
+            raise ValueError(f"video option: {exc}") from None
+        return VideoInput(path=resolve_path(root, rel, where="video.path"), surface=surface,
+                          height_mm=float(surface.max_height if height is None else height), options=options)
+
+    def read_truth(self) -> tuple[dict | None, Path | None, list[str]]:
+        """``(truth, truth_dir, notes)``: the ground truth of a simulated study that the run
+        record names (``truth/study.json``), its folder, and why it is left out when it
+        cannot be read (``(None, None, [])`` for a study without one)."""
+        truth_dir = self.read_run().get("truth")
+        if not truth_dir:
+            return None, None, []
+        truth_dir = Path(truth_dir)
+        try:
+            return json.loads((truth_dir / "study.json").read_text(encoding="utf-8")), truth_dir, []
+        except (OSError, json.JSONDecodeError) as exc:
+            return None, None, [f"ground truth not readable ({exc}); the comparison with the truth is "
+                                "left out"]
+
+    def trial_truth(self, truth_dir: Path | None, trial_id: str,
+                    keys: tuple[str, ...]) -> dict[str, np.ndarray]:
+        """The arrays ``keys`` of a simulated trial's truth (``truth/<trial-id>.npz``) that it
+        has; {} without a truth file."""
+        self.trial_dir(trial_id)  # validates the id
+        p = None if truth_dir is None else Path(truth_dir) / f"{trial_id}.npz"
+        if p is None or not p.is_file():
+            return {}
+        with np.load(p, allow_pickle=False) as z:
+            return {k: np.asarray(z[k]) for k in keys if k in z.files}
+
     def read_fit_trial(self, entry: dict, surfaces: dict[str, Surface], *,
-                       flat_margin: float = FitOptions().flat_margin) -> tuple[Trial, np.ndarray]:
+                       flat_margin: float = FitOptions().flat_margin) -> Trial:
         """One analysed trial as the fit and the out-of-sample validation use it.
 
         Forces on the 0.01 mm grid from ``forces.parquet`` (positions with a finite ``F_T``),
         on the paper's footing and, where the trial has them, on the absolute footing
         (``Trial.force_abs``, ``Trial.normal_abs``), the video's contact regions mapped onto
-        the grid (:func:`~fingerfriction.regions.regions_on_grid`), the surface from the
-        run record.
+        the grid (:func:`~fingerfriction.regions.regions_on_grid`; ``Trial.translated``: the
+        positions whose regions were translated from the nearest tracked frame), the surface
+        from the run record.
 
         Parameters
         ----------
@@ -414,9 +513,7 @@ class ResultsStore:
 
         Returns
         -------
-        trial : fingerfriction.fit.Trial
-        translated : (n,) bool ndarray
-            Positions whose regions were translated from the nearest tracked frame.
+        fingerfriction.fit.Trial
 
         Raises
         ------
@@ -424,14 +521,12 @@ class ResultsStore:
             An unreadable trial, or one without a flat segment (fewer than 2 positions
             where all contact lies before the feature: the fit detrends over it).
         """
-        tid = entry["id"]
-        fr = self.read_frames(tid)
-        fo = self.read_forces(tid)
+        at = self.read_trial(entry)
+        fr, fo = at.frames, at.forces
         x = fo["x_mm"].to_numpy(float)
         F = fo["F_T_N"].to_numpy(float)
         good = np.isfinite(F)
-        reg, moved = regions_on_grid(fr["x_mm"].to_numpy(float), regions_from_table(fr), x,
-                                     return_translated=True)
+        reg, moved = regions_on_grid(fr["x_mm"].to_numpy(float), at.regions, x, return_translated=True)
         surf = surfaces[entry["surface"]]
         n_flat = int(np.count_nonzero(flat_segment_mask(reg[good], surf, margin=flat_margin)))
         if n_flat < 2:
@@ -445,12 +540,10 @@ class ResultsStore:
             if np.all(np.isfinite(ft_abs)) and np.all(np.isfinite(fn_abs)):
                 absolute = {"force_abs": ft_abs, "normal_abs": fn_abs}
         clipped = clipped_on_grid(fr, x)
-        trial = Trial(x=x[good], force=F[good], regions=reg[good], surface=surf,
-                      subject=str(entry["subject"]),
-                      labels={"trial": tid, "surface": entry["surface"],
-                              "speed_mm_s": f"{entry['speed_mm_s']:g}"}, **absolute,
-                      clipped=None if clipped is None else clipped[good])
-        return trial, moved[good]
+        labels = {"trial": at.id, "surface": entry["surface"], "speed_mm_s": f"{entry['speed_mm_s']:g}"}
+        return Trial(x=x[good], force=F[good], regions=reg[good], surface=surf, subject=str(entry["subject"]),
+                     labels=labels,
+                     **absolute, clipped=None if clipped is None else clipped[good], translated=moved[good])
 
     # the analysis a fit used ----------------------------------------------------------
     def analysis_digests(self) -> dict[str, str]:
@@ -478,123 +571,3 @@ class ResultsStore:
                 parts.append(f"{name}={digest}")
             out[tid] = hashlib.sha256(";".join(parts).encode()).hexdigest()
         return out
-
-    def fit_staleness(self, record: dict | None = None) -> str | None:
-        """Why the fit (``fit/fit.json``) no longer describes the analysed trials, or None:
-        trials analysed again, newly analysed or gone since the fit (the digests the fit
-        recorded, :meth:`analysis_digests`). None also for a fit that recorded none (made by
-        an older version: nothing to compare)."""
-        record = self.read_fit_record() if record is None else record
-        fitted = (record or {}).get("analysis")
-        if not isinstance(fitted, dict) or not isinstance(fitted.get("trials"), dict):
-            return None
-        before, now_ = fitted["trials"], self.analysis_digests()
-        again = sorted(t for t in set(before) & set(now_) if before[t] != now_[t])
-        new = sorted(set(now_) - set(before))
-        gone = sorted(set(before) - set(now_))
-        if not (again or new or gone):
-            return None
-        parts = [f"{len(v)} {what} (e.g. {v[0]})" for v, what in ((again, "analysed again"),
-                                                                   (new, "newly analysed"),
-                                                                   (gone, "no longer analysed OK")) if v]
-        return (f"the fit is older than the analysis: since it was made, trials were {'; '.join(parts)}; "
-                f"run `fingerfriction fit {self.root}` again")
-
-    # fit/ ------------------------------------------------------------------------------
-    def write_model(self, trial_id: str, df: pd.DataFrame) -> None:
-        """``fit/model/<trial-id>.parquet``: the fitted model forces of one trial."""
-        self.trial_dir(trial_id)  # validates the id
-        atomic_write_parquet(self.fit_dir / "model" / f"{trial_id}.parquet", df)
-
-    def read_model(self, trial_id: str) -> pd.DataFrame | None:
-        """The fitted model forces of one trial, or None before the fit."""
-        self.trial_dir(trial_id)
-        p = self.fit_dir / "model" / f"{trial_id}.parquet"
-        return pd.read_parquet(p) if p.is_file() else None
-
-    def write_fit_tables(self, trials: pd.DataFrame, subjects: pd.DataFrame) -> None:
-        """``fit/trials.csv`` (one row per trial fit) and ``fit/subjects.csv``."""
-        atomic_write_text(self.fit_dir / "trials.csv", trials.to_csv(index=False))
-        atomic_write_text(self.fit_dir / "subjects.csv", subjects.to_csv(index=False))
-
-    def write_fit_csv(self, name: str, df: pd.DataFrame) -> None:
-        """``fit/<name>.csv`` (e.g. ``table1``: Table 1 of both models)."""
-        atomic_write_text(self.fit_dir / f"{name}.csv", df.to_csv(index=False))
-
-    def read_fit_csv(self, name: str) -> pd.DataFrame | None:
-        """``fit/<name>.csv`` (subjects as text), or None when it was not written."""
-        p = self.fit_dir / f"{name}.csv"
-        return pd.read_csv(p, dtype={"subject": str}) if p.is_file() else None
-
-    def write_fit_record(self, record: dict) -> None:
-        """``fit/fit.json``: the fit's grid, options, per-subject mu, counts."""
-        atomic_write_json(self.fit_dir / "fit.json", record)
-
-    def read_fit_record(self) -> dict | None:
-        """``fit/fit.json``, or None before the fit."""
-        p = self.fit_dir / "fit.json"
-        return _read_json(p) if p.is_file() else None
-
-    def read_fit_table(self) -> pd.DataFrame | None:
-        """``fit/trials.csv`` (subjects as text), or None before the fit."""
-        return read_fit_table(self.fit_dir) if (self.fit_dir / "trials.csv").is_file() else None
-
-    def fit_settings(self) -> tuple[np.ndarray | None, FitOptions | None]:
-        """The ``mu`` grid and fit options recorded in ``fit/fit.json`` (None for each that is
-        not recorded), so a later computation on the same data can use the fit's own."""
-        rec = self.read_fit_record() or {}
-        grid = options = None
-        g = rec.get("mu_grid") or {}
-        if {"start", "stop", "step"} <= set(g):
-            grid = mu_grid(g["start"], g["stop"], g["step"])
-        o = rec.get("options")
-        if isinstance(o, dict):
-            known = set(FitOptions.__dataclass_fields__)
-            options = FitOptions(**{k: v for k, v in o.items() if k in known})
-        return grid, options
-
-    @property
-    def loso_path(self) -> Path:
-        """``fit/loso.csv``, the out-of-sample validation table (its figure: ``loso.png``)."""
-        return self.fit_dir / "loso.csv"
-
-    @property
-    def loso_figure_path(self) -> Path:
-        """``fit/loso.png``, the figure of the out-of-sample validation."""
-        return self.loso_path.with_suffix(".png")
-
-    def clear_loso(self) -> None:
-        """Remove ``fit/loso.csv`` and ``fit/loso.png`` (a validation of another fit)."""
-        for name in ("loso.csv", "loso.png"):
-            (self.fit_dir / name).unlink(missing_ok=True)
-
-    def read_loso(self) -> pd.DataFrame | None:
-        """``fit/loso.csv`` (subjects as text), or None when the fit did not validate."""
-        p = self.loso_path
-        return pd.read_csv(p, dtype={"subject": str}) if p.is_file() else None
-
-
-def read_fit_table(fit_dir: str | os.PathLike) -> pd.DataFrame:
-    """``trials.csv`` of a fit folder (one row per trial fit; subjects as text).
-
-    Raises
-    ------
-    ValueError
-        Naming the file when it cannot be read.
-    """
-    p = os.path.join(os.fspath(fit_dir), "trials.csv")
-    try:
-        return pd.read_csv(p, dtype={"subject": str})
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"{p}: cannot read the per-trial fits ({exc})") from None
-
-
-def _read_json(path: Path) -> dict:
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise ValueError(f"cannot read {path}: {exc.strerror or exc}") from None
-    obj = parse_json(data, f"cannot read {path}")
-    if not isinstance(obj, dict):
-        raise ValueError(f"{path}: expected a JSON object, got {type(obj).__name__}")
-    return obj

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from .._atomic import atomic_write
-from ..regions import as_regions
+from ..regions import as_regions, region_columns, regions_from_columns
 
 __all__ = ["frames_table", "regions_from_table", "atomic_write_parquet", "clipped_on_grid"]
 
@@ -99,9 +99,7 @@ def frames_table(
         "x_mm": x_mm,
         "n_regions": np.sum(~np.isnan(reg[..., 0]), axis=1).astype(np.int64),
     }
-    for i in range(reg.shape[1]):
-        cols[f"a{i + 1}"] = reg[:, i, 0]
-        cols[f"b{i + 1}"] = reg[:, i, 1]
+    cols.update(region_columns(reg) if n else {"a1": reg[:, 0, 0], "b1": reg[:, 0, 1]})
     clipped = np.zeros(n, bool) if clipped is None else np.asarray(clipped, dtype=bool).ravel()
     if clipped.size != n:
         raise ValueError(f"clipped has {clipped.size} entries but t_s has {n}")
@@ -116,17 +114,9 @@ def frames_table(
 
 
 def regions_from_table(df: pd.DataFrame) -> np.ndarray:
-    """Contact regions ``(n_frames, n_max, 2)`` in mm from a per-frame table."""
-    k = 0
-    while f"a{k + 1}" in df.columns and f"b{k + 1}" in df.columns:
-        k += 1
-    if k == 0:
-        raise ValueError("per-frame table has no region columns a1, b1")
-    out = np.empty((len(df), k, 2))
-    for i in range(k):
-        out[:, i, 0] = df[f"a{i + 1}"].to_numpy(dtype=float)
-        out[:, i, 1] = df[f"b{i + 1}"].to_numpy(dtype=float)
-    return out
+    """Contact regions ``(n_frames, n_max, 2)`` in mm from a per-frame table
+    (:func:`~fingerfriction.regions.regions_from_columns`)."""
+    return regions_from_columns(df)
 
 
 def clipped_on_grid(frames: pd.DataFrame, x: np.ndarray) -> np.ndarray | None:

@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from .._atomic import AtomicFile
-from ..regions import as_regions
+from ..regions import as_regions, regions_from_columns
 from ..surfaces import Surface
 from .analysis import FLAG_REASONS, AnalysisOptions, FrameAnalyzer, FrameFlag
 from .calibrate import calibrate
@@ -292,16 +292,12 @@ def _sample_frames(reader, candidates: np.ndarray, max_frames: int) -> list[tupl
     return [(int(i), reader.read_frame(int(i))) for i in idx]
 
 
-def _stored(frames):
-    """Frame indices, x(t) (mm), regions ``(n, k, 2)`` (mm), flag texts and position sources
-    (None when not recorded) from a per-frame table."""
+def _stored(frames, regions=None):
+    """Frame indices, x(t) (mm), regions ``(n, k, 2)`` (mm; ``regions`` when given), flag texts
+    and position sources (None when not recorded) from a per-frame table."""
     idx = frames["frame"].to_numpy(np.int64)
     x = frames["x_mm"].to_numpy(float)
-    k, pairs = 1, []
-    while f"a{k}" in frames.columns:
-        pairs.append(np.column_stack([frames[f"a{k}"].to_numpy(float), frames[f"b{k}"].to_numpy(float)]))
-        k += 1
-    regions = as_regions(np.stack(pairs, axis=1)) if pairs else np.full((len(frames), 1, 2), np.nan)
+    regions = as_regions(regions_from_columns(frames, empty_ok=True) if regions is None else regions)
     flags = frames["flag"].astype(str).to_numpy() if "flag" in frames.columns else np.full(len(frames), "")
     source = frames["x_source"].astype(str).to_numpy() if "x_source" in frames.columns else None
     return idx, x, regions, flags, source
@@ -309,7 +305,8 @@ def _stored(frames):
 
 def write_results_overlay(video, frames, surface_height_mm: float, out: str | os.PathLike, *,
                           surface: Surface | None = None, options: AnalysisOptions | None = None,
-                          max_frames: int = 60, fps: float = 10.0, scale: float = 0.5) -> OverlayInfo:
+                          max_frames: int = 60, fps: float = 10.0, scale: float = 0.5,
+                          regions: np.ndarray | None = None) -> OverlayInfo:
     """Write a short GIF or MP4 of a trial with what ``analyze`` stored drawn on its frames.
 
     The surface profile (green), the finger outline traced at the analysis' threshold
@@ -338,6 +335,10 @@ def write_results_overlay(video, frames, surface_height_mm: float, out: str | os
         Playback rate in Hz.
     scale : float
         Resize factor of the drawn crop (0.5: 630 x 180 px for the paper's crop).
+    regions : (n_frames, n_max, 2) ndarray, optional
+        The frames' contact regions in mm when the caller has them (the results store's
+        :class:`~fingerfriction.study.results.AnalysedTrial`); else read from the table's
+        columns ``a1, b1, ...``.
 
     Returns
     -------
@@ -350,7 +351,7 @@ def write_results_overlay(video, frames, surface_height_mm: float, out: str | os
     """
     out, ext = _checked_output(out, fps, scale, count_name="max_frames", count=max_frames)
     opt = options or AnalysisOptions()
-    idx, x_all, regions, flags, source = _stored(frames)
+    idx, x_all, regions, flags, source = _stored(frames, regions)
     row_of = {int(f): r for r, f in enumerate(idx)}
     seen = idx[np.isfinite(x_all) | ~np.isnan(regions[..., 0]).all(axis=1)]
     reader = open_video(video)
