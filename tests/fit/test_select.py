@@ -167,6 +167,24 @@ def test_bars_and_the_one_standard_error_rule():
         select_model({})
 
 
+def test_the_held_out_bar_is_on_the_forward_contact_with_the_measured_load():
+    """A held-out surface whose force is mostly the participant's load wander: the nominal
+    load misses it whatever the law; the bar reads the prediction with the measured load,
+    and a variant without one (NaN there) is read at the nominal load."""
+    from fingerfriction.fit.select import CV_COLUMN, NOMINAL_COLUMN, bar_values
+
+    good = [0.9, 0.91, 0.88, 0.93, 0.9, 0.92]
+    ev = _evidence(good, good)
+    loso = ev.loso.assign(**{NOMINAL_COLUMN: [0.9, 0.91, 0.3, 0.93, 0.9, 0.2], CV_COLUMN: good})
+    sel = select_model({"load": Evidence(table1=ev.table1, loso=loso, n_trials=36, n_unphysical=0)})
+    row = sel.comparison.set_index("model").loc["load"]
+    assert not sel.rejected and row["loso_cells_ok"] == 6 and row["loso_nominal_cells_ok"] == 4
+    np.testing.assert_allclose(bar_values(loso.assign(**{CV_COLUMN: [np.nan] * 6})), loso[NOMINAL_COLUMN])
+    sel = select_model({"load": Evidence(table1=ev.table1, loso=loso.assign(**{CV_COLUMN: [np.nan] * 6}),
+                                         n_trials=36, n_unphysical=0)})
+    assert sel.rejected and "leave-one-surface-out rho >= 0.7 in 4 of 6 cells (bar 5)" in sel.reason
+
+
 def test_without_validation_the_choice_rests_on_table1_and_says_so():
     good = [0.9, 0.91, 0.88]
     ev = {m: Evidence(table1=_evidence(good, good).table1, loso=None, n_trials=10, n_unphysical=0)
@@ -275,7 +293,8 @@ def test_the_interlock_fit_recovers_its_weights_per_trial():
                           down if not name.startswith("step-up") else math.nan)
             trials.append(Trial(x, F - F[:20].mean(), reg, s, "1", {"trial": tid, "surface": name},
                                 force_abs=F, normal_abs=fn))
-    fit = fit_load_subject(trials, LoadFitOptions(median_kernel=1, n_boot=200, inset=0.0), law="push")
+    fit = fit_load_subject(trials, LoadFitOptions(median_kernel=1, n_boot=200, inset=0.0), law="push",
+                           name="interlock")
     assert fit.success and fit.model == "interlock" and fit.kappa == pytest.approx(2.0, abs=0.1)
     for tf in fit.trials:
         up, down = truth[tf.labels["trial"]]

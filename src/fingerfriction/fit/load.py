@@ -90,17 +90,17 @@ SEARCH_STRIDE = 3
 # ------------------------------------------------------------------------ per-trial design
 
 
-#: The laws of the load family (:class:`_LoadDesign`): ``'load'`` (Eq. 3's weight ``p1``)
-#: and ``'push'`` (the interfacial slope push of Eq. 2 weighed per slope direction,
-#: ``push_up`` and ``push_down``, without Eq. 3's term: the ``interlock`` variant).
-LAWS = ("load", "push")
+#: The laws of the load family (:class:`_LoadDesign`): ``'deformation'`` (Eq. 3's weight
+#: ``p1``: the load variant) and ``'push'`` (the interfacial slope push of Eq. 2 weighed per
+#: slope direction, ``push_up`` and ``push_down``, without Eq. 3's term: the interlock variant).
+LAWS = ("deformation", "push")
 #: Per law, the names of its per-trial weights in the order of its design's columns.
-WEIGHTS = {"load": ("p1",), "push": ("push_up", "push_down")}
+WEIGHTS = {"deformation": ("p1",), "push": ("push_up", "push_down")}
 #: Per law, the weights that must be >= 0 (physical): Eq. 3's term dissipates, and rising
 #: ground pushes the finger back, never pulls it on. On falling ground the net push is what
 #: the receding slope's normal stress gives forward less what the tissue's lag and adhesion
 #: hold back: either sign (``docs/fit.md``).
-NONNEGATIVE = {"load": ("p1",), "push": ("push_up",)}
+NONNEGATIVE = {"deformation": ("p1",), "push": ("push_up",)}
 
 
 class _LoadDesign:
@@ -108,7 +108,8 @@ class _LoadDesign:
     :data:`LAWS`): the model is ``F_T = F_N g0 + X w`` with the per-trial weights ``w``
     (:data:`WEIGHTS`) and the columns ``X`` (those of the push scaled by ``F_N``)."""
 
-    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel, *, law: str = "load"):
+    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel, *,
+                 law: str = "deformation"):
         self.trial = trial
         self.model = model
         self.law = law
@@ -452,8 +453,8 @@ def subject_flat_mu(trials: Sequence[Trial], options: LoadFitOptions, subject: s
     return flat, None
 
 def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
-                     models: dict | None = None, law: str = "load",
-                     name: str | None = None) -> LoadSubjectFit:
+                     models: dict | None = None, law: str = "deformation",
+                     name: str = "load") -> LoadSubjectFit:
     """Fit the load-consistent Eq. (4) to one subject's trials (see the module notes).
 
     Parameters
@@ -464,14 +465,13 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     options : LoadFitOptions, optional
     models : dict, optional
         Surface -> FrictionModel cache shared between calls.
-    law : {'load', 'push'}
-        The law (:data:`LAWS`): ``'load'`` (default), or ``'push'``, the ``'interlock'``
-        variant: the interfacial slope push weighed by slope direction, one weight per trial
-        for the ascending slopes (``push_up``, >= 0) and one for the descending ones
-        (``push_down``, either sign), without Eq. (3)'s term (``docs/fit.md``).
-    name : str, optional
-        The variant's name in the flags and results (default ``law``'s: ``'load'`` or
-        ``'interlock'``).
+    law : {'deformation', 'push'}
+        The law (:data:`LAWS`): Eq. (3)'s deformation weight ``p1`` per trial (default), or
+        the interfacial slope push weighed by slope direction, one weight per trial for the
+        ascending slopes (``push_up``, >= 0) and one for the descending ones (``push_down``,
+        either sign), without Eq. (3)'s term (the interlock variant, ``docs/fit.md``).
+    name : str
+        The variant's name in the flags and results (its registry entry passes it).
 
     Returns
     -------
@@ -485,7 +485,6 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
                                    group="fit_load_trials")
     models = {} if models is None else models
     law = check_option("law", law, LAWS)
-    name = name or ("load" if law == "load" else "interlock")
     designs = []
     for t in trials:
         key: Surface = t.surface
@@ -540,7 +539,7 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
 
 
 def fit_load_trials(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
-                    law: str = "load", name: str | None = None) -> dict[str, LoadSubjectFit]:
+                    law: str = "deformation", name: str = "load") -> dict[str, LoadSubjectFit]:
     """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
     models: dict = {}
     return {s: fit_load_subject(ts, options, models=models, law=law, name=name)

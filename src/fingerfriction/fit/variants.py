@@ -231,7 +231,7 @@ class LoadVariant(Variant):
             "mu is measured on flat ground (where Eq. 4 is Amontons' law), the load-bearing contact and "
             "the deformation weight p1 are fitted on absolute forces.")
     complexity = 1
-    law = "load"
+    law = "deformation"
 
     def fit(self, trials, settings):
         return fit_load_trials(trials, settings.load, law=self.law, name=self.name)
