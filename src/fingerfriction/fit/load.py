@@ -71,7 +71,7 @@ from .load_results import (
     LoadTrialFit,
 )
 from .mu import FlatGroundMu, flat_ground_mu
-from .weights import column_weights, hac_cov
+from .weights import column_weights, column_weights_se
 
 __all__ = [
     "LoadFitOptions",
@@ -236,14 +236,43 @@ class _LoadDesign:
         return (float(min(w)) if w else 0.0), float(r @ r)
 
 
-def _weights(X: np.ndarray, y: np.ndarray, lags: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least-squares weights of the columns of ``X``, their Newey-West standard errors and
-    which the trial identifies (a weight it does not: 0, SE NaN)."""
-    p, ok = column_weights(X, y)
-    se = np.full(p.size, np.nan)
-    if ok.any():
-        se[ok] = np.sqrt(np.maximum(np.diag(hac_cov(X[:, ok], y - X @ p, lags)), 0.0))
-    return p, se, ok
+def _unphysical(d: _LoadDesign, w: dict, used: np.ndarray, model_name: str, *,
+                wrong_sign: bool) -> tuple[bool, list, list]:
+    """Why a trial's fit is unphysical or undersupported: ``(failed, reasons, flags)``.
+
+    Negative weights that must be >= 0 (``NONNEGATIVE``), more than 10 % of the positions
+    left out, a flat-ground ``F_T / F_N <= 0`` (``wrong_sign``), a negative measured ``F_N``.
+    """
+    t, n = d.trial, d.trial.n
+    tid = t.id
+    failed, parts, flags = False, [], []
+    for name in NONNEGATIVE[d.law]:
+        v = w[name]
+        if math.isfinite(v) and v < 0:
+            failed = True
+            what = ("a negative deformation weight is unphysical" if name == "p1" else
+                    "a normal stress that pulls the finger along the slope is unphysical")
+            msg = f"{name} = {v:.4g}{' N/mm' if name == 'p1' else ''} < 0: {what}"
+            parts.insert(0, msg)
+            code = "negative-p1" if name == "p1" else "negative-" + name.replace("_", "-")
+            flags.append(fit_flag("error", code, t.subject, tid, model_name, msg))
+    n_out = int(n - np.count_nonzero(used))
+    if n_out:
+        level = "error" if n_out > 0.1 * n else "warning"
+        flags.append(fit_flag(level, "positions-left-out", t.subject, tid, model_name,
+                             f"{n_out} of {n} positions have no load-bearing contact or a normal force "
+                             "below the minimum and are left out of the fit"))
+        if level == "error":
+            failed = True
+            parts.insert(0, f"{n_out} of {n} positions left out")
+    if wrong_sign:  # flagged negative-mu by the flat-ground fit
+        failed = True
+        parts.insert(0, "flat-ground F_T / F_N <= 0 (wrong sign)")
+    if np.any(d.FN[used] < 0):
+        failed = True
+        flags.append(fit_flag("error", "negative-pressure", t.subject, tid, model_name,
+                             "the measured normal force is negative at some compared positions"))
+    return failed, parts, flags
 
 
 def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: float,
@@ -271,7 +300,7 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
                             subject=t.subject, labels=labels, flags=tuple(flags))
     success, parts = True, ["closed-form least squares"]
     names = WEIGHTS[d.law]
-    p, se, ok = _weights(X, y, d.lags)
+    p, se, ok = column_weights_se(X, y, d.lags)
     w = {n_: (float(p[i]) if ok[i] else math.nan) for i, n_ in enumerate(names)}
     w_se = {n_: float(se[i]) for i, n_ in enumerate(names)}
     if "p1" not in w:
@@ -282,32 +311,10 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
         flags.append(fit_flag("warning", "p1-not-identified", t.subject, tid, model_name,
                              "the load-bearing contact never reaches a slope: its slope weights are not "
                              "identified (no slope term)"))
-    for name in NONNEGATIVE[d.law]:
-        v = w[name]
-        if math.isfinite(v) and v < 0:
-            success = False
-            what = ("a negative deformation weight is unphysical" if name == "p1" else
-                    "a normal stress that pulls the finger along the slope is unphysical")
-            msg = f"{name} = {v:.4g}{' N/mm' if name == 'p1' else ''} < 0: {what}"
-            parts.insert(0, msg)
-            code = "negative-p1" if name == "p1" else "negative-" + name.replace("_", "-")
-            flags.append(fit_flag("error", code, t.subject, tid, model_name, msg))
-    n_out = int(n - np.count_nonzero(used))
-    if n_out:
-        level = "error" if n_out > 0.1 * n else "warning"
-        flags.append(fit_flag(level, "positions-left-out", t.subject, tid, model_name,
-                             f"{n_out} of {n} positions have no load-bearing contact or a normal force "
-                             "below the minimum and are left out of the fit"))
-        if level == "error":
-            success = False
-            parts.insert(0, f"{n_out} of {n} positions left out")
-    if wrong_sign:  # flagged negative-mu by the flat-ground fit
-        success = False
-        parts.insert(0, "flat-ground F_T / F_N <= 0 (wrong sign)")
-    if np.any(d.FN[used] < 0):
-        success = False
-        flags.append(fit_flag("error", "negative-pressure", t.subject, tid, model_name,
-                             "the measured normal force is negative at some compared positions"))
+    bad, why, more = _unphysical(d, w, used, model_name, wrong_sign=wrong_sign)
+    success = success and not bad
+    parts[:0] = why
+    flags.extend(more)
     # the trial's pressure: total load over total vertical support (a ratio of sums stays
     # unbiased under noise in F_N, a mean of the pointwise pressure would not)
     p0_mean = float(np.sum(d.FN[used]) / np.sum(support[used]))

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-__all__ = ["hac_se", "hac_cov", "column_weights", "MIN_COLUMN"]
+__all__ = ["hac_se", "hac_cov", "column_weights", "column_weights_se", "MIN_COLUMN"]
 
 
 def hac_se(b: np.ndarray, e: np.ndarray, lags: int) -> float:
@@ -54,3 +54,14 @@ def column_weights(b: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
     if ok.any():
         p[ok] = np.linalg.lstsq(b[:, ok], y, rcond=None)[0]
     return p, ok
+
+
+def column_weights_se(X: np.ndarray, y: np.ndarray, lags: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`column_weights` with the weights' Newey-West standard errors (``lags``
+    samples, :func:`hac_cov`): ``(p, se, ok)``, each ``(m,)``; a weight the trial does not
+    identify is 0 with SE NaN."""
+    p, ok = column_weights(X, y)
+    se = np.full(p.size, np.nan)
+    if ok.any():
+        se[ok] = np.sqrt(np.maximum(np.diag(hac_cov(X[:, ok], y - X @ p, lags)), 0.0))
+    return p, se, ok

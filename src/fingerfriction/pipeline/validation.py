@@ -101,6 +101,15 @@ class OutOfSample:
         keys = sorted(self.estimates, key=lambda k: (str(k[1]), str(k[0])))
         surfaces = list(dict.fromkeys(k[1] for k in keys))
         subjects = sorted({k[0] for k in keys})
+        if not keys:  # no held-out surface could be predicted: say so instead of an empty grid
+            fig, ax = plt.subplots(figsize=(5.2, 1.6))
+            ax.axis("off")
+            ax.text(0.5, 0.5, "no held-out surface could be predicted\n(no successful training fit; "
+                    "see the table's notes)", ha="center", va="center", fontsize=9)
+            p = os.fspath(path)
+            atomic_write(p, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+            plt.close(fig)
+            return p
         size = (2.6 * len(surfaces), 2.2 * len(subjects))
         fig, axes = plt.subplots(len(subjects), len(surfaces), figsize=size, squeeze=False, sharex=True)
         rows = {(r.subject, r.surface): r for r in self.table.itertuples()}
