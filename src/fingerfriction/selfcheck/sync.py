@@ -441,30 +441,46 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
     period = float(np.median([o.frame_period for o in items]))
     tight = fin.sum() >= MIN_TRIALS and np.mean(np.abs(offs[fin]) <= 2 * period) >= 0.7
     if tight:
-        # the consensus's own offset from the touch-downs: a common shift, and one as
-        # speed^-1/4 (what the starts cannot tell from a change of the pre-sliding law)
-        sp = {o.trial_id: _speed(o) for o in items}
-        level = touch_level(items, {k: e.offset_s for k, e in checked.items()}, speeds=sp)
-        out = {}
-        for o in items:
-            e = checked[o.trial_id]
-            if level is not None and e.measured and math.isfinite(sp[o.trial_id]):
-                c, c_se = level.at(sp[o.trial_id])
-                e = replace(
-                    e,
-                    offset_s=e.offset_s + c,
-                    se_s=math.hypot(e.se_s, c_se),
-                    common_s=c,
-                    common_se_s=c_se,
-                    message=e.message + f" ({1e3 * c:+.2f} ms for this trial's speed, applied)",
-                    level_by="touch-down",
-                )
-            out[o.trial_id] = replace(
+        return _on_consensus(items, checked)
+    return _aligned_from_starts(items, se_floor_s)
+
+
+def _on_consensus(items, checked: dict) -> dict[str, OffsetEstimate]:
+    """``mode='auto'`` when the manifest's clocks agree among themselves: ``mode='check'``'s
+    estimates (``checked``), each moved by what the touch-downs measure of the consensus's
+    own offset (a common shift, and one as speed^-1/4)."""
+    # the consensus's own offset from the touch-downs: a common shift, and one as
+    # speed^-1/4 (what the starts cannot tell from a change of the pre-sliding law)
+    sp = {o.trial_id: _speed(o) for o in items}
+    level = touch_level(items, {k: e.offset_s for k, e in checked.items()}, speeds=sp)
+    out = {}
+    for o in items:
+        e = checked[o.trial_id]
+        if level is not None and e.measured and math.isfinite(sp[o.trial_id]):
+            c, c_se = level.at(sp[o.trial_id])
+            e = replace(
                 e,
-                message=e.message + "; the manifest's clocks agree among themselves: the others "
-                "are put on their consensus",
+                offset_s=e.offset_s + c,
+                se_s=math.hypot(e.se_s, c_se),
+                common_s=c,
+                common_se_s=c_se,
+                message=e.message + f" ({1e3 * c:+.2f} ms for this trial's speed, applied)",
+                level_by="touch-down",
             )
-        return out
+        out[o.trial_id] = replace(
+            e,
+            message=e.message + "; the manifest's clocks agree among themselves: the others "
+            "are put on their consensus",
+        )
+    return out
+
+
+def _aligned_from_starts(items, se_floor_s: float) -> dict[str, OffsetEstimate]:
+    """``mode='auto'`` when the manifest's clocks disagree: every trial starts from its half
+    rise at the prior's central pre-sliding distance and the trials are aligned on each
+    other; what their starts cannot tell apart (a common shift, and a shift growing as
+    speed^-1/4) is placed by the touch-downs, or stays at the prior, whose range sets the
+    error."""
     mid = math.sqrt(PRIOR_D_MM[0] * PRIOR_D_MM[1])
     out = {}
     usable, start, prior_se = [], [], []
