@@ -15,6 +15,21 @@ Sections (each prints measured figures; nothing is asserted):
    the paper's figures.
 4. Cost: the contact tables of one finger (6 surfaces x 3 loads, 0.1 mm steps) on two
    worker processes from an empty cache, then again from the cache.
+5. Sensitivity (``--only sensitivity``): which FE finger parameters move the 70 um contact
+   ends, and how much of the drawn fingers' spread a calibration of 1, 2 or 3 of them can
+   absorb. The layered finger of subject 1 (friction 0.55) and the same finger with each
+   parameter x 1.25 (the FE calibration's tables: same positions, cells and cache), at 0.34 N
+   (one of the calibration's table loads), on the six surfaces; each end of the base
+   finger's regions at every position moves by ``dd / sqrt(d'^2 + s_min^2)`` (the
+   calibration's end residual, mm). With each parameter's
+   log-ratio spread of the drawn fingers (uniform +-25 %, the pulp +-12.5 %), the RMS end
+   movement a calibration of a subset cannot absorb (linearised least squares) ranks the
+   subsets. Nothing here uses a simulated study: it decides which parameters to fit before
+   any data is seen.
+6. Mesh (``--only mesh --surfaces step-up-2mm``): the contact tables of subject 1's layered
+   finger (friction 0.55, 0.3 N, 0.1 mm steps) on one surface at the coarse mesh of the
+   acceptance runs, an intermediate one and the default mesh: blind spots (70 um and p > 0)
+   and the per-position contact ends against the default mesh's, with the CPU of each.
 
 Run: ``PYTHONPATH=src python benchmarks/fe_finger.py`` (about half an hour on 2 cores;
 ``--only SECTION`` runs one section, ``--workers 1`` the tables in this process;
@@ -227,10 +242,134 @@ def blind_spots_and_cost(quick: bool, workers: int = 2, loads=LOADS, surfaces=SU
           + (f", {time.process_time() - c:.1f} s CPU" if workers == 1 else ""))
 
 
+def sensitivity(workers: int) -> None:
+    import dataclasses
+    import itertools
+
+    from fingerfriction.mechanics.fe import FE_SUBJECTS
+    from fingerfriction.mechanics.fe.calibration import (
+        FE_FIT_FIELDS,
+        FECalibrationOptions,
+        FECalibrationProblem,
+        fe_tables,
+        finger_with,
+    )
+    from fingerfriction.mechanics.fe.provider import default_cache_dir
+
+    print("5. Sensitivity of the 70 um contact ends to the FE finger's parameters (x 1.25 each, 0.34 N)")
+    base = dataclasses.replace(FE_SUBJECTS["1"], friction=0.55)
+    opts = FECalibrationOptions()
+    hw, u = FECalibrationProblem._grid(base, opts)
+    mesh = default_mesh()
+    fingers = [base] + [finger_with(base, {f: 1.25}) for f in FE_FIT_FIELDS]
+    surfaces = [get_surface(n) for n in SURFACE_NAMES]
+    t = time.perf_counter()
+    tabs, st = fe_tables(fingers, surfaces, loads=(opts.loads[-1],), half_width=hw, step=opts.step,
+                         grid_step=opts.grid_step, mesh=mesh, cache_dir=default_cache_dir(), workers=workers)
+    print(f"   mesh {mesh}; {st['solved']} tables solved ({st['cpu_s'] / 60:.1f} min CPU, "
+          f"{(time.perf_counter() - t) / 60:.1f} min wall), {st['unconverged']} of {st['positions']} "
+          "positions unconverged")
+    tol, smin, dlog = GEOMETRIC_TOL, opts.s_min, np.log(1.25)
+    rows, per_surface = [], {}
+    for surf in surfaces:
+        pos, Y0 = tabs[0][surf.name]
+        X = pos[:, None] + u[None, :]
+        H = surf.h(X)
+
+        def dist(Y, H=H):
+            y = Y[0].astype(float)
+            sl = np.gradient(y, u[1] - u[0], axis=1)
+            return (y - H) / np.sqrt(1 + sl * sl)
+
+        d0 = dist(Y0)
+        dk = [dist(tabs[k][surf.name][1]) for k in range(1, len(fingers))]
+        s_rows = []
+        for i in range(pos.size):
+            r = d0[i] - tol
+            cross = np.flatnonzero(np.sign(r[:-1]) != np.sign(r[1:]))
+            for j in cross:
+                f = r[j] / (r[j] - r[j + 1])
+                slope = (d0[i, j + 1] - d0[i, j]) / (u[1] - u[0])
+                den = np.sqrt(slope * slope + smin * smin)
+                dd = [(1 - f) * (d[i, j] - d0[i, j]) + f * (d[i, j + 1] - d0[i, j + 1]) for d in dk]
+                s_rows.append([v / den / dlog for v in dd])
+        S = np.asarray(s_rows)
+        per_surface[surf.name] = np.sqrt(np.mean(S * S, axis=0))
+        rows.append(S)
+    print("   RMS end movement (mm per unit log-ratio), by surface: "
+          + "  ".join(f[:12] for f in FE_FIT_FIELDS))
+    for name, v in per_surface.items():
+        print(f"   {name:14s} " + "  ".join(f"{x:12.3f}" for x in v))
+    S = np.vstack(rows)
+    # the drawn fingers' spread of each log-ratio: U(0.75, 1.25), the pulp U(0.875, 1.125)
+    sd = np.array([np.std(np.log(np.linspace(1 - s, 1 + s, 10001)))
+                   for s in (0.125 if f == "pulp_thickness" else 0.25 for f in FE_FIT_FIELDS)])
+    total = float(np.sqrt(np.sum((S * sd) ** 2) / S.shape[0]))
+    print(f"   {S.shape[0]} ends; RMS end spread of the drawn fingers (linearised): {total:.3f} mm")
+    for k in (1, 2, 3):
+        res = []
+        for sub in itertools.combinations(range(len(FE_FIT_FIELDS)), k):
+            A = S[:, sub]
+            P = A @ np.linalg.pinv(A)
+            R = S - P @ S
+            res.append((float(np.sqrt(np.sum((R * sd) ** 2) / S.shape[0])), sub))
+        res.sort()
+        best = "; ".join(f"{'+'.join(FE_FIT_FIELDS[i] for i in sub)} {v:.3f} mm" for v, sub in res[:4])
+        print(f"   fit {k}: left unexplained (RMS) {best}")
+
+
+MESHES = {
+    "coarse": FEMeshParams(surface_cell=0.4, skin_layers=1, tissue_layers=3, top_cells=8),
+    "medium": FEMeshParams(surface_cell=0.2, skin_layers=2, tissue_layers=5, top_cells=16),
+    "default": FEMeshParams(),
+}
+
+
+def _ends(regions) -> np.ndarray:
+    """First start and last end (mm) of each position's regions, ``(n, 2)`` (NaN: none)."""
+    a = np.nanmin(regions[..., 0], axis=1)
+    b = np.nanmax(regions[..., 1], axis=1)
+    return np.stack([a, b], axis=1)
+
+
+def mesh_convergence(workers: int, surfaces) -> None:
+    import dataclasses
+
+    from fingerfriction.mechanics.fe import FE_SUBJECTS
+    from fingerfriction.mechanics.fe.provider import default_cache_dir
+
+    print("6. Mesh convergence of the contact tables (subject 1's layered finger, friction 0.55, 0.3 N)")
+    finger = dataclasses.replace(FE_SUBJECTS["1"], friction=0.55)
+    for name in surfaces:
+        surf = get_surface(name)
+        res = {}
+        for label, mesh in MESHES.items():
+            prov = FEProvider(fingers={"1": finger}, mesh=mesh, cache_dir=default_cache_dir())
+            t = time.process_time()
+            tab = build_table(surf, "1", loads=(0.3,), step=0.1, provider=prov)
+            cpu = time.process_time() - t
+            mech, geo = _table_regions(tab, surf)
+            res[label] = (geo, mech, cpu, int((~prov.last_ok).sum()) if prov.last_ok is not None else 0,
+                          prov.computed)
+        ref_geo, ref_mech = res["default"][0], res["default"][1]
+        print(f"   {name}: {'mesh':8s} {'CPU s':>7s} {'70 um blind spots':>22s} {'p > 0 blind spots':>22s} "
+              f"{'70 um ends vs default: max / RMS (mm)':>38s}")
+        for label, (geo, mech, cpu, bad, computed) in res.items():
+            d = np.abs(_ends(geo) - _ends(ref_geo))
+            d = d[np.isfinite(d)]
+            dm = np.abs(_ends(mech) - _ends(ref_mech))
+            dm = dm[np.isfinite(dm)]
+            src = "" if computed else " (cached)"
+            print(f"   {'':{len(name) + 1}s} {label:8s} {cpu:7.1f} {_bs(geo):>22s} {_bs(mech):>22s} "
+                  f"{d.max():10.3f} / {np.sqrt(np.mean(d * d)):.3f}  (p > 0: {dm.max():.3f} / "
+                  f"{np.sqrt(np.mean(dm * dm)):.3f}){src}, {bad} unconverged")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="coarser meshes (minutes)")
-    ap.add_argument("--only", choices=("verify", "friction", "blindspots"), default=None)
+    ap.add_argument("--only", choices=("verify", "friction", "blindspots", "sensitivity", "mesh"),
+                    default=None)
     ap.add_argument("--workers", type=int, default=2, help="processes for the tables of sections 3-4 "
                     "(1: in this process; the CPU figure does not depend on it)")
     ap.add_argument("--loads", default=",".join(map(str, LOADS)),
@@ -253,6 +392,10 @@ def main() -> None:
         friction(args.quick)
     if args.only in (None, "blindspots"):
         blind_spots_and_cost(args.quick, args.workers, loads, surfaces)
+    if args.only == "sensitivity":
+        sensitivity(args.workers)
+    if args.only == "mesh":
+        mesh_convergence(args.workers, surfaces)
     print(f"   (peak memory {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB)")
 
 

@@ -238,6 +238,9 @@ def test_friction_shifts_the_patch_against_the_motion_on_any_path():
     ({"skin_thickness": 5.0}, r"skin_thickness \(5 mm\) must be below pulp_thickness"),
     ({"pulp_thickness": 9.0}, r"does not fit under the top"),
     ({"bone_half_width": 10.5}, r"bone_half_width \(10.5 mm\) must be below"),
+    ({"friction": -0.1}, r"friction must be a friction coefficient in \[0, 5\], got -0.1"),
+    ({"friction": float("nan")}, r"friction must be a friction coefficient"),
+    ({"friction": True}, r"friction must be a friction coefficient"),
 ])
 def test_bad_fe_finger_parameters_raise_one_line_errors(kw, match):
     with pytest.raises(ValueError, match=match) as e:
@@ -305,3 +308,72 @@ def test_the_fe_finger_as_the_forward_model(tmp_path, monkeypatch):
     path = write_finger_file(tmp_path / "fe.json", LITERATURE_FINGER)
     f = read_finger_file(path, model="any")
     assert f == LITERATURE_FINGER and finger_for_label("1", {"1": f}) == f
+
+
+def test_a_fingers_own_friction_is_its_contacts_unless_the_provider_sets_one(tmp_path):
+    from fingerfriction.mechanics.finger_file import read_finger_file, write_finger_file
+
+    f = dataclasses.replace(LITERATURE_FINGER, friction=0.55)
+    assert FEProvider(fingers={"1": f}).mu("1") == 0.55
+    assert FEProvider(fingers={"1": f}, friction=0.6).mu("1") == 0.6
+    assert FEProvider(fingers={"1": f}, friction={"1": 0.0}).mu("1") == 0.0
+    assert FEProvider(fingers={"1": LITERATURE_FINGER}).mu("1") == 0.0
+    # the truth's provider entry carries the contact's friction: read back as the finger's
+    entry = FEProvider(fingers={"1": LITERATURE_FINGER}, friction=0.6).finger_dict("1")
+    assert entry["friction"] == 0.6 and entry["model"] == "fe"
+    (tmp_path / "truth.json").write_text(json.dumps(entry))
+    assert read_finger_file(tmp_path / "truth.json", model="fe").friction == 0.6
+    assert read_finger_file(write_finger_file(tmp_path / "f.json", f), model="any") == f
+    # a different friction is a different table
+    xs = np.arange(-1.0, 1.0, 0.5)
+    surf = get_surface("bump-2mm")
+    assert FEProvider(fingers={"1": f}).cache_key(surf, "1", xs, 0.3) != \
+        FEProvider(fingers={"1": LITERATURE_FINGER}).cache_key(surf, "1", xs, 0.3)
+
+
+def test_which_positions_converged_is_cached_with_the_table(tmp_path, monkeypatch):
+    surf = get_surface("bump-2mm")
+    xs = np.arange(-1.0, 1.0, 0.5)
+    pr = FEProvider(mesh=COARSE, grid_step=0.05, cache_dir=tmp_path)
+    n = pr.grid("1").size
+    ok = np.array([True, False, True, True])
+    monkeypatch.setattr(pr, "_compute", lambda *a: (np.zeros((4, n)), np.zeros((4, n)), ok))
+    pr.solve(surf, "1", xs, 0.3)
+    assert np.array_equal(pr.last_ok, ok)
+    pr2 = FEProvider(mesh=COARSE, grid_step=0.05, cache_dir=tmp_path)
+    monkeypatch.setattr(pr2, "_compute", lambda *a: pytest.fail("recomputed an unchanged table"))
+    pr2.solve(surf, "1", xs, 0.3)
+    assert np.array_equal(pr2.last_ok, ok)
+
+
+def test_an_fe_forward_sweep_keeps_a_few_unconverged_positions_and_refuses_many(monkeypatch, caplog):
+    from fingerfriction.predict import forward
+
+    surf = get_surface("bump-2mm")
+    x = np.round(np.arange(-2.0, 2.0 + 1e-9, 0.1), 6)
+    calls = {}
+
+    def fake_solve(self, surface, subject, xc, load):
+        n = self.grid(subject).size
+        xi = self.grid(subject)
+        y = np.empty((xc.size, n))
+        for i, c in enumerate(xc):  # a contact 2 mm either side of the finger centre ...
+            y[i] = np.where(np.abs(xi) < 2.0, surface.h(c + xi), 1.0)
+        bad = calls["bad"]
+        y[bad] = 5.0  # ... but an unconverged position's last iterate touches nothing
+        ok = np.ones(xc.size, bool)
+        ok[bad] = False
+        self.last_ok = ok
+        return y, np.zeros_like(y)
+
+    monkeypatch.setattr(FEProvider, "solve", fake_solve)
+    calls["bad"] = [3]  # 1 of 41: kept, with the nearest converged position's regions
+    with caplog.at_level("WARNING"):
+        reg = forward.forward_regions(surf, LITERATURE_FINGER, x, load=0.3)
+    assert "did not converge at 1 of 41 finger positions" in caplog.text
+    assert np.all(np.isfinite(reg[:, 0, 0]))  # no position without its contact
+    assert np.allclose(reg[3], reg[2], equal_nan=True) and not np.allclose(reg[4], reg[2], equal_nan=True)
+    calls["bad"] = [3, 10, 20]  # 3 of 41 (7 %): no prediction
+    msg = r"failed at 3 of 41 finger positions on bump-2mm \(more than 5%\)"
+    with pytest.raises(RuntimeError, match=msg):
+        forward.forward_regions(surf, LITERATURE_FINGER, x, load=0.3)

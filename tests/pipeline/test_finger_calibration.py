@@ -197,3 +197,48 @@ def test_held_out_calibrations_use_the_other_surfaces_only(tmp_path):
                                                                      if n != surf]
     f = held.fingers()
     assert set(f) == {"step-up-2mm", "bump-4mm"} and set(f["bump-4mm"]) == {"7"}
+
+
+# ------------------------------------------------------------------------------ the FE family
+@pytest.mark.slow  # the results folder's reference sweeps; the FE tables are an analytic stand-in
+def test_fe_family_from_a_results_folder_takes_the_fits_friction(tmp_path, monkeypatch):
+    import fingerfriction.pipeline.finger_calibration as fc
+    from fingerfriction.mechanics.fe import FEFingerParams
+    from fingerfriction.mechanics.fe import calibration as cal
+    from fingerfriction.model import LoadParams
+    from fingerfriction.pipeline.finger_calibration import calibrate_held_out, fitted_friction
+
+    def stand_in(job):  # a parabola of the finger's tip radius, pressed in, conforming
+        finger, surface, load, pos, mesh, grid_step, cache_dir, k = job
+        u = grid_step * np.arange(-k, k + 1)
+        delta = 0.3 * (load / 0.3) ** 0.7 * (0.02 / finger.tissue_modulus) ** (1 / 3)
+        par = u * u / (2 * finger.tip_radius)
+        y = []
+        for x in pos:
+            h = np.asarray(surface.h(x + u), float)
+            y.append(np.maximum(h, np.max(h - par) - delta + par))
+        return np.asarray(y, np.float32), np.ones(pos.size, bool), 1, 0.0
+
+    monkeypatch.setattr(cal, "_one_table", stand_in)
+    _write(tmp_path / "r", DESIGN)
+    opts = cal.FECalibrationOptions(fit=("tissue_modulus",), loads=(0.25, 0.35), step=0.3, bootstrap=10,
+                                    min_frames=50, verify=False)
+    res = calibrate_results(tmp_path / "r", "7", model="fe", options=opts)  # no fit: frictionless
+    assert isinstance(res.finger, FEFingerParams) and res.finger.friction == 0.0
+    assert any("frictionless FE finger: no fitted mu for subject 7" in f for f in res.flags)
+    assert res.finger.name == "subject 7 (calibrated)" and res.n_trials == 4
+    res = calibrate_results(tmp_path / "r", "7", model="fe", options=opts, friction=0.6)
+    assert res.finger.friction == 0.6 and not any("frictionless" in f for f in res.flags)
+    # the fit's flat-ground mu, rounded to FRICTION_STEP
+    monkeypatch.setattr(fc, "load_params", lambda *a, **k: LoadParams(mu=0.5735, p1=0.1))
+    assert fitted_friction(tmp_path / "r", "7") == (0.55, "")
+    assert calibrate_results(tmp_path / "r", "7", model="fe", options=opts).finger.friction == 0.55
+    with pytest.raises(ValueError, match="model must be one of halfspace, fe"):
+        calibrate_results(tmp_path / "r", "7", model="bem")
+    opts1 = dataclasses.replace(opts, min_trials=1)
+    held = calibrate_held_out(tmp_path / "r", options=opts1, model="fe")
+    assert sorted(held.calibrations) == [("bump-4mm", "7"), ("step-up-2mm", "7")]
+    fingers = held.fingers()
+    assert set(fingers) == {s for s, _ in held.calibrations if held.calibrations[(s, "7")].success}
+    for (surf, _), r in held.calibrations.items():  # each calibrated without its held-out surface
+        assert [s.surface for s in r.surfaces] == [n for n in ("step-up-2mm", "bump-4mm") if n != surf]

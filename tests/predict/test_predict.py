@@ -564,3 +564,39 @@ def test_loso_heldout_fingers_replace_the_finger_of_one_surface_only(forward_stu
                                                          ["rho_out_of_sample"].iloc[0]))
     assert np.isnan(got["S2", "bump-2mm"]) and np.isnan(got["Both subjects", "bump-2mm"])
     assert np.isnan(got["S1", "step-up-4mm"])
+
+
+def test_predict_takes_an_fe_finger_file(tmp_path, monkeypatch):
+    """``predict --finger FE.json``: the layered FE finger (with its friction) is the forward
+    model; the solve itself is replaced here by a stand-in (tests/mechanics/test_fe.py runs it)."""
+    import dataclasses
+
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+    from fingerfriction.mechanics.fe import LITERATURE_FINGER, FEFingerParams
+    from fingerfriction.mechanics.finger_file import write_finger_file
+    from fingerfriction.model import LoadParams
+    from fingerfriction.predict import forward, predict
+
+    seen = []
+
+    def stand_in(surface, finger, x, load, contact):
+        seen.append(finger)
+        reg = np.stack([x - 3.0, x + 3.0], axis=1)[:, None, :]
+        return reg
+
+    monkeypatch.setattr(forward, "_fe_regions", stand_in)
+    f = dataclasses.replace(LITERATURE_FINGER, friction=0.55, name="calibrated FE")
+    path = write_finger_file(tmp_path / "fe.json", f)
+    params = LoadParams(mu=0.55, p1=0.1)
+    pred = predict("bump-2mm", 1, params, finger=f, step=0.1)
+    assert seen[-1] == f and pred.finger == f and np.allclose(pred.F_T[0], 0.55 * 0.3)
+    (tmp_path / "p.json").write_text(params.to_json())
+    r = CliRunner().invoke(app, ["predict", "--surface", "bump-2mm", "--subject", "1", "--params",
+                                 str(tmp_path / "p.json"), "--finger", str(path), "--step", "0.1",
+                                 "--no-figures", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert isinstance(seen[-1], FEFingerParams) and seen[-1].friction == 0.55
+    with pytest.raises(TypeError, match="FingerParams or an FEFingerParams"):
+        predict("bump-2mm", 1, params, finger=f.to_dict())

@@ -3,6 +3,7 @@ options, and one tiny study end to end (``simulate --finger-model fe``)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -57,9 +58,9 @@ def test_fe_studies_carry_each_subjects_sliding_friction():
     for bad in (-0.1, float("nan"), True, {"1": 9.0}):
         with pytest.raises(ValueError, match="friction of subject"):
             FEProvider(friction=bad)
-    # a truth finger (with its "friction" entry) reads back as a finger
+    # a truth finger (with its "friction" entry) reads back as the finger with that friction
     got = study_fingers({"1": p.finger_dict("1")}, None, ("1",), "fe")
-    assert got["1"] == p.fingers["1"]
+    assert got["1"] == dataclasses.replace(p.fingers["1"], friction=p.mu("1"))
 
 
 def test_a_bad_fe_mesh_setting_is_a_one_line_error(monkeypatch):

@@ -20,6 +20,7 @@ from ._common import (
     SEED,
     STEP_MM,
     SUBJECT,
+    WORKERS,
     bounded,
     console,
     csv_list,
@@ -123,13 +124,14 @@ def predict_cmd(
                                     help="geometric (70 um) or mechanical."),
     figures: bool = typer.Option(True, "--figures/--no-figures", help="Write PNG figures."),
     finger_path: str = typer.Option(
-        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default."
+        None, "--finger", help="Finger JSON file (calibrate-finger) instead of the subject's default; an FE "
+        "finger file makes the layered FE finger the forward model (solved every 0.1 mm, cached)."
     ),
 ) -> None:
     """Predict F_T(x), F_int, F_def, contact occupancy and blind spots on any relief."""
     from ..predict import predict  # heavy (the forward model); imported when the command runs
 
-    finger = None if finger_path is None else read_fingers(finger_path)
+    finger = None if finger_path is None else read_fingers(finger_path, model="any")
     try:
         owns = {"owns": PREDICTION_FILES, "what": "prediction folder"}
         check_output_dir(out, **owns)
@@ -217,6 +219,10 @@ def validate_cmd(
     ] = None,
     calibrated: bool = typer.Option(False, "--calibrated-fingers", help="Also predict each held-out surface "
                                     "with each subject's finger calibrated on the other surfaces (slow)."),
+    finger_model: str = typer.Option("halfspace", "--finger-model", help="The family of the calibrated "
+                                     "fingers: halfspace, or fe (the layered FE finger, its tables cached)."),
+    workers: int = typer.Option(1, "--workers", callback=WORKERS,
+                                help="Processes solving the FE calibration's tables (--finger-model fe)."),
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
@@ -225,11 +231,18 @@ def validate_cmd(
 
     fingers = read_fingers(items=finger, model="any")  # half-space or FE finger files
     try:
+        check_option("--finger-model", finger_model, ("halfspace", "fe"))
         held = None
         if calibrated:
+            opts = None
+            if finger_model == "fe":
+                from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
+
+                opts = FECalibrationOptions(verify=False, workers=workers)
             with console.status("calibrating the fingers without each surface...") as st:
-                held = calibrate_held_out(results, progress=lambda k, n, what: st.update(
-                    f"calibrated {k} of {n} fingers ({what})"))
+                held = calibrate_held_out(results, options=opts, model=finger_model,
+                                          progress=lambda k, n, what: st.update(
+                                              f"calibrated {k} of {n} fingers ({what})"))
             for (surf, subj), why in held.errors.items():
                 console.print(f"[yellow]no calibrated finger[/] for subject {subj} without {surf}: {why}",
                               highlight=False, soft_wrap=True)
@@ -262,26 +275,45 @@ def calibrate_finger_cmd(
     surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
     seed: int = dataclass_option("fingerfriction.mechanics.calibrate:CalibrationOptions.seed", "--seed",
                                  help="Seed of the bootstrap uncertainties.", callback=SEED),
+    finger_model: str = typer.Option("halfspace", "--finger-model", help="halfspace (radius, modulus, flat "
+                                     "length), or fe: the layered FE finger (pulp modulus and outline "
+                                     "radius, through a grid of cached FE tables; docs/mechanics-fe.md)."),
+    friction: float = typer.Option(None, "--friction", callback=bounded(0.0, 5.0),
+                                   help="FE finger: the sliding friction of its contact (default: the "
+                                   "study's fitted flat-ground mu)."),
+    workers: int = typer.Option(1, "--workers", callback=WORKERS,
+                                help="Processes solving the FE grid's tables (--finger-model fe)."),
 ) -> None:
-    """Fit the subject's finger (radius, modulus, flat length) to its measured contact regions
-    and write it as a finger JSON that predict, predict-contact, validate and render accept."""
+    """Fit the subject's finger to its measured contact regions and write it as a finger JSON
+    that predict, validate and render accept (predict-contact and render: half-space only)."""
     from ..mechanics.calibrate import CalibrationOptions  # heavy (numba); when the command runs
     from ..pipeline.finger_calibration import calibrate_results  # heavy (the forward model); likewise
 
-    start = None if initial is None else read_fingers(initial)
+    try:
+        check_option("--finger-model", finger_model, ("halfspace", "fe"))
+    except ValueError as exc:
+        fail(str(exc))
+    start = None if initial is None else read_fingers(initial, model=finger_model)
     target = out or f"finger-s{subject}.json"
     try:
         output_file(target, create=False)  # a folder given as the file fails before the work
-        opts = CalibrationOptions(**given(seed=seed))
+        if finger_model == "fe":
+            from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
+
+            opts = FECalibrationOptions(**given(seed=seed), workers=workers)
+        else:
+            opts = CalibrationOptions(**given(seed=seed))
         t0 = time.process_time()
         with console.status(f"calibrating the finger of subject {subject}..."):
             res = calibrate_results(results, subject, initial=start, options=opts, load=load,
-                                    surfaces=csv_list(surfaces))
+                                    surfaces=csv_list(surfaces), model=finger_model, friction=friction)
         cpu = time.process_time() - t0
     except (ValueError, OSError) as exc:
         fail(str(exc))
     console.print(escape(res.summary()), highlight=False)
-    console.print(f"CPU {cpu:.1f} s ({res.n_solves} contact solves)", highlight=False)
+    what = "FE tables solved" if finger_model == "fe" else "contact solves"
+    fe_cpu = f", FE tables {res.timings['fe_tables']:.1f} s in all processes" if finger_model == "fe" else ""
+    console.print(f"CPU {cpu:.1f} s in this process ({res.n_solves} {what}{fe_cpu})", highlight=False)
     if not res.success:
         fail(f"the calibration of subject {subject} did not succeed: {res.message}; no finger written")
     from ..mechanics.finger_file import write_finger_file  # small; only once there is a finger

@@ -115,11 +115,8 @@ class CalibrationProblem:
         self.initial = initial
         self.fit = opts.fit
         self.p0 = np.array([float(getattr(initial, f)) for f in self.fit])
-        hw = initial.default_half_width(clearance=opts.clearance)
-        n = int(2 * math.ceil(hw / opts.dx))
-        self.n = max(n, 64)
-        self.hw = hw
-        self.u = -hw + (np.arange(self.n) + 0.5) * (2 * hw / self.n)
+        self.hw, self.u = self._grid(initial, opts)
+        self.n = self.u.size
         self.n_solves = 0
         self.cg_iterations = 0
         self.t_bem = 0.0
@@ -153,14 +150,12 @@ class CalibrationProblem:
             raise ValueError("no usable frame")
         allload = np.concatenate(loads)
         self.load_median = float(np.median(allload))
-        q = np.linspace(0.02, 0.98, opts.n_loads) if opts.n_loads > 1 else np.array([0.5])
-        lv = np.unique(np.round(np.quantile(allload, q), 6))
-        self.loads = lv
+        self.loads = self._table_loads(allload, opts)
         self.surfaces: list[_SurfaceData] = []
         for name, frames in groups.items():
             s = surfaces[name]
             a, b = s.feature_extent
-            self.surfaces.append(_SurfaceData(s, frames, self.u, a - hw - 0.5, b + hw + 0.5))
+            self.surfaces.append(_SurfaceData(s, frames, self.u, a - self.hw - 0.5, b + self.hw + 0.5))
         self.n_frames = int(sum(sd.x.size for sd in self.surfaces))
         self.n_trials = len(self.trial_labels)
         # warm starts: (level, surface, load index) -> pressures (m, n)
@@ -168,6 +163,19 @@ class CalibrationProblem:
         self._structs: dict = {}
         self.last_end_gain: dict = {}
         self.last_failures = 0
+
+    @staticmethod
+    def _grid(initial, opts) -> tuple[float, np.ndarray]:
+        """``(half-width, u)``: the fixed cells ``u`` (mm, finger frame) of every table."""
+        hw = initial.default_half_width(clearance=opts.clearance)
+        n = max(int(2 * math.ceil(hw / opts.dx)), 64)
+        return hw, -hw + (np.arange(n) + 0.5) * (2 * hw / n)
+
+    @staticmethod
+    def _table_loads(allload: np.ndarray, opts) -> np.ndarray:
+        """The tabulated normal loads (N): quantiles 2 %, ..., 98 % of the frames' loads."""
+        q = np.linspace(0.02, 0.98, opts.n_loads) if opts.n_loads > 1 else np.array([0.5])
+        return np.unique(np.round(np.quantile(allload, q), 6))
 
     # ---------------------------------------------------------------- parameters
     def finger(self, z: np.ndarray) -> FingerParams:

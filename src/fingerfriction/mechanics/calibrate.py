@@ -313,6 +313,10 @@ class FingerCalibration:
         ``'total'``.
     cost : float
         Final robust cost of the fine pass.
+    surrogate_rms_mm : float
+        FE calibrations (:func:`fingerfriction.mechanics.fe.calibration.calibrate_fe_finger`):
+        RMS difference (mm) of the end-point residuals of the surrogate and of the exact FE
+        finger at the optimum (NaN: not verified, or a half-space calibration).
     """
 
     finger: FingerParams
@@ -335,18 +339,22 @@ class FingerCalibration:
     timings: dict = field(default_factory=dict)
     cost: float = math.nan
     options: CalibrationOptions | None = field(default=None, repr=False)
+    surrogate_rms_mm: float = math.nan
 
     def summary(self) -> str:
         """The result as plain-text tables: parameters, then per-surface figures and flags."""
-        units = {"radius": "mm", "modulus": "MPa", "flat_length": "mm"}
         lines = [f"finger calibration: {self.message}; {self.n_trials} trials, {self.n_frames} frames",
-                 f"{'parameter':18s} {'start':>9s} {'calibrated':>11s} {'bootstrap std':>13s} "
+                 f"{'parameter':22s} {'start':>9s} {'calibrated':>11s} {'bootstrap std':>13s} "
                  f"{'95 % interval':>19s} {'+0.5 px ends':>12s}"]
         for f in self.fitted:
             lo, hi = self.ci95[f]
-            lines.append(f"{f + ' (' + units.get(f, '') + ')':18s} {getattr(self.initial, f):9.4g} "
+            unit = "MPa" if "modulus" in f else "mm"
+            lines.append(f"{f + ' (' + unit + ')':22s} {getattr(self.initial, f):9.4g} "
                          f"{getattr(self.finger, f):11.4g} {self.std[f]:13.2g} {lo:9.4g}..{hi:<9.4g} "
                          f"{self.systematic[f]:+12.2g}")
+        if math.isfinite(self.surrogate_rms_mm):
+            lines.append(f"FE surrogate against the exact FE finger at the optimum: end points differ by "
+                         f"{self.surrogate_rms_mm:.4f} mm RMS")
         lines.append(f"load per width P' = {self.load_per_width:.4f} N/mm (median F_N "
                      f"{self.load_median:.3f} N, D = {self.finger.width:g} mm fixed)")
         lines.append(f"{'surface':14s} {'frames':>6s} {'end rms mm':>10s}  "
@@ -374,6 +382,7 @@ class FingerCalibration:
             "cpu_s": {k: round(float(v), 3) for k, v in self.timings.items()},
             "surfaces": [s.to_dict() for s in self.surfaces],
             "options": dataclasses.asdict(self.options) if self.options is not None else None,
+            **({"surrogate_rms_mm": self.surrogate_rms_mm} if math.isfinite(self.surrogate_rms_mm) else {}),
         }
 
 
@@ -423,7 +432,7 @@ def calibrate_finger(trials, initial: FingerParams, *, options: CalibrationOptio
             "position, a normal force and a contact region"
         )
     t_prep = time.process_time() - T0
-    z, fine, fun, jac, state, nfev, pass_cpu = _optimise(pb, opts)
+    z, fine, fun, jac, state, nfev, pass_cpu = optimise(pb, opts)
     finger = pb.finger(z)
 
     # residuals and Jacobian at the optimum (for the bootstrap and the per-surface figures;
@@ -477,16 +486,19 @@ def _check_inputs(trials, initial, opts: CalibrationOptions) -> list[Calibration
     return trials
 
 
-def _optimise(pb: CalibrationProblem, opts: CalibrationOptions):
-    """The coarse then the fine least-squares pass, from the initial finger (z = 0)."""
-    lb = np.full(len(opts.fit), -math.log(opts.bound))
+def optimise(pb: CalibrationProblem, opts, bounds: tuple | None = None):
+    """The coarse then the fine least-squares pass, from the initial finger (z = 0), within
+    ``bounds`` (``(lower, upper)`` arrays of ``z = log(p / p_initial)``; default
+    ``+-log(opts.bound)``). Returns ``(z, fine result, fun, jac, state, nfev, pass_cpu)``."""
+    lb, ub = bounds if bounds is not None else (np.full(len(opts.fit), -math.log(opts.bound)),
+                                                np.full(len(opts.fit), math.log(opts.bound)))
     z = np.zeros(len(opts.fit))
     nfev, pass_cpu = {}, {}
     for level, step, soft in (("coarse", opts.coarse_step, opts.coarse_soft),
                               ("fine", opts.fine_step, opts.fine_soft)):
         fun, jac, state = make_fun_jac(pb, level, step)
         t_pass = time.process_time()
-        r = least_squares(fun, z, jac=jac, bounds=(lb, -lb), loss="soft_l1", f_scale=soft,
+        r = least_squares(fun, z, jac=jac, bounds=(lb, ub), loss="soft_l1", f_scale=soft,
                           x_scale=1.0, max_nfev=opts.max_nfev, xtol=1e-4, ftol=1e-6, gtol=1e-8)
         nfev[level] = int(r.nfev)
         pass_cpu[level] = time.process_time() - t_pass

@@ -166,8 +166,9 @@ def fe_finger_from_mapping(d, where: str = "finger") -> FEFingerParams:
     if d.get("model") != "fe":
         raise ValueError(f"{where}: not an FE finger (expected \"model\": \"fe\", got "
                          f"{d.get('model', 'none')!r}); the FE finger model needs FE finger files")
-    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items()
-         if k not in ("model", "mesh", "friction")}  # a study truth's provider entries
+    # a study truth's provider entries: the mesh is the study's, not the finger's; its
+    # "friction" (the traction the study's contact carried) is the finger's field
+    d = {k: v for k, v in _unwrap(d, where, "FEFingerParams").items() if k not in ("model", "mesh")}
     try:
         return FEFingerParams.from_dict(d)
     except (TypeError, ValueError) as exc:

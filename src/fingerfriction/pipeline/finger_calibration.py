@@ -25,19 +25,33 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._check import check_option
 from ..mechanics import FingerParams, get_subject
 from ..mechanics.bem import GEOMETRIC_TOL
 from ..mechanics.calibrate import (
     CalibrationError,
-    CalibrationOptions,
     CalibrationTrial,
     FingerCalibration,
     calibrate_finger,
 )
+from ..mechanics.fe import FE_SUBJECTS, FEFingerParams
+from ..mechanics.fe.calibration import FECalibrationOptions, calibrate_fe_finger
+from ..predict.defaults import load_params
 from ..study.store import ResultsStore
 from ..surfaces import surface_from_spec
 
-__all__ = ["trials_from_results", "calibrate_results", "HeldOutCalibration", "calibrate_held_out"]
+__all__ = ["trials_from_results", "calibrate_results", "HeldOutCalibration", "calibrate_held_out",
+           "FINGER_FAMILIES", "FRICTION_STEP", "fitted_friction"]
+
+#: The finger families a calibration can fit: the plane-strain half-space
+#: (:func:`~fingerfriction.mechanics.calibrate.calibrate_finger`) and the layered FE finger
+#: (:func:`~fingerfriction.mechanics.fe.calibration.calibrate_fe_finger`).
+FINGER_FAMILIES = ("halfspace", "fe")
+
+#: The FE finger's sliding friction is the fit's flat-ground ``mu`` rounded to this step: the
+#: patch moves ~0.46 mm per unit of ``mu`` (docs/mechanics-fe.md), so rounding moves it by at
+#: most ~0.012 mm, and studies whose fits land near the same coefficient share the FE tables.
+FRICTION_STEP = 0.05
 
 log = logging.getLogger(__name__)
 
@@ -175,9 +189,38 @@ def trials_from_results(results: str | os.PathLike, subject, *, load: float | No
     return trials, skipped
 
 
-def calibrate_results(results: str | os.PathLike, subject, *, initial: FingerParams | None = None,
-                      options: CalibrationOptions | None = None, load: float | None = None,
-                      surfaces=None) -> FingerCalibration:
+def fitted_friction(results: str | os.PathLike, subject) -> tuple[float | None, str]:
+    """``(mu, '')``: the subject's flat-ground ``mu`` of the study's fit (the load-consistent
+    variant's) rounded to :data:`FRICTION_STEP`; ``(None, why)`` when the study has no fit."""
+    try:
+        mu = float(load_params(results, str(subject), model="load").mu)
+    except ValueError as exc:
+        return None, " ".join(str(exc).split())
+    if not (math.isfinite(mu) and mu >= 0):
+        return None, f"the fit's mu of subject {subject} is {mu!r}"
+    return round(round(mu / FRICTION_STEP) * FRICTION_STEP, 6), ""
+
+
+def _fe_initial(subject, initial, friction, results) -> tuple[FEFingerParams, list[str]]:
+    """The FE calibration's starting finger (default: the subject's FE default, else subject
+    1's) with its sliding friction: ``friction``, else the fit's (:func:`fitted_friction`)."""
+    notes = []
+    if initial is None:
+        initial = FE_SUBJECTS.get(str(subject), FE_SUBJECTS["1"])
+    if not isinstance(initial, FEFingerParams):
+        raise TypeError(f"an FE calibration starts from an FEFingerParams, got {type(initial).__name__}")
+    if friction is None:
+        friction, why = fitted_friction(results, subject)
+        if friction is None:
+            friction = 0.0
+            notes.append(f"frictionless FE finger: no fitted mu for subject {subject} ({why}); run "
+                         "'fingerfriction fit' first or give the friction")
+    return dataclasses.replace(initial, friction=float(friction)), notes
+
+
+def calibrate_results(results: str | os.PathLike, subject, *, initial=None, options=None,
+                      load: float | None = None, surfaces=None, model: str = "halfspace",
+                      friction: float | None = None) -> FingerCalibration:
     """Calibrate the finger of ``subject`` from a results folder.
 
     Parameters
@@ -186,15 +229,22 @@ def calibrate_results(results: str | os.PathLike, subject, *, initial: FingerPar
         Results folder of ``fingerfriction analyze``.
     subject : str or int
         Subject label.
-    initial : FingerParams, optional
-        Starting finger (default: the calibrated default of subject 1 or 2 when the label
-        is one of them, else subject 1's).
-    options : CalibrationOptions, optional
+    initial : FingerParams or FEFingerParams, optional
+        Starting finger (default: the subject's default finger of the family, 1 or 2 when
+        the label is one of them, else subject 1's).
+    options : CalibrationOptions or FECalibrationOptions, optional
     load : float, optional
         Assumed constant normal force in N (default: the measured ``F_N_abs_N``); the
         result is flagged.
     surfaces : iterable of str, optional
         Calibrate on these surfaces only.
+    model : {'halfspace', 'fe'}
+        The finger family (:data:`FINGER_FAMILIES`): the half-space finger, or the layered
+        FE finger (through its surrogate of cached FE tables, ``docs/mechanics-fe.md``).
+    friction : float, optional
+        FE family: the sliding friction coefficient of the finger's contact (default: the
+        study's fitted flat-ground ``mu``, :func:`fitted_friction`; frictionless, flagged,
+        when the study has no fit).
 
     Returns
     -------
@@ -205,14 +255,21 @@ def calibrate_results(results: str | os.PathLike, subject, *, initial: FingerPar
     CalibrationError
         Too few usable trials or frames (the message names the skipped trials' reasons).
     """
+    check_option("model", model, FINGER_FAMILIES)
     trials, skipped = trials_from_results(results, subject, load=load, surfaces=surfaces)
-    if initial is None:
+    notes: list[str] = []
+    if model == "fe":
+        initial, notes = _fe_initial(subject, initial, friction, results)
+    elif initial is None:
         try:
             initial = get_subject(int(str(subject)))
         except ValueError:
             initial = get_subject(1)
     try:
-        res = calibrate_finger(trials, initial, options=options)
+        if model == "fe":
+            res = calibrate_fe_finger(trials, initial, options=options or FECalibrationOptions())
+        else:
+            res = calibrate_finger(trials, initial, options=options)
     except CalibrationError as exc:
         why = ""
         if skipped:
@@ -220,6 +277,7 @@ def calibrate_results(results: str | os.PathLike, subject, *, initial: FingerPar
             why += f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""
         raise CalibrationError(f"subject {subject}: {exc}{why}") from None
     res.finger = dataclasses.replace(res.finger, name=f"subject {subject} (calibrated)")
+    res.flags.extend(notes)
     if load is not None:
         res.flags.append(f"normal force assumed constant at {load:g} N (no measured F_N): the modulus is "
                          "relative to that load")
@@ -244,7 +302,7 @@ class HeldOutCalibration:
     calibrations: dict = field(default_factory=dict)
     errors: dict = field(default_factory=dict)
 
-    def fingers(self) -> dict[str, dict[str, FingerParams]]:
+    def fingers(self) -> dict[str, dict]:
         """``{held-out surface: {subject: finger}}`` of the successful calibrations (the
         ``calibrated_fingers`` of :func:`fingerfriction.pipeline.validation.validate_results`)."""
         out: dict[str, dict[str, FingerParams]] = {}
@@ -254,9 +312,9 @@ class HeldOutCalibration:
         return out
 
 
-def calibrate_held_out(results: str | os.PathLike, *, subjects=None,
-                       options: CalibrationOptions | None = None,
-                       progress: Callable[[int, int, str], None] | None = None) -> HeldOutCalibration:
+def calibrate_held_out(results: str | os.PathLike, *, subjects=None, options=None,
+                       progress: Callable[[int, int, str], None] | None = None,
+                       model: str = "halfspace") -> HeldOutCalibration:
     """For leave-one-surface-out: each subject's finger calibrated on all surfaces but one.
 
     Parameters
@@ -265,9 +323,14 @@ def calibrate_held_out(results: str | os.PathLike, *, subjects=None,
         Results folder of ``fingerfriction analyze``.
     subjects : iterable of str, optional
         Default: every subject of the results.
-    options : CalibrationOptions, optional
+    options : CalibrationOptions or FECalibrationOptions, optional
+        For the FE family, default ``FECalibrationOptions(verify=False)``: the held-out
+        surface is predicted by the exact FE finger anyway, and the five calibrations of a
+        subject share one grid of FE tables (``docs/mechanics-fe.md``).
     progress : callable, optional
         ``progress(done, total, label)`` after each calibration.
+    model : {'halfspace', 'fe'}
+        The finger family (:func:`calibrate_results`).
 
     Returns
     -------
@@ -284,12 +347,15 @@ def calibrate_held_out(results: str | os.PathLike, *, subjects=None,
         if s not in by_subject:
             raise ValueError(f"{os.fspath(results)!r}: no trial of subject {s!r}; the results have subjects "
                              f"{', '.join(sorted(by_subject)) or 'none'}")
+    check_option("model", model, FINGER_FAMILIES)
+    if model == "fe" and options is None:
+        options = FECalibrationOptions(verify=False)
     jobs = [(surf, s) for s in chosen for surf in sorted(by_subject[s])]
     out = HeldOutCalibration()
     for k, (surf, s) in enumerate(jobs, start=1):
         others = sorted(by_subject[s] - {surf})
         try:
-            res = calibrate_results(results, s, options=options, surfaces=others)
+            res = calibrate_results(results, s, options=options, surfaces=others, model=model)
             out.calibrations[(surf, s)] = res
             if not res.success:
                 out.errors[(surf, s)] = res.message

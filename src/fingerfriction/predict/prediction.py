@@ -19,6 +19,7 @@ from .._atomic import atomic_write
 from .._style import figure_style
 from ..fit.variants import variant_of_params
 from ..mechanics import FingerParams
+from ..mechanics.fe import FEFingerParams
 from ..model import FrictionModel, FrictionParams, LoadParams
 from ..model.blindspots import BlindSpots, Occupancy, blind_spots, occupancy
 from ..regions import as_regions, n_regions, region_lengths
@@ -96,8 +97,8 @@ class Prediction:
         """The parameters in one line with their units."""
         p = self.params
         if isinstance(p, LoadParams):
-            down = f" (ascending), p1_down={p.p1_down:.3g} N/mm" if p.asymmetric else ""
-            return (f"mu={p.mu:.3g}, p1={p.p1:.3g} N/mm{down}, inset={p.inset:.3g} mm, "
+            push = f", slope push {p.push_up:.3g} up, {p.push_down:.3g} down" if p.split_push else ""
+            return (f"mu={p.mu:.3g}, p1={p.p1:.3g} N/mm{push}, inset={p.inset:.3g} mm, "
                     f"kappa={p.kappa:.3g}/mm "
                     f"(load-consistent, F_N={self.load:g} N)")
         return f"mu={p.mu:.3g}, p0={p.p0:.3g} N/mm, p1={p.p1:.3g} N/mm (paper's Eq. 4)"
@@ -340,10 +341,13 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
         First and last finger positions in mm (default :func:`sweep_window`).
     max_slope_angle : float, optional
         Slope limit in rad (:func:`check_profile`).
-    finger : FingerParams, optional
+    finger : FingerParams or FEFingerParams, optional
         The subject's own finger (``calibrate-finger``'s, read with
         :func:`fingerfriction.mechanics.finger_file.read_finger_file`) instead of its
-        default one; default parameters then keep the subject's paper ``mu``.
+        default one; default parameters then keep the subject's paper ``mu``. An FE finger
+        (the layered finite-element finger, with its own sliding friction) is solved every
+        :data:`~fingerfriction.predict.forward.FE_FORWARD_STEP` mm through its disk cache
+        (``docs/mechanics-fe.md``).
 
     Returns
     -------
@@ -367,8 +371,8 @@ def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
     label, default_finger = resolve_finger(subject)
     if finger is None:
         finger = default_finger
-    elif not isinstance(finger, FingerParams):
-        raise TypeError(f"finger must be a FingerParams, got {type(finger).__name__}")
+    elif not isinstance(finger, (FingerParams, FEFingerParams)):
+        raise TypeError(f"finger must be a FingerParams or an FEFingerParams, got {type(finger).__name__}")
     p, source = resolve_params(params, label, float(load), model, finger=finger)
     lo, hi = sweep_window(surface) if window is None else (float(window[0]), float(window[1]))
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):

@@ -68,6 +68,12 @@ class FEFingerParams:
         (``|angle - 90 deg| < nail_half_angle``) is nail.
     nail_half_angle : float
         Half-angle in degrees of the nail's arc, seen from the finger's centre.
+    friction : float
+        Coefficient ``mu`` of the sliding Coulomb traction ``mu p`` the contact carries
+        against the finger's motion towards ``+x`` (default 0: frictionless), in ``[0, 5]``.
+        It shifts the contact patch against the motion (``docs/mechanics-fe.md``): a
+        finger calibrated on frictional recordings keeps the coefficient it was
+        calibrated with, and the forward model applies it.
     name : str
         A label.
 
@@ -90,16 +96,21 @@ class FEFingerParams:
     pulp_thickness: float = 4.5
     nail_modulus: float = 170.0
     nail_half_angle: float = 50.0
+    friction: float = 0.0
     name: str = ""
 
     def __post_init__(self) -> None:
         own = "FEFingerParams"
         for f in fields(self):
-            if f.name == "name":
+            if f.name in ("name", "friction"):
                 continue
             unit = {"poisson": "(dimensionless)", "nail_half_angle": "degrees"}.get(
                 f.name, "MPa" if "modulus" in f.name else "mm")
             object.__setattr__(self, f.name, _pos(own, f.name, getattr(self, f.name), unit))
+        mu = self.friction
+        if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not (0 <= mu <= 5):
+            raise ValueError(f"{own}.friction must be a friction coefficient in [0, 5], got {mu!r}")
+        object.__setattr__(self, "friction", float(mu))
         if not isinstance(self.name, str):
             raise TypeError(f"{own}.name must be text, got {self.name!r}")
         if self.poisson > 0.499:

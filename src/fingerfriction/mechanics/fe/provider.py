@@ -13,9 +13,10 @@ the deformed lower outline ``y_f`` and the pressure ``p`` on the relative grid `
   previous one (:meth:`FEContactSolver.solve`).
 * Cache: each ``solve`` result is stored under a key, a digest of everything it depends on
   (the code's :data:`CACHE_VERSION`, the finger, the mesh, the surface, the positions, the
-  load and the grid), as ``<cache_dir>/<key>.npz``; a call with the same inputs reads it
-  back, a changed parameter gives a new key and is computed. ``cache_dir`` defaults to
-  ``$FINGERFRICTION_CACHE/fe`` or ``~/.cache/fingerfriction/fe``.
+  load, the grid and the friction), as ``<cache_dir>/<key>.npz`` with which positions
+  converged; a call with the same inputs reads it back, a changed parameter gives a new key
+  and is computed. ``cache_dir`` defaults to ``$FINGERFRICTION_CACHE/fe`` or
+  ``~/.cache/fingerfriction/fe``.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ __all__ = ["FEProvider", "FE_SUBJECTS", "CACHE_VERSION", "default_cache_dir", "d
 log = logging.getLogger(__name__)
 
 #: Bumped whenever a change of the solver changes its results (invalidates every cache entry).
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 
 #: The FE provider's default fingers of the two simulated subjects: the literature finger,
 #: and for subject 2 the same layers on a slightly larger outline (the paper's subjects
@@ -98,15 +99,16 @@ class FEProvider:
     friction : float or dict, optional
         Sliding friction coefficient of a tangential traction ``mu p`` on the contact,
         opposing the finger's motion towards ``+x``: one for every subject, or a dict
-        subject label -> coefficient (default 0: frictionless). It shifts the contact patch
-        against the motion (``docs/mechanics-fe.md``); simulated studies pass each subject's
-        coefficient (:attr:`fingerfriction.sim.options.SimOptions.provider`).
+        subject label -> coefficient. It shifts the contact patch against the motion
+        (``docs/mechanics-fe.md``); simulated studies pass each subject's coefficient
+        (:attr:`fingerfriction.sim.options.SimOptions.provider`). A subject without one
+        takes its finger's own :attr:`FEFingerParams.friction` (default 0: frictionless).
     """
 
     name = "fe"
 
     def __init__(self, *, fingers: dict | None = None, mesh: FEMeshParams | None = None,
-                 grid_step: float = 0.02, cache_dir=None, friction: float = 0.0):
+                 grid_step: float = 0.02, cache_dir=None, friction=None):
         self.fingers = dict(FE_SUBJECTS if fingers is None else fingers)
         for k, f in self.fingers.items():
             if not isinstance(f, FEFingerParams):
@@ -115,7 +117,8 @@ class FEProvider:
         if not (isinstance(grid_step, (int, float)) and math.isfinite(grid_step) and grid_step > 0):
             raise ValueError(f"grid_step must be a positive length in mm, got {grid_step!r}")
         self.grid_step = float(grid_step)
-        mus = friction if isinstance(friction, dict) else dict.fromkeys(self.fingers, friction)
+        mus = ({} if friction is None else
+               friction if isinstance(friction, dict) else dict.fromkeys(self.fingers, friction))
         for k, mu in mus.items():
             ok = isinstance(mu, (int, float)) and not isinstance(mu, bool) and math.isfinite(mu)
             if not (ok and 0 <= mu <= 5):
@@ -123,6 +126,7 @@ class FEProvider:
         self.friction = {str(k): float(v) for k, v in mus.items()}
         self.cache_dir = None if cache_dir is False else Path(cache_dir or default_cache_dir())
         self.failures = 0
+        self.last_ok: np.ndarray | None = None  # which positions of the last solve converged
         self.computed = 0  # sweeps solved (not read from the cache), for tests and benchmarks
         self._solvers: dict = {}
 
@@ -133,13 +137,14 @@ class FEProvider:
             raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
 
     def mu(self, subject: str) -> float:
-        """The friction coefficient of the subject's contact traction (0: frictionless)."""
-        self._finger(subject)
-        return self.friction.get(str(subject), 0.0)
+        """The friction coefficient of the subject's contact traction (0: frictionless): the
+        provider's for that subject, else its finger's own."""
+        f = self._finger(subject)
+        return self.friction.get(str(subject), f.friction)
 
     def finger_dict(self, subject: str) -> dict:
-        return {"model": self.name, "mesh": self.mesh.to_dict(), "friction": self.mu(subject),
-                **self._finger(subject).to_dict()}
+        return {"model": self.name, "mesh": self.mesh.to_dict(), **self._finger(subject).to_dict(),
+                "friction": self.mu(subject)}
 
     def grid(self, subject: str) -> np.ndarray:
         f = self._finger(subject)
@@ -172,7 +177,11 @@ class FEProvider:
         return min(r, self.mesh.contact_half_width) + 0.2
 
     def solve(self, surface: Surface, subject: str, x_centres, load: float):
-        """Outline ``y_f`` (mm) and pressure ``p`` (MPa), each ``(n_positions, xi.size)``."""
+        """Outline ``y_f`` (mm) and pressure ``p`` (MPa), each ``(n_positions, xi.size)``.
+
+        Which positions converged is kept in :attr:`last_ok` (``(n_positions,)`` bool, also
+        for a table read from the cache); an unconverged position holds its last iterate.
+        """
         xc = np.asarray(x_centres, float)
         if xc.ndim != 1 or xc.size == 0 or not np.all(np.isfinite(xc)):
             raise ValueError("x_centres must be a non-empty 1-D array of finite positions in mm")
@@ -182,17 +191,20 @@ class FEProvider:
             if path.is_file():
                 try:
                     with np.load(path, allow_pickle=False) as z:
-                        y, p = z["y_f"], z["p"]
-                    if y.shape == (xc.size, self.grid(subject).size) and p.shape == y.shape:
+                        y, p, ok = z["y_f"], z["p"], z["ok"]
+                    if y.shape == (xc.size, self.grid(subject).size) and p.shape == y.shape \
+                            and ok.shape == (xc.size,):
+                        self.last_ok = ok.astype(bool)
                         return y.astype(float), p.astype(float)
                 except (OSError, ValueError, KeyError):
                     pass
                 log.warning("ignoring an unreadable FE cache entry %s", path)
-        y, p = self._compute(surface, subject, xc, float(load))
+        y, p, ok = self._compute(surface, subject, xc, float(load))
         self.computed += 1
+        self.last_ok = ok
         if path is not None:
             buf = io.BytesIO()
-            np.savez_compressed(buf, y_f=y, p=p)
+            np.savez_compressed(buf, y_f=y, p=p, ok=ok)
             path.parent.mkdir(parents=True, exist_ok=True)
             atomic_write_bytes(path, buf.getvalue())
         return y, p
@@ -206,6 +218,7 @@ class FEProvider:
         flat = (xc + reach < a) | (xc - reach > b)
         y = np.empty((xc.size, xi.size))
         p = np.empty_like(y)
+        ok = np.ones(xc.size, dtype=bool)
         states: dict = {}
 
         def flat_state(level):
@@ -221,6 +234,7 @@ class FEProvider:
         for i in np.flatnonzero(flat):
             level = float(np.asarray(surface.h(np.array([xc[i]])), float)[0])
             sol, _ = flat_state(level)
+            ok[i] = sol.success
             sol0 = dataclasses.replace(sol, outline_x=sol.outline_x + xc[i])
             y[i], p[i] = sol0.on_grid(xc[i] + xi, load, finger.width)
         idx = np.flatnonzero(~flat)
@@ -238,9 +252,10 @@ class FEProvider:
                     state = new
                 else:
                     bad += 1
+                    ok[i] = False
                 y[i], p[i] = sol.on_grid(xc[i] + xi, load, finger.width)
             if bad:
                 self.failures += bad
                 log.warning("FE contact did not converge at %d of %d positions (%s, subject %s, %g N)",
                             bad, idx.size, getattr(surface, "name", "surface"), subject, load)
-        return y, p
+        return y, p, ok

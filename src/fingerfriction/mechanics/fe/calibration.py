@@ -1,0 +1,513 @@
+"""Calibrate a subject's layered FE finger from recorded contact regions.
+
+The FE family's counterpart of :func:`fingerfriction.mechanics.calibrate.calibrate_finger`:
+the same measured frames, the same residuals (model edge against measured edge, hinges
+where the model and the video disagree, ``mechanics/calibrate.py``'s notes), the same
+robust least squares, bootstrap and per-surface figures; only the forward model differs.
+
+A surrogate of cached FE tables
+-------------------------------
+One FE table (a finger, a surface, a load, positions every 0.1 mm) costs tens of seconds of
+CPU at the coarse mesh, so the optimiser cannot call the FE solver at every evaluation.
+Instead the fitted parameters ``theta`` (a few :class:`FEFingerParams` fields, as ratios to
+the initial finger) are tabulated at ``levels`` (default 0.75, 1, 1.25: the range the FE
+family's drawn fingers span, ``docs/mechanics-fe.md``), every node's tables are solved once
+(through :class:`~.provider.FEProvider` and its disk cache, with the finger's sliding
+friction), and the deformed outline at any ``theta`` inside the grid interpolates the
+nodes' outlines with Lagrange polynomials in ``log(ratio)`` (quadratic for three levels):
+smooth in ``theta``, so the least squares sees smooth residuals, and exact at the nodes.
+
+* ``design='star'`` (default): the initial finger and, for each fitted field, the finger
+  with that field at each other level (``1 + 2k`` nodes for ``k`` fields and three levels);
+  the outline is the sum of each field's interpolation along its axis minus ``k - 1`` times
+  the initial finger's (no cross terms: a change of two fields is the sum of their changes).
+* ``design='tensor'``: every combination of levels (``3^k`` nodes), the tensor-product
+  interpolation (cross terms included).
+
+The grid depends on the initial finger and the options only, never on the data, so the
+calibrations of one subject on different subsets of its surfaces (leave-one-surface-out)
+share it, and so do studies with the same subject finger. The optimiser stays inside the
+grid (its bounds).
+
+With ``verify`` (default) the FE finger at the optimum is solved exactly (one more set of
+tables) and the per-surface figures (end-point RMS, blind spots measured -> predicted) are
+those of the exact finger; the surrogate's error at the optimum is reported beside them.
+
+Coupled geometry: fitting ``radius`` scales the bone's half-width with it, fitting
+``semi_height`` scales the bone's half-height and the pulp thickness with it (as the drawn
+fingers do, :func:`fingerfriction.sim.fingers.draw_fe_finger`), so every grid node is a
+valid finger.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import logging
+import math
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._check import check_option
+from .._calibration_problem import CalibrationProblem, bootstrap_spread, end_bias_sensitivity
+from ..calibrate import CalibrationError, CalibrationTrial, FingerCalibration, optimise
+from ..surface_fit import surface_fits
+from .params import FEFingerParams, FEMeshParams
+from .provider import FEProvider, default_mesh
+
+__all__ = ["FE_FIT_FIELDS", "FECalibrationOptions", "FECalibrationProblem", "calibrate_fe_finger",
+           "finger_with", "fe_tables", "table_positions", "grid_nodes"]
+
+log = logging.getLogger(__name__)
+
+#: The FE finger's fields a calibration can fit (all positive, fitted as ratios to the initial).
+FE_FIT_FIELDS = ("tissue_modulus", "skin_modulus", "skin_thickness", "radius", "semi_height",
+                 "pulp_thickness")
+
+
+def finger_with(initial: FEFingerParams, ratios: dict) -> FEFingerParams:
+    """``initial`` with each field of ``ratios`` multiplied by its ratio, geometry coupled as
+    in the module notes (the bone and the pulp follow the outline)."""
+    kw = {f: float(getattr(initial, f)) * float(r) for f, r in ratios.items()}
+    if "radius" in ratios:
+        kw["bone_half_width"] = initial.bone_half_width * float(ratios["radius"])
+    if "semi_height" in ratios:
+        k = float(ratios["semi_height"])
+        kw["bone_half_height"] = initial.bone_half_height * k
+        kw["pulp_thickness"] = kw.get("pulp_thickness", initial.pulp_thickness) * k
+    return dataclasses.replace(initial, **kw)
+
+
+@dataclass(frozen=True)
+class FECalibrationOptions:
+    """Settings of :func:`calibrate_fe_finger` (the residual and bootstrap settings are those of
+    :class:`fingerfriction.mechanics.calibrate.CalibrationOptions`).
+
+    Parameters
+    ----------
+    fit : tuple of str
+        Fields fitted, a subset of :data:`FE_FIT_FIELDS`.
+    design : {'star', 'tensor'}
+        The grid's nodes (module notes).
+    levels : tuple of float
+        Grid nodes of every fitted field, as ratios to the initial finger, increasing, with
+        1 among them; the fit stays within the first and the last.
+    loads : tuple of float
+        Tabulated normal loads in N, increasing (frames interpolate linearly, and are clamped
+        to the range).
+    step : float
+        Finger-position step of the tables in mm.
+    grid_step : float
+        Spacing in mm of the cells on which outlines are compared.
+    clearance : float
+        The cells span the initial outline out to where it has risen this much, in mm.
+    mesh : FEMeshParams, optional
+        Default :func:`~.provider.default_mesh` (``$FINGERFRICTION_FE_MESH``).
+    workers : int
+        Processes solving the grid's tables (1: in this process).
+    verify : bool
+        Solve the FE finger at the optimum exactly and report its per-surface figures.
+    max_surrogate_mm : float
+        A surrogate whose end-point residuals differ from the exact finger's by more than this
+        (RMS, mm) at the optimum is flagged.
+    """
+
+    fit: tuple = ("tissue_modulus", "radius")
+    design: str = "star"
+    levels: tuple = (0.75, 1.0, 1.25)
+    loads: tuple = (0.26, 0.34)
+    step: float = 0.1
+    grid_step: float = 0.04
+    clearance: float = 2.0
+    mesh: FEMeshParams | None = None
+    workers: int = 1
+    verify: bool = True
+    max_surrogate_mm: float = 0.03
+    coarse_stride: int = 4
+    coarse_soft: float = 0.2
+    fine_soft: float = 0.05
+    s_min: float = 0.1
+    s_0: float = 0.1
+    diff_step: float = 0.005
+    max_nfev: int = 50
+    end_bias_px: float = 0.5
+    bootstrap: int = 400
+    seed: int = 0
+    min_trials: int = 3
+    min_frames: int = 200
+    max_rel_std: float = 0.1
+
+    def __post_init__(self) -> None:
+        own = "FECalibrationOptions"
+        fit = tuple(self.fit)
+        for f in fit:
+            check_option(f"{own}.fit", f, FE_FIT_FIELDS)
+        if not fit or len(set(fit)) != len(fit):
+            raise ValueError(f"{own}.fit must be a non-empty subset of {FE_FIT_FIELDS}, got {self.fit!r}")
+        object.__setattr__(self, "fit", fit)
+        check_option(f"{own}.design", self.design, ("star", "tensor"))
+        lv = np.asarray(self.levels, float)
+        if lv.ndim != 1 or lv.size < 2 or not np.all(lv > 0) or np.any(np.diff(lv) <= 0) or 1.0 not in lv:
+            raise ValueError(f"{own}.levels must be increasing positive ratios including 1, "
+                             f"got {self.levels!r}")
+        object.__setattr__(self, "levels", tuple(float(v) for v in lv))
+        ld = np.asarray(self.loads, float)
+        if ld.ndim != 1 or ld.size == 0 or not np.all(ld > 0) or np.any(np.diff(ld) <= 0):
+            raise ValueError(f"{own}.loads must be increasing normal forces > 0 in N, got {self.loads!r}")
+        object.__setattr__(self, "loads", tuple(float(v) for v in ld))
+        for name in ("step", "grid_step", "clearance", "max_surrogate_mm", "coarse_soft", "fine_soft",
+                     "s_min", "s_0", "diff_step", "max_rel_std"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{own}.{name} must be a positive number, got {v!r}")
+        if not (math.isfinite(self.end_bias_px) and self.end_bias_px >= 0):
+            raise ValueError(f"{own}.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
+        if self.mesh is not None and not isinstance(self.mesh, FEMeshParams):
+            raise TypeError(f"{own}.mesh must be an FEMeshParams or None, got {type(self.mesh).__name__}")
+        for name, lo in (("workers", 1), ("coarse_stride", 1), ("max_nfev", 1), ("bootstrap", 0),
+                         ("seed", 0), ("min_trials", 1), ("min_frames", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"{own}.{name} must be an integer >= {lo}, got {v!r}")
+        if not isinstance(self.verify, bool):
+            raise TypeError(f"{own}.verify must be True or False, got {self.verify!r}")
+
+    @property
+    def coarse_step(self) -> float:
+        """Both passes use the grid's tables, at :attr:`step` (the half-space passes differ)."""
+        return self.step
+
+    fine_step = coarse_step
+
+
+def _lagrange(nodes: np.ndarray, t: float) -> np.ndarray:
+    """Lagrange basis polynomials of ``nodes`` evaluated at ``t``, ``(nodes.size,)``."""
+    n = nodes.size
+    w = np.ones(n)
+    for i in range(n):
+        for j in range(n):
+            if j != i:
+                w[i] *= (t - nodes[j]) / (nodes[i] - nodes[j])
+    return w
+
+
+def grid_nodes(k: int, levels, design: str) -> list[tuple]:
+    """The grid's nodes as tuples of level indices, one per fitted field (module notes)."""
+    n = len(levels)
+    if design == "tensor":
+        return list(itertools.product(range(n), repeat=k))
+    c = list(levels).index(1.0)
+    nodes = [(c,) * k]
+    for a in range(k):
+        nodes += [tuple(i if b == a else c for b in range(k)) for i in range(n) if i != c]
+    return nodes
+
+
+def table_positions(surface, half_width: float, step: float) -> np.ndarray:
+    """Finger positions (mm) of a calibration's tables on ``surface``: every ``step`` mm from
+    ``half_width + 0.5`` mm before the feature to as far after it (the positions of
+    :meth:`CalibrationProblem.positions`)."""
+    a, b = surface.feature_extent
+    lo, hi = a - half_width - 0.5, b + half_width + 0.5
+    return lo + step * np.arange(int(math.ceil((hi - lo) / step)) + 1)
+
+
+def _one_table(job):
+    """One FE table: outlines on the cells ``u`` (float32), converged mask, solved or not, CPU s."""
+    finger, surface, load, pos, mesh, grid_step, cache_dir, k = job
+    prov = FEProvider(fingers={"n": finger}, mesh=mesh, grid_step=grid_step, cache_dir=cache_dir)
+    t0 = time.process_time()
+    y, _ = prov.solve(surface, "n", pos, float(load))
+    ok = prov.last_ok if prov.last_ok is not None else np.ones(pos.size, dtype=bool)
+    m = (y.shape[1] - 1) // 2
+    if m < k:
+        raise ValueError(f"the finger {finger.name or finger} is narrower ({m * grid_step:g} mm) than the "
+                         f"calibration's cells ({k * grid_step:g} mm)")
+    y = y[:, m - k: m + k + 1]
+    if not ok.all() and ok.any():  # unconverged positions: interpolated from converged neighbours
+        good = np.flatnonzero(ok)
+        for j in range(y.shape[1]):
+            y[~ok, j] = np.interp(pos[~ok], pos[good], y[good, j])
+    return y.astype(np.float32), ok, prov.computed, time.process_time() - t0
+
+
+def fe_tables(fingers: list, surfaces: list, *, loads, half_width: float, step: float, grid_step: float,
+              mesh: FEMeshParams, cache_dir=None, workers: int = 1, progress=None) -> tuple[list, dict]:
+    """FE tables of several fingers on several surfaces and loads, through the provider's cache.
+
+    Parameters
+    ----------
+    fingers : list of FEFingerParams
+        Each with its own sliding friction.
+    surfaces : list of Surface
+    loads : sequence of float
+        Normal loads in N.
+    half_width, step : float
+        The positions (:func:`table_positions`) and the cells ``u = grid_step * k``,
+        ``|u| <= half_width``, on which outlines are returned (mm).
+    grid_step : float
+        The provider's grid spacing (mm).
+    mesh : FEMeshParams
+    cache_dir : path-like, optional
+    workers : int
+        Processes (1: in this process).
+    progress : callable, optional
+        ``progress(done, total)`` after each table.
+
+    Returns
+    -------
+    tables : list of dict
+        Per finger, surface name -> ``(positions (m,), Y (n_loads, m, n) float32)``: the outline
+        heights (mm) at ``position + u``; unconverged positions interpolated from their
+        converged neighbours.
+    stats : dict
+        ``cpu_s`` (the solves' CPU, in whichever process), ``solved`` (tables not read from
+        the cache), ``unconverged`` and ``positions``.
+    """
+    k = int(round(half_width / grid_step))
+    jobs, where = [], []
+    for fi, f in enumerate(fingers):
+        for s in surfaces:
+            pos = table_positions(s, half_width, step)
+            for j, F in enumerate(loads):
+                jobs.append((f, s, float(F), pos, mesh, grid_step, cache_dir, k))
+                where.append((fi, s.name, j, pos))
+    out = []
+    if workers > 1 and len(jobs) > 1:
+        with ProcessPoolExecutor(workers) as ex:
+            for r in ex.map(_one_table, jobs):
+                out.append(r)
+                if progress is not None:
+                    progress(len(out), len(jobs))
+    else:
+        for job in jobs:
+            out.append(_one_table(job))
+            if progress is not None:
+                progress(len(out), len(jobs))
+    stats = {"cpu_s": 0.0, "solved": 0, "unconverged": 0, "positions": 0}
+    res: list = [dict() for _ in fingers]
+    for (fi, name, j, pos), (y, ok, computed, cpu) in zip(where, out, strict=True):
+        stats["cpu_s"] += cpu
+        stats["solved"] += computed
+        stats["unconverged"] += int((~ok).sum())
+        stats["positions"] += ok.size
+        if name not in res[fi]:
+            res[fi][name] = (pos, np.empty((len(loads), pos.size, 2 * k + 1), np.float32))
+        res[fi][name][1][j] = y
+    return res, stats
+
+
+class FECalibrationProblem(CalibrationProblem):
+    """:class:`~fingerfriction.mechanics._calibration_problem.CalibrationProblem` with the FE
+    surrogate as its forward model (see the module notes): ``tables(z)`` interpolates the grid
+    nodes' outlines; :meth:`build` solves (or reads from the cache) the nodes' tables;
+    :meth:`exact_tables` solves one finger's."""
+
+    def __init__(self, trials, initial: FEFingerParams, opts: FECalibrationOptions, cache_dir=None):
+        self.mesh = opts.mesh or default_mesh()
+        self.cache_dir = cache_dir
+        super().__init__(trials, initial, opts)
+        self.t_fe = 0.0
+        self.fe_tables = 0  # tables solved (not read from the cache)
+        self.fe_unconverged = 0
+        self.fe_positions = 0
+        self.axes = np.log(np.asarray(opts.levels))
+        self.nodes = grid_nodes(len(self.fit), opts.levels, opts.design)
+        self._node_tabs: dict | None = None
+
+    # the fixed cells and loads are the options', not the data's: the grid is shared
+    @staticmethod
+    def _grid(initial, opts) -> tuple[float, np.ndarray]:
+        u = np.linspace(0.0, 0.97 * min(initial.radius * min(opts.levels), initial.radius), 4001)
+        above = np.flatnonzero(initial.outline(u) >= opts.clearance)
+        hw = float(u[above[0]]) if above.size else float(u[-1])
+        k = int(math.floor(hw / opts.grid_step))
+        return k * opts.grid_step, opts.grid_step * np.arange(-k, k + 1)
+
+    @staticmethod
+    def _table_loads(allload: np.ndarray, opts) -> np.ndarray:
+        return np.asarray(opts.loads, float)
+
+    def finger(self, z: np.ndarray) -> FEFingerParams:
+        ratios = np.exp(np.asarray(z, float)).tolist()
+        return finger_with(self.initial, dict(zip(self.fit, ratios, strict=True)))
+
+    def node_finger(self, node: tuple) -> FEFingerParams:
+        lv = self.opts.levels
+        return finger_with(self.initial, {f: lv[i] for f, i in zip(self.fit, node, strict=True)})
+
+    def _solve_tables(self, fingers: list, progress=None) -> list:
+        """FE tables of ``fingers`` on the problem's surfaces and loads (:func:`fe_tables`)."""
+        res, st = fe_tables(fingers, [sd.surface for sd in self.surfaces], loads=self.loads,
+                            half_width=self.hw, step=self.opts.step, grid_step=self.opts.grid_step,
+                            mesh=self.mesh, cache_dir=self.cache_dir, workers=self.opts.workers,
+                            progress=progress)
+        self.t_fe += st["cpu_s"]
+        self.fe_tables += st["solved"]
+        self.fe_unconverged += st["unconverged"]
+        self.fe_positions += st["positions"]
+        return res
+
+    def build(self, progress=None) -> None:
+        """Solve (or read from the cache) the FE tables of every grid node."""
+        per = self._solve_tables([self.node_finger(n) for n in self.nodes], progress)
+        self._node_tabs = {sd.name: (per[0][sd.name][0], np.stack([p[sd.name][1] for p in per]))
+                           for sd in self.surfaces}
+
+    def weights(self, z: np.ndarray) -> np.ndarray:
+        """Interpolation weights of the grid's nodes at ``z`` (``log`` ratios), ``(n_nodes,)``."""
+        per = [_lagrange(self.axes, float(t)) for t in np.asarray(z, float)]
+        if self.opts.design == "tensor":
+            return np.array([math.prod(per[a][i] for a, i in enumerate(node)) for node in self.nodes])
+        # star: the sum over the axes of each axis' interpolation, minus (k - 1) centres
+        c = self.opts.levels.index(1.0)
+        w = np.zeros(len(self.nodes))
+        for i, node in enumerate(self.nodes):
+            off = [a for a, j in enumerate(node) if j != c]
+            w[i] = per[off[0]][node[off[0]]] if off else sum(p[c] for p in per) - (len(per) - 1)
+        return w
+
+    def tables(self, z: np.ndarray, level: str, step: float, perturbed: bool = False) -> dict:
+        if self._node_tabs is None:
+            self.build()
+        t0 = time.process_time()
+        w = self.weights(z)
+        out = {name: (pos, np.tensordot(w, Y, axes=1).astype(float))
+               for name, (pos, Y) in self._node_tabs.items()}
+        self.t_bem += time.process_time() - t0
+        self.last_failures = 0
+        return out
+
+    def exact_tables(self, finger: FEFingerParams) -> dict:
+        """The FE tables of ``finger`` itself (no surrogate), as :meth:`tables` returns them."""
+        tabs = self._solve_tables([finger])[0]
+        return {name: (pos, Y.astype(float)) for name, (pos, Y) in tabs.items()}
+
+
+def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrationOptions | None = None,
+                        cache_dir=None, progress=None) -> FingerCalibration:
+    """Fit a subject's layered FE finger to its measured contact regions.
+
+    Parameters
+    ----------
+    trials : sequence of CalibrationTrial
+        The subject's trials.
+    initial : FEFingerParams
+        The starting finger: the grid's centre; its unfitted fields and its sliding
+        friction (:attr:`FEFingerParams.friction`, the traction the tables carry) are kept.
+    options : FECalibrationOptions, optional
+    cache_dir : path-like, optional
+        The FE tables' cache (default :func:`~.provider.default_cache_dir`).
+    progress : callable, optional
+        ``progress(done, total)`` as the grid's tables are solved.
+
+    Returns
+    -------
+    FingerCalibration
+        Its ``finger`` an :class:`FEFingerParams`; ``success=False`` with a message when the
+        optimiser did not converge or a parameter sits at the grid's edge; flags for a
+        surrogate that departs from the exact finger, poorly identified parameters and
+        surfaces the finger does not reproduce.
+
+    Raises
+    ------
+    CalibrationError
+        Too few usable trials or frames.
+    TypeError, ValueError
+        Bad arguments.
+    """
+    T0 = time.process_time()
+    opts = options or FECalibrationOptions()
+    if not isinstance(opts, FECalibrationOptions):
+        raise TypeError(f"options must be FECalibrationOptions, got {type(opts).__name__}")
+    if not isinstance(initial, FEFingerParams):
+        raise TypeError(f"initial must be an FEFingerParams, got {type(initial).__name__}")
+    trials = list(trials)
+    for t in trials:
+        if not isinstance(t, CalibrationTrial):
+            raise TypeError(f"trials must be CalibrationTrial objects, got {type(t).__name__}")
+    if not any(t.usable().any() for t in trials):
+        raise CalibrationError("no trial has a usable frame (finite position, positive load, at least "
+                               "one contact region): nothing to calibrate on")
+    for node in grid_nodes(len(opts.fit), opts.levels, opts.design):  # every node a valid finger
+        ratios = tuple(opts.levels[i] for i in node)
+        try:
+            finger_with(initial, dict(zip(opts.fit, ratios, strict=True)))
+        except ValueError as exc:
+            raise ValueError(f"the calibration grid leaves the valid fingers at ratios {ratios}: "
+                             f"{exc}") from None
+    pb = FECalibrationProblem(trials, initial, opts, cache_dir=cache_dir)
+    if pb.n_trials < opts.min_trials:
+        raise CalibrationError(f"only {pb.n_trials} trial(s) with usable contact regions (need at least "
+                               f"{opts.min_trials}); a finger calibrated on so little data would be a guess")
+    if pb.n_frames < opts.min_frames:
+        raise CalibrationError(f"only {pb.n_frames} usable frames (need at least {opts.min_frames}): frames "
+                               "need a finite position, a normal force and a contact region")
+    t_build = time.process_time()
+    pb.build(progress)
+    t_build = time.process_time() - t_build
+    lo, hi = np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1])
+    z, fine, fun, jac, state, nfev, pass_cpu = optimise(pb, opts, bounds=(lo, hi))
+    finger = pb.finger(z)
+    r0 = fun(z)
+    J = jac(z)
+    t_b = time.process_time()
+    std, ci = bootstrap_spread(pb, z, r0, J, opts)
+    systematic = end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
+    t_boot = time.process_time() - t_b
+    flags, surrogate_rms = [], math.nan
+    tabs, r_fig = state["tabs"], r0
+    t_v = time.process_time()
+    if opts.verify:
+        tabs = pb.exact_tables(finger)
+        r_fig = pb.residuals("fine", tabs)
+        ends = np.concatenate([np.r_[np.ones(n_e, bool), np.zeros(n_h, bool)]
+                               for _, n_e, n_h in pb.residual_surfaces("fine")])
+        surrogate_rms = float(np.sqrt(np.mean((r_fig[ends] - r0[ends]) ** 2))) if ends.any() else math.nan
+        if surrogate_rms > opts.max_surrogate_mm:
+            flags.append(f"the surrogate's end points differ from the exact FE finger's by "
+                         f"{surrogate_rms:.3f} mm RMS at the optimum (> {opts.max_surrogate_mm:g} mm)")
+    t_v = time.process_time() - t_v
+    surfaces = surface_fits(pb, tabs, r_fig)
+    success, message, more = _assess(fine, z, lo, hi, finger, std, surfaces, opts)
+    flags += more
+    if pb.fe_unconverged:
+        flags.append(f"{pb.fe_unconverged} of {pb.fe_positions} tabulated FE positions did not converge "
+                     "(interpolated from their converged neighbours)")
+    timings = {"fe_tables": pb.t_fe, "build": t_build, "surrogate": pb.t_bem, "residuals": pb.t_res,
+               "bootstrap": t_boot, "verify": t_v, "coarse_pass": pass_cpu["coarse"],
+               "fine_pass": pass_cpu["fine"], "total": time.process_time() - T0}
+    res = FingerCalibration(
+        finger=finger, initial=initial, fitted=opts.fit, std=std, ci95=ci, systematic=systematic,
+        load_per_width=pb.load_median / finger.width, load_median=pb.load_median, surfaces=surfaces,
+        success=success, message=message, flags=flags, n_trials=pb.n_trials, n_frames=pb.n_frames,
+        nfev=nfev, n_solves=pb.fe_tables, timings=timings, cost=float(fine.cost), options=opts,
+        surrogate_rms_mm=surrogate_rms)
+    return res
+
+
+def _assess(fine, z, lo, hi, finger, std: dict, surfaces, opts: FECalibrationOptions):
+    """``(success, message, flags)`` of a finished FE calibration."""
+    flags, parts = [], []
+    success = bool(fine.status > 0)
+    if not success:
+        parts.append(f"the optimiser did not converge ({fine.message})")
+    edge = [f for f, zi, a, b in zip(opts.fit, z, lo, hi, strict=True) if min(zi - a, b - zi) < 1e-3]
+    if edge:
+        success = False
+        parts.append(f"parameter(s) {', '.join(edge)} at the edge of the tabulated range (ratios "
+                     f"{opts.levels[0]:g}..{opts.levels[-1]:g} of the initial finger): the data want a "
+                     "finger outside it")
+    for f in opts.fit:
+        v = float(getattr(finger, f))
+        if std.get(f, 0.0) > opts.max_rel_std * v:
+            flags.append(f"{f} is poorly identified: bootstrap std {std[f]:.3g} is "
+                         f"{100 * std[f] / v:.0f} % of {v:.4g}")
+    for s in surfaces:
+        if s.rms_end_mm > 0.1:
+            flags.append(f"{s.surface}: end-point residual RMS {s.rms_end_mm:.3f} mm (> 0.1 mm): the model "
+                         "does not reproduce this surface's contact")
+    return success, ("; ".join(parts) if parts else f"converged ({fine.message})"), flags
