@@ -82,6 +82,7 @@ def trace_report(results: Path, sample: int):
         return m or None
 
     calls: Counter = Counter()
+    functions: dict = {}
     climbs: Counter = Counter()
     reentries: Counter = Counter()
     last = {"callee": None}
@@ -98,6 +99,7 @@ def trace_report(results: Path, sample: int):
             caller = module(f.f_code)
             f = f.f_back
         calls[callee] += 1
+        functions.setdefault(callee, Counter())[frame.f_code.co_name] += 1
         if caller is None or caller == callee:
             return
         lc, le = _layer_of(layers, caller), _layer_of(layers, callee.replace("__root__", ""))
@@ -112,7 +114,7 @@ def trace_report(results: Path, sample: int):
         make_report(results, sample=sample)
     finally:
         sys.setprofile(None)
-    return calls, climbs, reentries, layers
+    return calls, functions, climbs, reentries, layers
 
 
 def main() -> None:
@@ -134,17 +136,21 @@ def main() -> None:
     print(f"results: {results}")
     with tempfile.TemporaryDirectory():
         c0, t0 = time.process_time(), time.perf_counter()
-        calls, climbs, reentries, layers = trace_report(results, args.sample)
+        calls, functions, climbs, reentries, layers = trace_report(results, args.sample)
         print(f"make_report under the profiler: {time.perf_counter() - t0:.1f} s wall, "
               f"{time.process_time() - c0:.1f} s CPU")
     outside = sorted(m for m in calls if not m.startswith("report"))
     print(f"\nmodules entered outside report/: {len(outside)}")
     for m in outside:
         lay = layers[_layer_of(layers, m.replace("__root__", ""))][0]
-        raw = "  <- reads the study's inputs or runs a stage" if m.startswith(RAW) else ""
+        raw = ""
+        if m.startswith(RAW):
+            top = ", ".join(f for f, _ in functions[m].most_common(4))
+            raw = f"  <- {top}"
         print(f"  {m:32s} {lay:28s} {calls[m]:8d} calls{raw}")
     n_raw = sum(1 for m in outside if m.startswith(RAW))
-    print(f"of which read the study's inputs or run a stage: {n_raw}")
+    print(f"of which in the modules that read the study's inputs or run a stage: {n_raw} (their "
+          "functions named)")
     print(f"\nclimbs up a layer: {sum(climbs.values())} calls, {len(climbs)} distinct (caller -> callee)")
     for (a, b), n in sorted(climbs.items(), key=lambda kv: -kv[1]):
         print(f"  {a} -> {b}: {n}")

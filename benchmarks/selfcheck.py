@@ -30,13 +30,14 @@ Runs on a fresh clone with no arguments (everything generated goes to the gitign
    ``interlocking`` and ``constant-pressure`` worlds with the realistic measurement chain
    (second-order sensor of unknown cut-off, crosstalk, curved drift, a normal force that
    follows the relief; ``docs/worlds.md``), other seeds.
-5. **The other events both recordings see** (why ``--sync auto`` stays above 1 ms RMS,
-   ``docs/selfcheck.md``): whether the video covers the press and the lift-off; how the
-   video's contact moves with the load during the press; the touch-down (the finger's gap
-   above the surface closing in the video, F_N rising) as power-law onsets over two windows
-   each, its offsets against the applied ones; and what it adds to part 3's offsets (the
-   speed term a finger's starts cannot tell apart, and the common level). With part 4 it
-   runs on the confirmation studies as well.
+   With part 3 (and 5) run on the first confirmation study as well: the touch-down's use
+   was decided on study 1 and is confirmed there.
+5. **The touch-down and the press** (what fixes each finger's level in part 3,
+   ``docs/selfcheck.md``): on the unmodified study, each trial's touch-down as the analysis
+   measured it in the video (the finger's gap closing) and in the force record (F_N's
+   onset) against the simulator's truth, the offset they give, the offset each finger's
+   trials share by them (``--sync check``), the lift-off's coverage, and how the video's
+   contact grows with the load during the press.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import shlex
 import shutil
 import sys
@@ -91,9 +93,10 @@ MISTAKES = [
     ("another surface type", "type", None),
     ("unmodified", "none", None),
 ]
-#: the bar: caught in >= 95 % of trials (the both-channel sensitivity is not in it:
-#: see docs/selfcheck.md, nothing in one trial's data sets the absolute force scale)
-MUST_CATCH = {m[0] for m in MISTAKES if m[1] != "none" and m[0] != "sensitivity 10x (both channels)"}
+#: the bar: caught in >= 95 % of trials (each copy among its finger's unmodified trials; the
+#: both-channel sensitivity's other reading, the whole study's sensitivity off, is measured
+#: beside it: docs/selfcheck.md)
+MUST_CATCH = {m[0] for m in MISTAKES if m[1] != "none"}
 OTHER_SHAPE = {"bump": "step-up", "step-up": "step-down", "step-down": "bump"}
 
 
@@ -214,7 +217,8 @@ def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
     out = []
     for cid in copy_ids:
         rec = st.trial(cid)
-        row = {"id": cid, "level": "ok", "codes": [], "reason": "", "onset": None, "selfcheck_s": 0.0}
+        row = {"id": cid, "level": "ok", "codes": [], "reason": "", "onset": None, "selfcheck_s": 0.0,
+               "scale": None}
         checked, problems = check_files(st, [rec])
         if problems:
             row.update(
@@ -234,6 +238,10 @@ def _one_original(root: str, copy_ids: list[str]) -> list[dict]:
             record = read_trial_forces(trial.root, rec)
             tc = check_trial_inputs(trial, v, record, params)
             row["selfcheck_s"] = tc.elapsed_s
+            f_level = (tc.figures.get("forces") or {}).get("f_n_level_n")
+            length = tc.figures.get("contact_flat_mm")
+            row["scale"] = [str(rec.subject), math.nan if f_level is None else f_level,
+                            math.nan if length is None else length]
             found = [c for c in tc.checks if c.finding]
             row["codes"] = [f"{c.level} {c.code}" for c in found]
             if tc.error is not None:
@@ -277,7 +285,7 @@ def run_mistakes(root: Path, index: dict, workers: int) -> dict:
 def synchronise_copies(root: Path, rows: dict, index: dict) -> None:
     """The study-level synchronisation: each copy against the unmodified trials' starts."""
     from fingerfriction.pipeline.selfcheck import sync_checks
-    from fingerfriction.selfcheck import OnsetData, SelfCheckParams, estimate_offsets
+    from fingerfriction.selfcheck import OnsetData, SelfCheckParams, estimate_offsets, scale_checks
     from fingerfriction.study.manifest import load_manifest
 
     st = load_manifest(root)
@@ -286,9 +294,15 @@ def synchronise_copies(root: Path, rows: dict, index: dict) -> None:
     onsets = {cid: OnsetData.from_dict(r["onset"]) for cid, r in rows.items() if r["onset"]}
     clean = {cid for cid in onsets if index[cid][0] == "unmodified"}
     est = estimate_offsets(onsets.values(), mode="check", reference=clean, se_floor_s=P.sync_se_floor_s)
-    for cid, c in sync_checks(est, periods, P, mode="check").items():
+    found = list(sync_checks(est, periods, P, mode="check").items())
+    # the force's scale: each copy against its finger's unmodified trials
+    items = {cid: tuple(r["scale"]) for cid, r in rows.items() if r.get("scale") and r["level"] != "error"}
+    ref = {cid for cid in items if index[cid][0] == "unmodified"}
+    found += list(scale_checks(items, reference=ref).items())
+    for cid, c in found:
         r = rows[cid]
-        r["sync_ms"] = None if not math.isfinite(c.figure) else c.figure
+        if c.code == "sync-offset":
+            r["sync_ms"] = None if not math.isfinite(c.figure) else c.figure
         if c.finding:
             r["codes"].append(f"{c.level} {c.code}")
             if c.level == "error" and r["level"] != "error":
@@ -328,13 +342,17 @@ def report_mistakes(rows: dict, index: dict) -> list[str]:
 
 def clean_run(study: Path, results: Path, sync: str = "check") -> dict:
     """``analyze --sync SYNC`` and what it says about the unmodified trials and the cost."""
-    # --force: the figures are this code's, measured in this run
+    # --force: the figures are this code's, measured in this run; the command's CPU time
+    # (user + sys of it and its workers) beside its wall time
+    r0, w0 = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
     cli("analyze", str(study), "--out", str(results), "--sync", sync, "--quiet", "--force", ok=(0, 1))
+    r1, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter() - w0
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     from fingerfriction.study.store import ResultsStore
 
     store = ResultsStore(results)
     run = store.read_run()
-    flags, failed, stage, total = [], [], 0.0, 0.0
+    flags, failed, stage, total, stage_cpu = [], [], 0.0, 0.0, 0.0
     for t in run["trials"]:
         st = store.status(t["id"]) or {}
         if st.get("status") != "ok":
@@ -342,6 +360,7 @@ def clean_run(study: Path, results: Path, sync: str = "check") -> dict:
             continue
         sc = (st.get("info") or {}).get("selfcheck") or {}
         stage += float(sc.get("elapsed_s") or 0.0)
+        stage_cpu += float(sc.get("cpu_s") or 0.0)
         total += float(st.get("elapsed_s") or 0.0)
         flags += [
             (t["id"], c["code"], c["message"])
@@ -356,6 +375,9 @@ def clean_run(study: Path, results: Path, sync: str = "check") -> dict:
         "flags": flags,
         "stage_s": stage + sync_s,
         "total_s": total + sync_s,
+        "stage_cpu_s": stage_cpu + float(sync_rec.get("cpu_s") or 0.0),
+        "command_wall_s": wall,
+        "command_cpu_s": cpu,
         "sync": sync_rec,
     }
 
@@ -404,9 +426,15 @@ def step_clean(study: Path) -> None:
     clean = clean_run(study, WORK / "realism-check")
     print_false_flags(clean)
     share = clean["stage_s"] / clean["total_s"] if clean["total_s"] else math.nan
+    cpu_share = clean["stage_cpu_s"] / clean["command_cpu_s"] if clean["command_cpu_s"] else math.nan
     print(
-        f"stage cost: {clean['stage_s']:.1f} s of {clean['total_s']:.1f} s of analysis "
+        f"stage cost, wall: {clean['stage_s']:.1f} s of {clean['total_s']:.1f} s of analysis "
         f"({100 * share:.1f} %; bar <= 10 %), measured in the same run"
+    )
+    print(
+        f"stage cost, CPU (user+sys): {clean['stage_cpu_s']:.1f} s of the analyze command's "
+        f"{clean['command_cpu_s']:.1f} s, workers included ({100 * cpu_share:.1f} %; bar <= 10 %); "
+        f"the command's wall time {clean['command_wall_s']:.1f} s"
     )
 
 
@@ -417,6 +445,30 @@ def step_mistakes(study: Path, name: str, workers: int) -> None:
     synchronise_copies(root, rows, index)
     for line in report_mistakes(rows, index):
         print(line)
+    from fingerfriction.selfcheck import scale_checks
+
+    # the other reading: the sensitivity off on every trial of the study (no unmodified
+    # trial to compare with): the copies with that mistake alone
+    name10 = "sensitivity 10x (both channels)"
+    alone = {c: tuple(r["scale"]) for c, r in rows.items() if index[c][0] == name10 and r.get("scale")}
+    got = scale_checks(alone)
+    n_err = sum(c.level == "error" for c in got.values())
+    print(
+        f"{name10}, the whole study's sensitivity off (each finger's trials all 10x): force-scale caught "
+        f"{n_err} of {len(got)} ({100 * n_err / max(len(got), 1):.1f} %): nothing to compare with"
+    )
+    # the absolute reading: one trial's contact against its load, L^2 / F (2-D Hertz:
+    # 16 R / (pi E* D)), against the range of fingers
+    for label in ("unmodified", name10):
+        q = [r["scale"][2] ** 2 / r["scale"][1] for c, r in rows.items()
+             if index[c][0] == label and r.get("scale") and r["scale"][1] > 0 and r["scale"][2] > 0]
+        if q:
+            print(f"absolute reading, {label}: L^2 / F_N = {min(q):.0f}-{max(q):.0f} mm^2/N (n={len(q)})")
+    lo, hi = 16 * 7 / (math.pi * 0.4 * 15), 16 * 12 / (math.pi * 0.04 * 10)
+    print(
+        f"  a finger of radius 7-12 mm, pad modulus E* 0.04-0.4 MPa, width 10-15 mm (2-D Hertz): "
+        f"{lo:.0f}-{hi:.0f} mm^2/N, {hi / lo:.0f}x wide: a 10x scale cannot be told from another finger"
+    )
     per_stage = [r["selfcheck_s"] for r in rows.values() if r["selfcheck_s"]]
     print(f"per-trial checks: median {1e3 * np.median(per_stage):.0f} ms per copy")
 
@@ -432,16 +484,20 @@ def _unresolved(err: np.ndarray, speeds: np.ndarray, groups: np.ndarray) -> np.n
     return out
 
 
-def step_auto(study: Path) -> None:
+def step_auto(study: Path, name: str = "realism") -> None:
     print(
-        "\n== 3. scattered clocks: every force clock moved by a random offset in +-50 ms, --sync auto",
+        f"\n== 3. scattered clocks ({study.name}): every force clock moved by a random offset in +-50 ms, "
+        "--sync auto",
         flush=True,
     )
     from fingerfriction.study.manifest import load_manifest
 
-    shifted, shifts = shifted_study(study, WORK / "shifted")
-    auto = clean_run(shifted, WORK / "shifted-auto", sync="auto")
-    base = clean_run(study, WORK / "realism-auto", sync="auto")
+    check = WORK / f"{name}-check"
+    if not (check / "run.json").is_file():
+        clean_run(study, check)
+    shifted, shifts = shifted_study(study, WORK / f"shifted-{name}")
+    auto = clean_run(shifted, WORK / f"shifted-{name}-auto", sync="auto")
+    base = clean_run(study, WORK / f"{name}-auto", sync="auto")
     got = auto["sync"].get("trials", {})
     ref = base["sync"].get("trials", {})
     ids = [t for t in shifts if t in got and got[t]["offset_ms"] is not None]
@@ -457,20 +513,24 @@ def step_auto(study: Path) -> None:
     speeds = np.array([st.trial(t).speed_mm_s for t in ids], float)
     groups = np.array([st.trial(t).subject for t in ids])
     err_well = _unresolved(err_abs, speeds, groups)
-    print(f"trials with a measured offset: {len(ids)} of {len(shifts)}; failed: {len(auto['failed'])}")
+    by = Counter(got[t].get("level_by") or "?" for t in ids)
+    print(
+        f"trials with a measured offset: {len(ids)} of {len(shifts)}; failed: {len(auto['failed'])}; "
+        f"what placed each finger's trials: {dict(by)}"
+    )
     print(
         f"recovered offsets, absolute: RMS {np.sqrt(np.mean(err_abs**2)):.2f} ms, "
-        f"max {np.max(np.abs(err_abs)):.2f} ms (bar: 1 ms RMS)"
+        f"max {np.max(np.abs(err_abs)):.2f} ms, mean {np.mean(err_abs):+.2f} ms (bar: 1 ms RMS)"
     )
     print(
         f"recovered offsets, relative to --sync auto on the unshifted study: RMS "
         f"{np.sqrt(np.mean(err_rel**2)):.2f} ms, max {np.max(np.abs(err_rel)):.2f} ms"
     )
     print(
-        f"recovered offsets, what the starts can tell (less, per finger, a common shift and one as "
+        f"recovered offsets, what the starts alone can tell (less, per finger, a common shift and one as "
         f"speed^-1/4): RMS {np.sqrt(np.mean(err_well**2)):.2f} ms, max {np.max(np.abs(err_well)):.2f} ms"
     )
-    mu0, mu1 = _mu(WORK / "realism-check"), _mu(WORK / "shifted-auto")
+    mu0, mu1 = _mu(check), _mu(WORK / f"shifted-{name}-auto")
     for s in mu0:
         print(
             f"mu subject {s}: unshifted (--sync check) {mu0[s]:.4f}, shifted (--sync auto) "
@@ -478,7 +538,7 @@ def step_auto(study: Path) -> None:
         )
 
 
-def step_confirm(options: str, workers: int, mistakes: bool, events: bool = False) -> None:
+def step_confirm(options: str, workers: int, mistakes: bool, steps: str) -> None:
     opts = shlex.split(options)
     name = "selfcheck-confirm-" + "-".join(o.lstrip("-") for o in opts).replace("/", "_")
     print(f"\n== 4. confirmation on another study: simulate {options}", flush=True)
@@ -487,178 +547,79 @@ def step_confirm(options: str, workers: int, mistakes: bool, events: bool = Fals
     print_false_flags(clean_run(other, check))
     if mistakes:
         step_mistakes(other, name, workers)
-    if events:
-        print("-- the press, the touch-down and the lift-off there (part 5; the manifest's clocks are right)")
-        print_events(_events(other, check, workers))
+    if "3" in steps:
+        step_auto(other, name)
+    if "5" in steps:
+        print("-- the touch-down and the press there (part 5; the manifest's clocks are right)")
+        print_events(touch_rows(other, check))
 
 
 # --------------------------------------------------------------------------------------
-# 5. what the other events both recordings see tell: the press, the touch-down, the lift-off
-
-#: Video frames read for the touch-down and the press (the simulator's finger touches down
-#: at frame 40 and starts to slide at frame 60; 1000 fps).
-EVENT_FRAMES = 110
-#: Fitting windows of the touch-down's onsets (decided before looking at the offsets they
-#: give; each printed: how much the instant moves with the window is the point): the video's
-#: finger-surface gap from 0.02 mm (about a pixel) up to these, mm; the force from 0.33 % of
-#: the press's level up to these fractions of it.
-GAP_WINDOWS_MM = (0.5, 2.0)
-FORCE_WINDOWS = (0.1, 0.3)
+# 5. the touch-down and the press in both recordings, against the simulator's truth
 
 
-def power_onset(t, y, lo: float, hi: float, side: int) -> float:
-    """The instant ``t0`` at which ``y`` leaves 0 as ``A |t - t0|^p`` (``side=+1``: rising
-    after ``t0``; ``-1``: falling to 0 at ``t0``), ``A``, ``p`` free, fitted to the samples
-    from the last one below ``lo`` to the first one above ``hi`` (NaN: not found)."""
-    from scipy.optimize import least_squares
+def _press(frames, t_force, f_n, t_touch: float, t_motion: float) -> tuple[float, float]:
+    """The contact's squared length against the load over the press (frames from the touch
+    to the start of the slide): its slope in mm^2/N and the correlation (NaN: too few
+    frames). ``frames`` the analysis's table (its regions), ``f_n`` the true load."""
+    from fingerfriction.study.store import regions_from_table
 
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    if side < 0:
-        t, y = -t[::-1], y[::-1]
-    above = np.flatnonzero(y > hi)
-    if above.size == 0:
-        return math.nan
-    k1 = int(above[0])
-    below = np.flatnonzero(y[:k1] < lo)
-    if below.size == 0:
-        return math.nan
-    k0 = int(below[-1])
-    tt, yy = t[k0 : k1 + 1], y[k0 : k1 + 1]
-    if tt.size < 4:
-        return math.nan
-    span = tt[-1] - tt[0]
-
-    def resid(p):
-        return np.exp(p[1]) * np.clip(tt - p[0], 0.0, None) ** p[2] - yy
-
-    best = None
-    for back in (0.1, 0.5, 1.0):
-        for pw in (1.5, 3.0):
-            t0 = tt[0] - back * span
-            res = least_squares(
-                resid,
-                [t0, math.log(hi / (tt[-1] - t0) ** pw), pw],
-                bounds=([tt[0] - 3 * span, -80.0, 0.7], [tt[0] + 0.5 * (tt[1] - tt[0]), 80.0, 8.0]),
-            )
-            if best is None or res.cost < best.cost:
-                best = res
-    t0 = float(best.x[0])
-    return -t0 if side < 0 else t0
+    reg = regions_from_table(frames)
+    t = frames["t_s"].to_numpy(float)
+    length = np.nansum(np.where(np.isfinite(reg[..., 0]), reg[..., 1] - reg[..., 0], 0.0), axis=1)
+    sel = (t > t_touch + 0.002) & (t < t_motion) & (length > 0)
+    if sel.sum() < 8:
+        return math.nan, math.nan
+    f = np.interp(t[sel], t_force, f_n)
+    L2 = length[sel] ** 2
+    if np.ptp(f) <= 0:
+        return math.nan, math.nan
+    return float(np.polyfit(f, L2, 1)[0]), float(np.corrcoef(f, L2)[0, 1])
 
 
-def _events_one(root: str, trial_id: str, frames_path: str, truth_path: str | None = None) -> dict:
-    """The touch-down, the press and the lift-off of one trial as both recordings show them
-    (worker process): the finger's gap above the surface and the contact's right end per
-    video frame (the video stage's own outlines), the force's press; from the simulator's
-    truth (``truth_path``), when the finger touches and leaves the surface."""
-    import logging
-    import warnings
-
+def touch_rows(study: Path, results: Path) -> list[dict]:
+    """Per trial of an analysed study whose clocks are right: the touch-downs the analysis
+    measured (``status.json``) against the simulator's truth, and the press."""
     import pandas as pd
 
-    from fingerfriction.forces import sensor_signals
-    from fingerfriction.pipeline.params import video_options
-    from fingerfriction.pipeline.trial import read_trial_forces
+    from fingerfriction.selfcheck import OnsetData
     from fingerfriction.study.manifest import load_manifest
-    from fingerfriction.video import FrameAnalyzer, analyze_video, open_video
-
-    warnings.simplefilter("ignore")
-    logging.getLogger("fingerfriction").setLevel(logging.ERROR)
-    if root not in _STUDY:
-        _STUDY[root] = load_manifest(root)
-    st = _STUDY[root]
-    rec = st.trial(trial_id)
-    opt = video_options(None, rec.video.calibration_frame)
-    vpath = Path(root) / rec.video.path
-    cal = analyze_video(vpath, float(rec.calibration["surface_height_mm"]), options=opt, stop=2).calibration
-    gap, edge = [], []
-    with open_video(vpath) as rd:
-        an = FrameAnalyzer(cal, opt, rd.shape)
-        for _, fr in rd.iter_chunks(64, start=0, stop=EVENT_FRAMES):
-            f, _ = an.outlines(fr)
-            with np.errstate(invalid="ignore"):
-                gap.append(np.min(np.where(np.isnan(f), np.inf, an.s[None, :] - f), axis=1))
-            d = an.contact_distance(f)
-            touching = d <= opt.contact_tol_px
-            right = np.where(
-                touching.any(axis=1), touching.shape[1] - 1 - np.argmax(touching[:, ::-1], axis=1), -1
-            )
-            edge.append(np.where(right >= 0, cal.col_to_mm(right), np.nan))
-    gap_mm = np.concatenate(gap) * cal.mm_per_px
-    gap_mm[~np.isfinite(gap_mm)] = np.nan
-    edge_mm = np.concatenate(edge)
-    t_all = rec.video.frame_times()
-    tv = t_all[: gap_mm.size]
-    sig = sensor_signals(read_trial_forces(Path(root), rec)).signals
-    fn = np.asarray(sig.f_n, float)
-    s = sig.t0_s + np.arange(fn.size) / sig.fs_hz
-    level = float(np.nanpercentile(fn, 95))
-    s_on = float(s[np.flatnonzero(fn > 0.1 * level)[0]])
-    base = float(np.median(fn[s < s_on - 0.02])) if np.any(s < s_on - 0.02) else 0.0
-    out = {"id": trial_id, "subject": str(rec.subject), "touch_ms": math.nan, "lift_ms": math.nan}
-    if truth_path:  # the true clock: the truth's force time base and the manifest's video clock
-        with np.load(truth_path, allow_pickle=False) as z:
-            t_true, contact = np.asarray(z["t_force"], float), np.asarray(z["F_N"], float) > 0
-        if contact.any():
-            out["touch_ms"] = 1e3 * (t_true[np.flatnonzero(contact)[0]] - t_all[0])
-            out["lift_ms"] = 1e3 * (t_true[np.flatnonzero(contact)[-1]] - t_all[-1])
-    ok = np.isfinite(gap_mm)
-    out["t_touch_video"] = {w: power_onset(tv[ok], gap_mm[ok], 0.02, w, -1) for w in GAP_WINDOWS_MM}
-    out["t_touch_force"] = {
-        w: power_onset(s, fn - base, 0.0033 * level, w * level, +1) for w in FORCE_WINDOWS
-    }
-    # the press in the video: the contact's right end from the frame the gap closes to the
-    # frame the finger starts to move (x(t) of the analysis, 0.02 mm from its rest)
-    fr = pd.read_parquet(frames_path, columns=["t_s", "x_mm"])
-    x = fr["x_mm"].to_numpy(float)[: gap_mm.size]
-    closed = np.flatnonzero(np.nan_to_num(gap_mm, nan=np.inf) <= 0)
-    out["gap_before_closing_px"] = (
-        (gap_mm[max(int(closed[0]) - 6, 0) : int(closed[0])] / cal.mm_per_px).tolist() if closed.size else []
-    )
-    out["press"] = None
-    if closed.size:
-        k0 = int(closed[0]) + 2
-        rest = np.nanmedian(x[k0 : k0 + 5])
-        moved = np.flatnonzero((np.abs(x - rest) > 0.02) & (np.arange(x.size) > k0))
-        if moved.size and moved[0] - k0 >= 8:
-            sel = np.arange(k0, int(moved[0]))
-            f_sel = np.interp(tv[sel], s, fn - base)
-            e_sel = edge_mm[sel]
-            good = np.isfinite(e_sel)
-            if good.sum() >= 8 and np.ptp(f_sel[good]) > 0:
-                A = np.column_stack([np.ones(good.sum()), f_sel[good]])
-                coef, *_ = np.linalg.lstsq(A, e_sel[good], rcond=None)
-                r = e_sel[good] - A @ coef
-                se = math.sqrt(
-                    float(r @ r)
-                    / max(good.sum() - 2, 1)
-                    / float(np.sum((f_sel[good] - f_sel[good].mean()) ** 2))
-                )
-                out["press"] = {
-                    "frames": int(good.sum()),
-                    "fn_from": float(f_sel[0]),
-                    "fn_to": float(f_sel[-1]),
-                    "edge_sd_um": 1e3 * float(np.std(e_sel[good])),
-                    "slope_um_per_n": 1e3 * float(coef[1]),
-                    "slope_se_um_per_n": 1e3 * se,
-                }
-    return out
-
-
-def _events(study: Path, check_results: Path, workers: int, truth_study: Path | None = None) -> list[dict]:
-    """:func:`_events_one` of every trial of ``study``; the truth files from ``truth_study``
-    (default ``study``; the shifted study has none of its own)."""
-    from fingerfriction.study.manifest import load_manifest
+    from fingerfriction.study.store import ResultsStore
 
     st = load_manifest(study)
-    tst = load_manifest(truth_study or study)
-    ids = [t.id for t in st.trials]
-    frames = [str(check_results / "trials" / i / "frames.parquet") for i in ids]
-    truth = [
-        str(tst.root / tst.trial(i).truth) if getattr(tst.trial(i), "truth", None) else None for i in ids
-    ]
-    with ProcessPoolExecutor(max_workers=workers) as ex:
-        return list(ex.map(_events_one, [str(study)] * len(ids), ids, frames, truth))
+    store = ResultsStore(results)
+    rows = []
+    for rec in st.trials:
+        status = store.status(rec.id) or {}
+        sc = (status.get("info") or {}).get("selfcheck") or {}
+        if not sc.get("onset") or not rec.truth:
+            continue
+        o = OnsetData.from_dict(sc["onset"])
+        with np.load(study / rec.truth, allow_pickle=False) as z:
+            t_touch = float(z["t_touch_s"]) if "t_touch_s" in z.files else math.nan
+            v_a = float(z["approach_speed_mm_s"]) if "approach_speed_mm_s" in z.files else math.nan
+            t_force, f_n = np.asarray(z["t_force"], float), np.asarray(z["F_N"], float)
+            t_video = np.asarray(z["t_video"], float)
+        on = np.flatnonzero(f_n > 0)
+        frames = pd.read_parquet(results / "trials" / rec.id / "frames.parquet")
+        slope, r = _press(frames, t_force, f_n, t_touch, o.t_motion)
+        rows.append({
+            "id": rec.id,
+            "subject": str(rec.subject),
+            "v_a": v_a,
+            "video_err": o.touch_video_s - t_touch,
+            "video_se": o.touch_video_se_s,
+            "force_err": o.touch_force_s - t_touch,
+            "force_se": o.touch_force_se_s,
+            "offset_err": o.touch_offset_s,  # the clocks are right: the truth is 0
+            "in_video": bool(t_video[0] < t_touch < t_video[-1]),
+            "lift_after_ms": 1e3 * (t_force[on[-1]] - t_video[-1]) if on.size else math.nan,
+            "press_slope": slope,
+            "press_r": r,
+            "common_ms": (sc.get("sync") or {}).get("common_ms"),
+            "video_msg": (sc.get("figures") or {}).get("touch", {}).get("video", ""),
+        })
+    return rows
 
 
 def _rms(v) -> float:
@@ -667,121 +628,62 @@ def _rms(v) -> float:
     return float(np.sqrt(np.mean(v**2))) if v.size else math.nan
 
 
-def print_events(rows: list[dict], shifts: dict | None = None) -> dict:
-    """Print what the press, the touch-down and the lift-off tell; return the touch-down
-    offsets ``{(gap window, force window): {trial: offset_s}}``."""
-    touch = np.array([r["touch_ms"] for r in rows])
-    lift = np.array([r["lift_ms"] for r in rows])
-    if np.isfinite(touch).any():
-        print(
-            f"coverage (the simulator's truth, F_N > 0): the finger touches down "
-            f"{np.nanmin(touch):.0f}-{np.nanmax(touch):.0f} ms after the video's first frame "
-            f"(in the video in {np.sum(touch > 0)} of {len(rows)} trials); it lifts off "
-            f"{np.nanmin(lift):.0f}-{np.nanmax(lift):.0f} ms after the video's last frame "
-            f"(after the video in {np.sum(lift > 0)} of {len(rows)})"
-        )
-    last = [r["gap_before_closing_px"] for r in rows if len(r["gap_before_closing_px"]) == 6]
-    if last:
-        print(
-            "touch-down in the video: the finger's gap above the surface in the 6 frames before it "
-            f"closes (median of {len(last)} trials): "
-            + ", ".join(f"{v:.2f}" for v in np.median(np.array(last), axis=0))
-            + " px"
-        )
-    pr = [r["press"] for r in rows if r["press"]]
-    if pr:
-        slope = np.array([p["slope_um_per_n"] for p in pr])
-        se = np.array([p["slope_se_um_per_n"] for p in pr])
-        print(
-            f"the press in the video ({len(pr)} trials, {int(np.median([p['frames'] for p in pr]))} "
-            f"frames from the touch-down to the first motion, F_N rising to "
-            f"{np.median([p['fn_to'] for p in pr]):.2f} N): the contact's end moves by "
-            f"{np.median(slope):+.0f} um per N (median; its SE {np.median(se):.0f} um/N; "
-            f"{np.sum(np.abs(slope) > 3 * se)} of {len(pr)} trials beyond 3 SE), scatter "
-            f"{np.median([p['edge_sd_um'] for p in pr]):.1f} um per frame"
-        )
-    else:
-        print("the press in the video: no trial with 8 frames between the touch-down and the first motion")
-    subjects = np.array([r["subject"] for r in rows])
-    ids = [r["id"] for r in rows]
-    out = {}
-    print("touch-down: offset = the video's gap closing - the force's rise (power-law onsets, A|t - t0|^p)")
-    for gw in GAP_WINDOWS_MM:
-        for fw in FORCE_WINDOWS:
-            tau = np.array([r["t_touch_video"][gw] - r["t_touch_force"][fw] for r in rows])
-            out[(gw, fw)] = dict(zip(ids, tau, strict=True))
-            err = 1e3 * (tau + np.array([shifts[i] for i in ids])) if shifts else 1e3 * tau
-            rel = err.copy()
-            for g in np.unique(subjects):
-                k = (subjects == g) & np.isfinite(err)
-                rel[subjects == g] -= np.median(err[k]) if k.any() else math.nan
-            print(
-                f"  gap to {gw:g} mm, force to {100 * fw:g} %: error mean {np.nanmean(err):+.2f} ms, RMS "
-                f"{_rms(err):.2f} ms; against the finger's other trials RMS {_rms(rel):.2f} ms "
-                f"({np.sum(np.isfinite(err))} of {len(rows)} trials)"
-            )
-    return out
-
-
-def step_events(study: Path, workers: int) -> None:
+def print_events(rows: list[dict]) -> None:
+    """Print what the touch-downs and the press show (from :func:`touch_rows`)."""
+    n = len(rows)
+    if not n:
+        print("no trial with a start of the slide and a truth file")
+        return
+    lift = np.array([r["lift_after_ms"] for r in rows])
+    v_a = np.array([r["v_a"] for r in rows])
     print(
-        "\n== 5. the other events both recordings see: the press, the touch-down, the lift-off "
-        "(the scattered-clock study of part 3)",
+        f"coverage (the simulator's truth): the finger touches down inside the video in "
+        f"{sum(r['in_video'] for r in rows)} of {n} trials, landing at "
+        f"{np.nanmin(v_a):.0f}-{np.nanmax(v_a):.0f} mm/s; it lifts off "
+        f"{np.nanmin(lift):.0f}-{np.nanmax(lift):.0f} ms after the video's last frame"
+    )
+    for key, label in (("video", "video (the gap closing)"), ("force", "force (F_N's onset)")):
+        e = 1e3 * np.array([r[f"{key}_err"] for r in rows])
+        se = 1e3 * np.array([r[f"{key}_se"] for r in rows])
+        ok = np.isfinite(e)
+        print(
+            f"touch-down in the {label}: measured in {ok.sum()} of {n}; error against the truth mean "
+            f"{np.mean(e[ok]):+.3f} ms, RMS {_rms(e):.3f} ms, max {np.max(np.abs(e[ok])):.3f} ms; "
+            f"median SE {np.median(se[ok]):.3f} ms; |error| < 3 SE in {np.sum(np.abs(e[ok]) < 3 * se[ok])}"
+        )
+    d = 1e3 * np.array([r["offset_err"] for r in rows])
+    print(
+        f"touch-down offset per trial (both measured, truth 0): mean {np.nanmean(d):+.3f} ms, "
+        f"RMS {_rms(d):.3f} ms"
+    )
+    common = {}
+    for r in rows:
+        if r["common_ms"] is not None:
+            common[r["subject"]] = r["common_ms"]
+    print(
+        "the offset each finger's trials share, measured by the touch-downs (--sync check, truth 0): "
+        + ", ".join(f"finger {k}: {v:+.3f} ms" for k, v in sorted(common.items()))
+    )
+    slope = np.array([r["press_slope"] for r in rows])
+    corr = np.array([r["press_r"] for r in rows])
+    ok = np.isfinite(slope)
+    if ok.any():
+        print(
+            f"the press in the video ({ok.sum()} trials, frames from the touch to the start of the slide): "
+            f"the contact's squared length grows with the load by {np.median(slope[ok]):.0f} mm^2/N (median; "
+            f"correlation {np.median(corr[ok]):.3f})"
+        )
+
+
+def step_events(study: Path) -> None:
+    print(
+        "\n== 5. the touch-down and the press in both recordings (the unmodified study, clocks right)",
         flush=True,
     )
-    from fingerfriction.study.store import ResultsStore
-
     check = WORK / "realism-check"
     if not (check / "run.json").is_file():
         clean_run(study, check)
-    shifted, shifts = shifted_study(study, WORK / "shifted")
-    auto = WORK / "shifted-auto"
-    if not (auto / "run.json").is_file():
-        clean_run(shifted, auto, sync="auto")
-    rows = _events(shifted, check, workers, truth_study=study)
-    td = print_events(rows, shifts)
-    # what the touch-down adds to the start of the slide (--sync auto of part 3): the part
-    # of a finger's offsets the starts cannot tell apart, c + k v^-1/4, taken from the
-    # touch-downs: only the speed term k (the common part c stays at the slide's prior),
-    # or both
-    store = ResultsStore(auto)
-    run = store.read_run()
-    sync = next((r.get("sync") for r in reversed(run["runs"]) if r.get("sync")), {}) or {}
-    got = sync.get("trials", {})
-    ids = [r["id"] for r in rows if (got.get(r["id"]) or {}).get("offset_ms") is not None]
-    subj = np.array([next(r["subject"] for r in rows if r["id"] == i) for i in ids])
-    speed = np.array(
-        [
-            float(
-                (((store.status(i) or {}).get("info") or {}).get("selfcheck") or {})
-                .get("figures", {})
-                .get("speed_mm_s")
-                or math.nan
-            )
-            for i in ids
-        ]
-    )
-    off = np.array([1e-3 * got[i]["offset_ms"] for i in ids])
-    truth = np.array([-shifts[i] for i in ids])
-    print(f"--sync auto (part 3, the start of the slide alone): RMS {1e3 * _rms(off - truth):.2f} ms")
-    for key, tau in td.items():
-        d = np.array([tau[i] for i in ids]) - off
-        speed_only, both = off.copy(), off.copy()
-        for g in np.unique(subj):
-            k = (subj == g) & np.isfinite(d) & np.isfinite(speed)
-            if k.sum() < 3:
-                speed_only[subj == g] = both[subj == g] = math.nan
-                continue
-            w = speed[subj == g] ** -0.25
-            X = np.column_stack([np.ones(k.sum()), speed[k] ** -0.25])
-            c, kk = np.linalg.lstsq(X, d[k], rcond=None)[0]
-            speed_only[subj == g] += kk * (w - w.mean())
-            both[subj == g] += c + kk * w
-        print(
-            f"  + touch-down (gap to {key[0]:g} mm, force to {100 * key[1]:g} %): its speed term only "
-            f"RMS {1e3 * _rms(speed_only - truth):.2f} ms; its speed term and its level RMS "
-            f"{1e3 * _rms(both - truth):.2f} ms"
-        )
+    print_events(touch_rows(study, check))
 
 
 def main(argv=None) -> int:
@@ -809,10 +711,10 @@ def main(argv=None) -> int:
     if "3" in args.steps:
         step_auto(study)
     if "5" in args.steps:
-        step_events(study, args.workers)
+        step_events(study)
     if "4" in args.steps and not args.no_confirm:
         for options in args.confirm_options or CONFIRM_OPTIONS:
-            step_confirm(options, args.workers, args.confirm_mistakes, events="5" in args.steps)
+            step_confirm(options, args.workers, args.confirm_mistakes, args.steps)
     return 0
 
 

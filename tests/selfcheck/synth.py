@@ -91,3 +91,53 @@ def mains(
         a * np.sin(2 * np.pi * k * f0 * t + rng.uniform(0, 2 * np.pi))
         for a, k in zip(amps, harmonics, strict=True)
     )
+
+
+@dataclass
+class SynthLanding:
+    t: np.ndarray  # force clock, s
+    f1: np.ndarray  # N
+    f2: np.ndarray  # N
+    t_frames: np.ndarray  # s
+    gap_mm: np.ndarray  # mm, NaN while the finger is above the field
+    fs_hz: float
+    t_touch: float
+
+
+def landing(
+    *,
+    v: float = 50.0,
+    decel: float = 3000.0,
+    jerk: float = 2e5,
+    k_pad: float = 0.2,
+    load: float = 0.3,
+    t_touch: float = 0.1204,
+    fs_hz: float = 10_000.0,
+    fps: float = 1000.0,
+    duration_s: float = 0.4,
+    noise: float = 5e-4,
+    gap_noise_mm: float = 0.002,
+    hum: bool = True,
+    rng: np.random.Generator | None = None,
+) -> SynthLanding:
+    """A finger landing at ``v`` mm/s, decelerating at ``decel`` mm/s^2 (jerk ``jerk``
+    mm/s^3) as it touches at ``t_touch``: its gap ``v tau + decel tau^2 / 2 + jerk tau^3 /
+    6`` (``tau`` the time to the touch), then a load rising at ``k_pad v`` N/s to ``load``
+    (an exponential saturation), recorded with noise, the mains and a drift line."""
+    rng = rng or np.random.default_rng(0)
+    t = np.arange(int(duration_s * fs_hz)) / fs_hz
+    tau = np.clip(t - t_touch, 0.0, None)
+    slope = k_pad * v
+    f_n = load * (1.0 - np.exp(-slope * tau / load))
+    drift = 0.002 + 0.004 * t
+    f_n = f_n + drift + noise * rng.standard_normal(t.size)
+    if hum:
+        f_n = f_n + mains(t.size, fs_hz, rng=rng)
+    f_t = noise * rng.standard_normal(t.size)
+    t_frames = np.arange(int(duration_s * fps)) / fps
+    before = np.clip(t_touch - t_frames, 0.0, None)
+    gap = v * before + 0.5 * decel * before**2 + jerk * before**3 / 6.0
+    gap = np.where(before > 0, gap + gap_noise_mm * rng.standard_normal(t_frames.size), 0.0)
+    gap[gap > 3.0] = np.nan  # above the field
+    return SynthLanding(t, (f_n + f_t) / SQRT2, (f_n - f_t) / SQRT2, t_frames, np.maximum(gap, 0.0), fs_hz,
+                        t_touch)

@@ -106,3 +106,64 @@ def test_round_trip_through_json(finger):
     back = OnsetData.from_dict(o.to_dict())
     assert back.trial_id == o.trial_id and np.allclose(back.d_video, o.d_video, atol=1e-5)
     assert np.allclose(back.ratio, o.ratio, atol=1e-5, equal_nan=True)
+
+
+def _touched(o, t0, rng, t_touch=0.1, se_v=3e-4, se_f=5e-5):
+    """``o`` with touch-downs: seen in the video at the true instant (video clock), in the
+    force record at the true instant read on a clock ``t0`` ahead (the manifest's
+    ``force.t0_s`` too large by ``t0``: the correction is ``-t0``)."""
+    from dataclasses import replace
+
+    return replace(
+        o,
+        touch_video_s=t_touch + se_v * float(rng.standard_normal()),
+        touch_video_se_s=se_v,
+        touch_force_s=t_touch + t0 + se_f * float(rng.standard_normal()),
+        touch_force_se_s=se_f,
+    )
+
+
+def test_touch_downs_fix_what_a_fingers_starts_share():
+    """Every clock scattered by +-50 ms: the starts of the slides align the trials on each
+    other, the touch-downs place them."""
+    rng = np.random.default_rng(11)
+    shifts = rng.uniform(-0.05, 0.05, len(SPEEDS))
+    items = [
+        _touched(_onset(i, v, t0=float(s)), float(s), rng)
+        for i, (v, s) in enumerate(zip(SPEEDS, shifts, strict=True))
+    ]
+    est = estimate_offsets(items, mode="auto")
+    err = np.array([est[o.trial_id].offset_s + s for o, s in zip(items, shifts, strict=True)])
+    assert np.sqrt(np.mean(err**2)) < 0.5e-3, err
+    for o, e in zip(items, err, strict=True):
+        got = est[o.trial_id]
+        assert got.level_by == "touch-down" and abs(e) < 3 * got.se_s + 2e-4
+
+
+def test_a_session_offset_is_measured_by_the_touch_downs():
+    """Every trial of a finger 4 ms off together: the starts agree among themselves, the
+    touch-downs see the common offset (sync-common); with clean clocks it is ~0."""
+    rng = np.random.default_rng(3)
+    clean = [_touched(_onset(i, v), 0.0, rng) for i, v in enumerate(SPEEDS)]
+    off = [_touched(_onset(i, v, t0=0.004), 0.004, rng) for i, v in enumerate(SPEEDS)]
+    for items, want in ((clean, 0.0), (off, -0.004)):
+        est = estimate_offsets(items, mode="check")
+        e = est[items[0].trial_id]
+        assert e.level_by == "touch-down"
+        assert e.common_s == pytest.approx(want, abs=4e-4) and e.common_se_s < 4e-4
+        # the trials agree among themselves: no sync-offset (2 frame periods)
+        assert all(abs(x.offset_s) < 2e-3 for x in est.values())
+    auto = estimate_offsets(off, mode="auto")
+    assert all(x.offset_s == pytest.approx(-0.004, abs=6e-4) for x in auto.values())
+
+
+def test_touch_downs_round_trip_through_json_and_move_with_the_clock():
+    rng = np.random.default_rng(0)
+    o = _touched(_onset(0, 80.0), 0.0, rng)
+    back = OnsetData.from_dict(o.to_dict())
+    assert back.touch_offset_s == pytest.approx(o.touch_offset_s, abs=1e-7)
+    assert back.touch_se_s == pytest.approx(o.touch_se_s, rel=1e-4)
+    moved = o.shifted(0.01)
+    assert moved.touch_offset_s == pytest.approx(o.touch_offset_s - 0.01, abs=1e-9)
+    old = {k: v for k, v in o.to_dict().items() if k != "touch"}  # a status.json of before
+    assert math.isnan(OnsetData.from_dict(old).touch_offset_s)

@@ -129,3 +129,33 @@ def test_mechanics_grid_holds_the_contact_near_the_feature():
     surf = get_surface("bump-4mm")
     prov.solve(surf, "1", np.arange(-11.2, -9.8, 0.05), 0.42)
     assert prov.failures == 0
+
+
+def test_below_the_lowest_load_the_contact_grows_from_a_point_as_the_pad_indents(fb_table):
+    from fingerfriction.sim.kinematics import KinematicsParams
+
+    t = fb_table
+    pad = KinematicsParams().pad
+    x_flat = float(t.positions[0]) - 5.0  # flat ground (clamped to the table's end)
+    y0, p0 = t.profile(x_flat, float(t.loads[0]))
+    dxi = float(t.xi[1] - t.xi[0])
+    lengths = []
+    for f in (0.0, 0.005, 0.02, 0.08, 0.2, 0.249):
+        y, p = t.profile(x_flat, f, pad=pad)
+        assert np.all(y >= y0 - 1e-12)  # less load: never deeper than at the lowest load
+        assert np.sum(p) * dxi * 10.0 == pytest.approx(f, rel=1e-3, abs=1e-9)  # D = 10 mm
+        lengths.append(np.sum(p > 0) * dxi)
+        if f == 0.0:
+            assert not np.any(p > 0) and np.min(y) == pytest.approx(np.min(y0), abs=1e-6)
+    assert np.all(np.diff(lengths) > 0) and lengths[1] < 0.3 * lengths[-1]
+    # small loads: half-width ~ sqrt(load) (the pad's indentation ~ load / k)
+    assert lengths[2] / lengths[1] == pytest.approx(2.0, rel=0.15)
+    # continuous with the table at its lowest load, and the body rises as it unloads
+    y1, _ = t.profile(x_flat, float(t.loads[0]) * (1 - 1e-6), pad=pad)
+    np.testing.assert_allclose(y1, y0, atol=1e-3)
+    y_zero, _ = t.profile(x_flat, 0.0, pad=pad)
+    far = np.abs(t.xi) > 0.9 * np.max(np.abs(t.xi))
+    np.testing.assert_allclose(y_zero[far] - y0[far], pad.indentation(float(t.loads[0])), atol=1e-6)
+    # without the pad law the lowest load's outline is held (the old behaviour)
+    y_held, _ = t.profile(x_flat, 0.0)
+    np.testing.assert_array_equal(y_held, y0)

@@ -53,3 +53,62 @@ def test_bad_speed(speed):
 def test_params_must_cover_window():
     with pytest.raises(ValueError, match="window"):
         KinematicsParams(x_start=-10.0)
+
+
+def test_the_finger_lands_at_its_approach_speed_and_the_load_leaves_zero_with_a_slope():
+    P = KinematicsParams()
+    speeds = []
+    for seed in range(12):
+        k = simulate_kinematics(80.0, np.random.default_rng(seed), P)
+        speeds.append(k.approach_speed)
+        assert P.approach_speed_min <= k.approach_speed <= P.approach_speed_max
+        i = int(np.flatnonzero(k.t >= k.t_contact)[0])
+        assert abs(k.t_contact - P.pre_s - P.descent_s) <= P.descent_jitter * P.descent_s + 1e-12
+        # the descent is monotone and reaches the surface at -v_a (finite differences, 0.1 ms),
+        # decelerating (a reach aimed beyond the surface)
+        assert np.all(np.diff(k.z[: i + 1]) <= 1e-12) and k.z[i] == pytest.approx(0.0, abs=1e-12)
+        c = np.polyfit(k.t[i - 4 : i] - k.t_contact, k.z[i - 4 : i], 3)
+        assert c[-1] == pytest.approx(0.0, abs=1e-6)  # it reaches 0 at the touch
+        v_end = -c[-2]
+        assert v_end == pytest.approx(k.approach_speed, rel=0.01)
+        assert k.z[i - 40] - k.z[i - 20] > k.z[i - 20] - k.z[i]
+        # the load is 0 before the touch and rises at k_pad v_a (N/s) just after it
+        assert np.all(k.f_n[:i] == 0)
+        slope = k.f_n[i + 5] / (k.t[i + 5] - k.t_contact)
+        assert slope == pytest.approx(P.pad_stiffness * k.approach_speed, rel=0.05)
+        # and it keeps rising to the press (no overshoot) over load_s
+        n_load = int(P.load_s * P.fs_hz)
+        assert np.all(np.diff(k.f_n[i : i + n_load]) > -2e-4)
+    assert np.ptp(np.log(speeds)) > 0.5  # drawn per trial over the range
+
+
+def test_the_zero_speed_landing_is_the_minimum_jerk_one():
+    P0 = KinematicsParams(approach_speed_min=0.0, approach_speed_max=0.0)
+    a = simulate_kinematics(80.0, np.random.default_rng(3), P0)
+    assert a.approach_speed == 0.0 and a.pad is None and a.t_contact == P0.pre_s + P0.descent_s
+    desc = (a.t >= P0.pre_s) & (a.t < a.t_contact)
+    np.testing.assert_allclose(a.z[desc], P0.z_top * (1 - min_jerk((a.t[desc] - P0.pre_s) / P0.descent_s)),
+                               atol=1e-12)
+    load = (a.t >= a.t_contact) & (a.t < a.t_contact + P0.load_s)
+    ramp = min_jerk((a.t[load] - a.t_contact) / P0.load_s)
+    assert np.all(a.f_n[load] <= 0.35 * ramp + 1e-12) and np.all(a.f_n[load] >= 0.25 * ramp - 1e-12)
+    b = simulate_kinematics(80.0, np.random.default_rng(3))
+    assert b.pad is not None and b.approach_speed > 0
+
+
+def test_pad_law_round_trip_and_its_order_of_magnitude():
+    pad = KinematicsParams().pad
+    f = np.array([0.0, 0.01, 0.3, 1.0])
+    np.testing.assert_allclose(pad.force(pad.indentation(f)), f, atol=1e-12)
+    assert 0.7 < pad.indentation(0.3) < 1.3 and 1.5 < pad.indentation(1.0) < 2.5  # mm
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(approach_speed_min=50.0, approach_speed_max=20.0), "approach_speed_min"),
+    (dict(approach_speed_min=0.0, approach_speed_max=20.0), "approach_speed_min"),
+    (dict(approach_speed_max=200.0), "overshoots"),
+    (dict(pad_stiffness=0.0), "pad_stiffness"),
+])
+def test_bad_landing_params(kw, match):
+    with pytest.raises(ValueError, match=match):
+        KinematicsParams(**kw)

@@ -11,9 +11,9 @@ Variants of Eq. (4) (:mod:`fingerfriction.model`), one object each in the regist
 ``'pressure'``: Eq. (4) as printed on the absolute footing
     One constant pressure per trial, from the flat ground's load; ``mu`` from flat ground
     as above; ``p1`` per trial (:mod:`fingerfriction.fit.pressure`).
-``'interlock'``: the load-consistent Eq. (4), deformation split by slope direction
-    ``p1`` on ascending slopes and ``p1_down`` on descending ones, per trial
-    (:func:`fit_load_trials` with ``split=True``).
+``'interlock'``: the load-consistent Eq. (4), slope push weighed by slope direction
+    ``push_up`` on ascending slopes and ``push_down`` on descending ones, per trial, in
+    place of Eq. (3)'s deformation term (:func:`fit_load_trials` with ``law='push'``).
 ``'paper'``: Eq. (4) as printed
     Constant ``p0`` and ``p1`` per trial, ``mu`` per subject by grid search, on the paper's
     flat-segment footing (:mod:`fingerfriction.fit.paper`). Kept to reproduce the paper's

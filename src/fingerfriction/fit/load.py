@@ -49,7 +49,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import optimize
 
-from ..model import FrictionModel, LoadParams, load_terms
+from .._check import check_option
+from ..model import FrictionModel, LoadParams, load_terms, slope_terms
 from ..surfaces import Surface
 from .common import (
     FitFlag,
@@ -70,7 +71,7 @@ from .load_results import (
     LoadTrialFit,
 )
 from .mu import FlatGroundMu, flat_ground_mu
-from .weights import column_weights, hac_se, split_weights
+from .weights import column_weights, column_weights_se
 
 __all__ = [
     "LoadFitOptions",
@@ -89,14 +90,30 @@ SEARCH_STRIDE = 3
 # ------------------------------------------------------------------------ per-trial design
 
 
-class _LoadDesign:
-    """One trial's data and cached integrals for the load-consistent fit; with ``split``,
-    the deformation term has one column per slope direction (ascending, descending)."""
+#: The laws of the load family (:class:`_LoadDesign`): ``'deformation'`` (Eq. 3's weight
+#: ``p1``: the load variant) and ``'push'`` (the interfacial slope push of Eq. 2 weighed per
+#: slope direction, ``push_up`` and ``push_down``, without Eq. 3's term: the interlock variant).
+LAWS = ("deformation", "push")
+#: Per law, the names of its per-trial weights in the order of its design's columns.
+WEIGHTS = {"deformation": ("p1",), "push": ("push_up", "push_down")}
+#: Per law, the weights that must be >= 0 (physical): Eq. 3's term dissipates, and rising
+#: ground pushes the finger back, never pulls it on. On falling ground the net push is what
+#: the receding slope's normal stress gives forward less what the tissue's lag and adhesion
+#: hold back: either sign (``docs/fit.md``).
+NONNEGATIVE = {"deformation": ("p1",), "push": ("push_up",)}
 
-    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel, *, split: bool = False):
+
+class _LoadDesign:
+    """One trial's data and cached integrals for a fit of the load family (``law``, one of
+    :data:`LAWS`): the model is ``F_T = F_N g0 + X w`` with the per-trial weights ``w``
+    (:data:`WEIGHTS`) and the columns ``X`` (those of the push scaled by ``F_N``)."""
+
+    def __init__(self, trial: Trial, options: LoadFitOptions, model: FrictionModel, *,
+                 law: str = "deformation"):
         self.trial = trial
         self.model = model
-        self.split = bool(split)
+        self.law = law
+        self.push = law == "push"
         self.k = options.median_kernel
         self.absolute = trial.has_absolute
         if self.absolute:
@@ -145,72 +162,117 @@ class _LoadDesign:
         return R
 
     def _up(self, inset: float, window: slice) -> np.ndarray:
-        """The ascending parts ``[S_up, Q_up]`` over ``window`` at ``inset`` (kept as
-        :meth:`_integrals` keeps its own)."""
+        """The ascending parts ``[S_up_i, Q_up_i]`` of every region over ``window`` at
+        ``inset`` (kept as :meth:`_integrals` keeps its own)."""
         self._integrals(inset, window)  # resets the cache at a new inset
         key = ("up", float(inset), window.start, window.stop, window.step)
         U = self._cache.get(key)
         if U is None:
-            U = self._cache[key] = self.model._region_up(self.trial.regions[window], inset)
+            U = self._cache[key] = self.model._region_up(self.trial.regions[window], inset, per_region=True)
         return U
 
     def parts(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
-        """``(g, b_def, support)`` of :func:`fingerfriction.model.load_terms` over the
-        positions ``window``, median-filtered along them like the paper's model estimate
-        (NaN where undefined); with ``split``, ``b_def`` is ``(n, 2)``: the ascending and
-        descending parts (:meth:`fingerfriction.model.FrictionModel.deformation_parts`)."""
+        """``(g0, B, support)`` over the positions ``window``, median-filtered along them
+        like the paper's model estimate (NaN where undefined): ``F_N g0`` the part of the
+        interfacial force with no free weight (:func:`fingerfriction.model.load_terms`'s
+        ``g``; with the push law only ``mu K``), ``B`` ``(n, m)`` the columns of the
+        weights (:data:`WEIGHTS`), the push's per unit load, and the vertical support
+        ``sum_i s_i`` (mm)."""
         R = self._integrals(inset, window)
         g, b, support = load_terms(R, mu, kappa)
-        if self.split:
-            U = self._up(inset, window)
-            up = U[:, 1] + mu * U[:, 0]
-            b = np.stack([up, b - up], axis=1)
+        if self.push:
+            c = slope_terms(R, self._up(inset, window), mu, kappa)
+            g, B = c[:, 0], c[:, 1:]
+        else:
+            B = b[:, None]
         ok = np.isfinite(g)
+        B = np.where(np.isfinite(B), B, 0.0)
         k = self.k if window.step in (None, 1) else self.k_search
         if k > 1 and ok.any():
             idx = np.arange(g.size)
             g = np.where(ok, median_filter(np.interp(idx, idx[ok], g[ok]), k), np.nan)
-            b = median_filter(b, k)
-        return g, b, support
+            B = median_filter(B, k)
+        return g, B, support
 
     def terms(self, mu: float, inset: float, kappa: float, window: slice = slice(None)):
-        """(used, y, b, f_int, b_def, support) of the linear problem ``y = p1 b`` over
-        the positions ``window`` (the paper's footing needs them all: ``window`` is ignored)."""
+        """(used, y, X, f_int, B, support) of the linear problem ``y = X w`` over the
+        positions ``window`` (the paper's footing needs them all: ``window`` is ignored);
+        ``F_N g0`` is ``f_int``, and ``X`` the columns ``B`` over the used positions, those
+        of the push times ``F_N``."""
         if not self.absolute:
             window = slice(None)
-        g, b_def, support = self.parts(mu, inset, kappa, window)
+        g, B, support = self.parts(mu, inset, kappa, window)
         FN, F = self.FN[window], self.F[window]
         used = self.load_ok[window] & np.isfinite(g)
         f_int = FN * np.where(used, g, 0.0)
+        if self.push:
+            B = B * FN[:, None]
         if not self.absolute:  # the paper's footing: detrend model parts and measurement alike
             m = self.flat & used
             if np.count_nonzero(m) < 2:
-                return used & False, None, None, f_int, b_def, support
+                return used & False, None, None, f_int, B, support
             f_int = flat_detrend(self.trial.x, f_int, m)
-            b_def = flat_detrend(self.trial.x, b_def, m)
+            B = flat_detrend(self.trial.x, B, m)
             F = flat_detrend(self.trial.x, F, m)
         y = (F - f_int)[used]
-        return used, y, b_def[used], f_int, b_def, support
+        return used, y, B[used], f_int, B, support
 
     def rss(self, mu: float, inset: float, kappa: float) -> float:
-        """Residual with ``p1`` profiled out, over the positions near the feature."""
+        """Residual with the weights profiled out, over the positions near the feature."""
         return self.solve(mu, inset, kappa)[1]
 
     def solve(self, mu: float, inset: float, kappa: float, *, full: bool = False) -> tuple[float, float]:
-        """``(p1, residual)`` by least squares, over the positions near the feature (the
-        search's) or, with ``full``, every position as the trial's own fit uses them (with
-        ``split``, ``p1`` is the ascending slopes' weight, the one bounded below by 0)."""
-        used, y, b, *_ = self.terms(mu, inset, kappa, slice(None) if full else self.search)
+        """``(w_min, residual)`` by least squares, over the positions near the feature (the
+        search's) or, with ``full``, every position as the trial's own fit uses them;
+        ``w_min`` is the smallest of the weights that must be >= 0 (:data:`NONNEGATIVE`,
+        among those the trial identifies; 0 when none)."""
+        used, y, X, *_ = self.terms(mu, inset, kappa, slice(None) if full else self.search)
         if y is None or y.size == 0:
             return 0.0, 0.0
-        if self.split:
-            p, _ = column_weights(b, y)
-            r = y - b @ p
-            return float(p[0]), float(r @ r)
-        bb = float(b @ b)
-        p1 = float(b @ y) / bb if bb > 0 else 0.0
-        r = y - p1 * b
-        return p1, float(r @ r)
+        p, ok = column_weights(X, y)
+        r = y - X @ p
+        names = WEIGHTS[self.law]
+        w = [p[i] for i, n in enumerate(names) if ok[i] and n in NONNEGATIVE[self.law]]
+        return (float(min(w)) if w else 0.0), float(r @ r)
+
+
+def _unphysical(d: _LoadDesign, w: dict, used: np.ndarray, model_name: str, *,
+                wrong_sign: bool) -> tuple[bool, list, list]:
+    """Why a trial's fit is unphysical or undersupported: ``(failed, reasons, flags)``.
+
+    Negative weights that must be >= 0 (``NONNEGATIVE``), more than 10 % of the positions
+    left out, a flat-ground ``F_T / F_N <= 0`` (``wrong_sign``), a negative measured ``F_N``.
+    """
+    t, n = d.trial, d.trial.n
+    tid = t.id
+    failed, parts, flags = False, [], []
+    for name in NONNEGATIVE[d.law]:
+        v = w[name]
+        if math.isfinite(v) and v < 0:
+            failed = True
+            what = ("a negative deformation weight is unphysical" if name == "p1" else
+                    "a normal stress that pulls the finger along the slope is unphysical")
+            msg = f"{name} = {v:.4g}{' N/mm' if name == 'p1' else ''} < 0: {what}"
+            parts.insert(0, msg)
+            code = "negative-p1" if name == "p1" else "negative-" + name.replace("_", "-")
+            flags.append(fit_flag("error", code, t.subject, tid, model_name, msg))
+    n_out = int(n - np.count_nonzero(used))
+    if n_out:
+        level = "error" if n_out > 0.1 * n else "warning"
+        flags.append(fit_flag(level, "positions-left-out", t.subject, tid, model_name,
+                             f"{n_out} of {n} positions have no load-bearing contact or a normal force "
+                             "below the minimum and are left out of the fit"))
+        if level == "error":
+            failed = True
+            parts.insert(0, f"{n_out} of {n} positions left out")
+    if wrong_sign:  # flagged negative-mu by the flat-ground fit
+        failed = True
+        parts.insert(0, "flat-ground F_T / F_N <= 0 (wrong sign)")
+    if np.any(d.FN[used] < 0):
+        failed = True
+        flags.append(fit_flag("error", "negative-pressure", t.subject, tid, model_name,
+                             "the measured normal force is negative at some compared positions"))
+    return failed, parts, flags
 
 
 def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: float,
@@ -219,7 +281,7 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
     labels = fit_labels(t)
     tid = t.id
     flags: list[FitFlag] = []
-    used, y, b, f_int, b_def, support = d.terms(mu, inset, kappa)
+    used, y, X, f_int, B, support = d.terms(mu, inset, kappa)
     n = t.n
     nan = np.full(n, np.nan)
     pressure = d.FN / support
@@ -237,59 +299,42 @@ def _fit_design(d: _LoadDesign, mu: float, inset: float, kappa: float, mu_flat: 
                             measured=nan, estimate=nan, interfacial=nan, deformation=nan, pressure=pressure,
                             subject=t.subject, labels=labels, flags=tuple(flags))
     success, parts = True, ["closed-form least squares"]
-    if d.split:
-        p1, p1_se, p1_down, p1_down_se, identified = split_weights(b, y, d.lags)
-    else:
-        p1_down = p1_down_se = math.nan
-        bb = float(b @ b)
-        identified = bb > 0
-        if identified:
-            p1 = float(b @ y) / bb
-            p1_se = hac_se(b, y - p1 * b, d.lags)
-    if not identified:
-        p1, p1_se = 0.0, math.nan
+    names = WEIGHTS[d.law]
+    p, se, ok = column_weights_se(X, y, d.lags)
+    w = {n_: (float(p[i]) if ok[i] else math.nan) for i, n_ in enumerate(names)}
+    w_se = {n_: float(se[i]) for i, n_ in enumerate(names)}
+    if "p1" not in w:
+        w["p1"], w_se["p1"] = 0.0, math.nan  # no deformation term of Eq. 3 in this law
+    elif math.isnan(w["p1"]):
+        w["p1"] = 0.0  # no slope reached: F_def = 0
+    if not ok.any():
         flags.append(fit_flag("warning", "p1-not-identified", t.subject, tid, model_name,
-                             "the load-bearing contact never reaches a slope: p1 is not identified "
-                             "(F_def = 0)"))
-    if p1 < 0:
-        success = False
-        msg = f"p1 = {p1:.4g} N/mm < 0: a negative deformation weight is unphysical"
-        parts.insert(0, msg)
-        flags.append(fit_flag("error", "negative-p1", t.subject, tid, model_name, msg))
-    n_out = int(n - np.count_nonzero(used))
-    if n_out:
-        level = "error" if n_out > 0.1 * n else "warning"
-        flags.append(fit_flag(level, "positions-left-out", t.subject, tid, model_name,
-                             f"{n_out} of {n} positions have no load-bearing contact or a normal force "
-                             "below the minimum and are left out of the fit"))
-        if level == "error":
-            success = False
-            parts.insert(0, f"{n_out} of {n} positions left out")
-    if wrong_sign:  # flagged negative-mu by the flat-ground fit
-        success = False
-        parts.insert(0, "flat-ground F_T / F_N <= 0 (wrong sign)")
-    if np.any(d.FN[used] < 0):
-        success = False
-        flags.append(fit_flag("error", "negative-pressure", t.subject, tid, model_name,
-                             "the measured normal force is negative at some compared positions"))
+                             "the load-bearing contact never reaches a slope: its slope weights are not "
+                             "identified (no slope term)"))
+    bad, why, more = _unphysical(d, w, used, model_name, wrong_sign=wrong_sign)
+    success = success and not bad
+    parts[:0] = why
+    flags.extend(more)
     # the trial's pressure: total load over total vertical support (a ratio of sums stays
     # unbiased under noise in F_N, a mean of the pointwise pressure would not)
     p0_mean = float(np.sum(d.FN[used]) / np.sum(support[used]))
-    f_def = b_def @ np.array([p1, 0.0 if math.isnan(p1_down) else p1_down]) if d.split else p1 * b_def
-    est = np.where(used, f_int + f_def, np.nan)
+    f_w = B @ np.where(ok, p, 0.0)  # the weighted columns: F_def, or with the push law part of F_int
+    est = np.where(used, f_int + f_w, np.nan)
     meas = np.full(n, np.nan)
     if d.absolute:
         meas[used] = d.F[used]
     else:
         meas[used] = y + f_int[used]  # the detrended measurement
+    f_int, f_def = (f_int + f_w, np.zeros(n)) if d.push else (f_int, f_w)
     obj = nmse(meas[used], est[used])
     return LoadTrialFit(
-        mu=float(mu), p1=float(p1), p1_se=float(p1_se), inset=float(inset), kappa=float(kappa),
+        mu=float(mu), p1=float(w["p1"]), p1_se=float(w_se["p1"]), inset=float(inset), kappa=float(kappa),
         p0_mean=p0_mean, mu_flat=float(mu_flat), objective=float(obj),
         success=success, message="; ".join(parts), footing=footing, used=used, measured=meas, estimate=est,
         interfacial=np.where(used, f_int, np.nan), deformation=np.where(used, f_def, np.nan),
         pressure=pressure, subject=t.subject, labels=labels, flags=tuple(flags),
-        p1_down=p1_down, p1_down_se=p1_down_se,
+        push_up=w.get("push_up", math.nan), push_up_se=w_se.get("push_up", math.nan),
+        push_down=w.get("push_down", math.nan), push_down_se=w_se.get("push_down", math.nan),
     )
 
 
@@ -415,7 +460,8 @@ def subject_flat_mu(trials: Sequence[Trial], options: LoadFitOptions, subject: s
     return flat, None
 
 def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
-                     models: dict | None = None, split: bool = False) -> LoadSubjectFit:
+                     models: dict | None = None, law: str = "deformation",
+                     name: str = "load") -> LoadSubjectFit:
     """Fit the load-consistent Eq. (4) to one subject's trials (see the module notes).
 
     Parameters
@@ -426,11 +472,13 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     options : LoadFitOptions, optional
     models : dict, optional
         Surface -> FrictionModel cache shared between calls.
-    split : bool
-        Split the deformation term by slope direction, one weight per trial for the
-        ascending slopes (``p1``, >= 0 as Eq. 3's) and one for the descending ones
-        (``p1_down``, either sign): the ``'interlock'`` variant (the finger's leading side
-        pushing against a rising feature, little on the way down).
+    law : {'deformation', 'push'}
+        The law (:data:`LAWS`): Eq. (3)'s deformation weight ``p1`` per trial (default), or
+        the interfacial slope push weighed by slope direction, one weight per trial for the
+        ascending slopes (``push_up``, >= 0) and one for the descending ones (``push_down``,
+        either sign), without Eq. (3)'s term (the interlock variant, ``docs/fit.md``).
+    name : str
+        The variant's name in the flags and results (its registry entry passes it).
 
     Returns
     -------
@@ -443,13 +491,13 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
     trials, subject = one_subject(trials, caller="fit_load_subject", purpose="fit a subject",
                                    group="fit_load_trials")
     models = {} if models is None else models
-    name = "interlock" if split else "load"
+    law = check_option("law", law, LAWS)
     designs = []
     for t in trials:
         key: Surface = t.surface
         if key not in models:
             models[key] = FrictionModel(key)
-        designs.append(_LoadDesign(t, options, models[key], split=split))
+        designs.append(_LoadDesign(t, options, models[key], law=law))
     flat, failed = subject_flat_mu(trials, options, subject, name)
     if failed is not None:
         return failed
@@ -498,10 +546,10 @@ def fit_load_subject(trials: Sequence[Trial], options: LoadFitOptions | None = N
 
 
 def fit_load_trials(trials: Sequence[Trial], options: LoadFitOptions | None = None, *,
-                    split: bool = False) -> dict[str, LoadSubjectFit]:
+                    law: str = "deformation", name: str = "load") -> dict[str, LoadSubjectFit]:
     """:func:`fit_load_subject` for every subject present in ``trials`` (keyed by subject)."""
     models: dict = {}
-    return {s: fit_load_subject(ts, options, models=models, split=split)
+    return {s: fit_load_subject(ts, options, models=models, law=law, name=name)
             for s, ts in sorted(by_subject(trials).items())}
 
 
@@ -519,7 +567,8 @@ def load_estimate(model: FrictionModel, regions: np.ndarray, f_n, params: LoadPa
     f_n : float or (n,) array_like
         Normal force in N (the nominal load for a prediction, or a measured one).
     params : LoadParams
-        With ``p1_down`` the deformation term split by slope direction (``'interlock'``).
+        With ``push_up``, ``push_down`` the slope push weighed by slope direction
+        (``'interlock'``).
     median_kernel : int
         Median filter window in positions, as the fit's.
 
@@ -531,14 +580,18 @@ def load_estimate(model: FrictionModel, regions: np.ndarray, f_n, params: LoadPa
     """
     R = model.region_integrals(regions, inset=params.inset)
     g, b, _ = load_terms(R, params.mu, params.kappa)
-    if params.asymmetric:
-        b = model.deformation_parts(regions, params.mu, inset=params.inset)
+    if params.split_push:  # the push's columns filtered one by one, as the fit's (_LoadDesign.parts)
+        c = slope_terms(R, model.region_up(regions, inset=params.inset), params.mu, params.kappa)
+        g, push = c[:, 0], np.where(np.isfinite(c[:, 1:]), c[:, 1:], 0.0)
     ok = np.isfinite(g)
     if median_kernel > 1 and ok.any():
         idx = np.arange(g.size)
         g = np.where(ok, median_filter(np.interp(idx, idx[ok], g[ok]), median_kernel), np.nan)
         b = median_filter(b, median_kernel)
+        if params.split_push:
+            push = median_filter(push, median_kernel)
+    if params.split_push:
+        g = g + push @ np.array([params.push_up, params.push_down])
     f_int = np.broadcast_to(np.asarray(f_n, dtype=float), g.shape) * g
-    f_def = b @ np.array([params.p1, params.p1_down]) if params.asymmetric else params.p1 * b
-    f_def = np.where(ok, f_def, np.nan)
+    f_def = np.where(ok, params.p1 * b, np.nan)
     return f_int + f_def, f_int, f_def

@@ -147,11 +147,11 @@ class LoadTrialFit:
     subject : str
     labels : dict
     flags : tuple of FitFlag
-    p1_down, p1_down_se : float
-        With the deformation term split by slope direction (the ``'interlock'`` variant):
-        the weight in N/mm on descending slopes and its standard error, ``p1`` then being
-        the ascending slopes' (NaN otherwise, and where the trial's contact never meets
-        such a slope: not identified).
+    push_up, push_up_se, push_down, push_down_se : float
+        With the interfacial slope push weighed by slope direction (the ``'interlock'``
+        variant): the dimensionless weights on ascending and descending slopes
+        (:class:`~fingerfriction.model.LoadParams`) and their standard errors (NaN
+        otherwise, and where the trial's contact never meets such a slope).
     """
 
     mu: float
@@ -176,8 +176,10 @@ class LoadTrialFit:
     flags: tuple = ()
     objective_name: str = "nmse"
     method: str = "lstsq"
-    p1_down: float = math.nan
-    p1_down_se: float = math.nan
+    push_up: float = math.nan
+    push_up_se: float = math.nan
+    push_down: float = math.nan
+    push_down_se: float = math.nan
 
     def compared(self) -> tuple[np.ndarray, np.ndarray]:
         """``(measured, estimate)`` over the compared positions, in N (for Table 1)."""
@@ -209,7 +211,7 @@ class LoadSubjectFit:
         False when ``mu`` could not be measured or a trial fit failed.
     message : str
     model : str
-        ``'load'``, or ``'interlock'`` for the deformation term split by slope direction.
+        ``'load'``, or ``'interlock'`` for the slope push weighed by slope direction.
     """
 
     subject: str

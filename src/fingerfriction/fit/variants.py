@@ -13,7 +13,7 @@ name       what                                                    mu         se
 load       the pressure carries the measured F_N (load-sharing)    flat, CI   yes
 pressure   one constant pressure per trial, Eq. (4) as printed,    flat, CI   yes
            on the absolute footing
-interlock  load-sharing, the deformation weight split by slope     flat, CI   yes
+interlock  load-sharing, the slope push weighed by slope           flat, CI   yes
            direction (interlocking on rising features)
 paper      Eq. (4) as printed on the paper's detrended footing,    grid, none no
            mu by grid search (kept to reproduce the paper)
@@ -158,7 +158,8 @@ class Variant:
     def trial_row(self, tf) -> dict:
         """The parameters of one trial fit for ``fit/trials.csv``."""
         return {"mu": tf.mu, "p0": tf.p0_mean, "p1": tf.p1, "p1_se": tf.p1_se,
-                "p1_down": tf.p1_down, "p1_down_se": tf.p1_down_se, "inset_mm": tf.inset,
+                "push_up": tf.push_up, "push_up_se": tf.push_up_se, "push_down": tf.push_down,
+                "push_down_se": tf.push_down_se, "inset_mm": tf.inset,
                 "kappa_per_mm": tf.kappa, "footing": tf.footing, "objective": tf.objective}
 
     def subject_row(self, sf) -> dict:
@@ -214,7 +215,8 @@ class Variant:
         """The parameters of a prediction as columns of the out-of-sample table."""
         d = dataclasses.asdict(params)
         return {"mu": d["mu"], "p0": d.get("p0", math.nan), "p1": d["p1"],
-                "p1_down": d.get("p1_down") if d.get("p1_down") is not None else math.nan,
+                "push_up": d["push_up"] if d.get("push_up") is not None else math.nan,
+                "push_down": d["push_down"] if d.get("push_down") is not None else math.nan,
                 "inset_mm": d.get("inset", math.nan), "kappa_per_mm": d.get("kappa", math.nan)}
 
 
@@ -229,10 +231,10 @@ class LoadVariant(Variant):
             "mu is measured on flat ground (where Eq. 4 is Amontons' law), the load-bearing contact and "
             "the deformation weight p1 are fitted on absolute forces.")
     complexity = 1
-    split = False
+    law = "deformation"
 
     def fit(self, trials, settings):
-        return fit_load_trials(trials, settings.load, split=self.split)
+        return fit_load_trials(trials, settings.load, law=self.law, name=self.name)
 
     def params_for(self, sf, ok):
         return LoadParams(sf.mu, _median([f.p1 for f in ok]), sf.inset, sf.kappa)
@@ -254,39 +256,53 @@ class LoadVariant(Variant):
 
 class InterlockVariant(LoadVariant):
     name = "interlock"
-    title = "Load-consistent Eq. 4, interlocking deformation"
+    title = "Load-consistent Eq. 4, slope push by direction"
     family = "interlocking"
-    note = ("the load-consistent Eq. (4) with the deformation term of Eq. (3) weighed separately on "
-            "ascending slopes (p1 >= 0: the finger's leading side pushing against a rising feature) and "
-            "descending ones (p1_down, either sign), per trial.")
+    note = ("the load-consistent Eq. (4) with the interfacial slope push of Eq. (2) weighed separately on "
+            "ascending slopes (push_up: the finger's leading side pressing against rising ground) and "
+            "descending ones (push_down: what a viscoelastic finger gives back on falling ground), per "
+            "trial, in place of Eq. (3)'s deformation term; both weights 1 is the load variant with p1 = 0.")
     complexity = 2
-    split = True
+    law = "push"
+
+    @staticmethod
+    def _medians(tfs) -> tuple[float, float]:
+        """The median weights of the trials that identify each (a finite standard error);
+        1 (Eq. 2's symmetric push) for a direction no trial meets."""
+        up = _median([f.push_up for f in tfs if math.isfinite(f.push_up_se)])
+        down = _median([f.push_down for f in tfs if math.isfinite(f.push_down_se)])
+        return 1.0 if math.isnan(up) else up, 1.0 if math.isnan(down) else down
 
     def params_for(self, sf, ok):
-        # a weight counts where the trial identifies it (its standard error is finite)
-        up = _median([f.p1 for f in ok if math.isfinite(f.p1_se)])
-        down = _median([f.p1_down for f in ok])
-        return LoadParams(sf.mu, 0.0 if math.isnan(up) else up, sf.inset, sf.kappa,
-                          p1_down=0.0 if math.isnan(down) else down)
+        up, down = self._medians(ok)
+        return LoadParams(sf.mu, 0.0, sf.inset, sf.kappa, push_up=up, push_down=down)
 
     def params_from_record(self, rec, rows, key):
-        up = rows.loc[np.isfinite(rows["p1_se"].astype(float)), "p1"].median() if "p1_se" in rows else \
-            rows["p1"].median()
-        down = rows["p1_down"].astype(float).median() if "p1_down" in rows else math.nan
-        return LoadParams(mu=float(rec["mu"][key]), p1=float(up) if math.isfinite(up) else 0.0,
-                          inset=float(rec["inset_mm"][key]), kappa=float(rec["kappa_per_mm"][key]),
-                          p1_down=float(down) if math.isfinite(down) else 0.0)
+        def med(col):
+            if col not in rows or col + "_se" not in rows:
+                raise ValueError(f"fit/trials.csv has no column {col!r} for the {self.name} variant: the fit "
+                                 "was made by another version; run fingerfriction fit again")
+            v = rows.loc[np.isfinite(rows[col + "_se"].astype(float)), col].astype(float)
+            return float(v.median()) if len(v) else 1.0
+
+        return LoadParams(mu=float(rec["mu"][key]), p1=0.0, inset=float(rec["inset_mm"][key]),
+                          kappa=float(rec["kappa_per_mm"][key]), push_up=med("push_up"),
+                          push_down=med("push_down"))
 
     def record(self, fits):
         rec = super().record(fits)
-        rec["p1_down_median"] = {s: _median([t.p1_down for t in sf.trials if t.success])
-                                 for s, sf in fits.items()}
+        for name in ("push_up", "push_down"):
+            rec[f"{name}_median"] = {s: _median([getattr(t, name) for t in sf.trials
+                                                 if t.success and math.isfinite(getattr(t, name + "_se"))])
+                                     for s, sf in fits.items()}
         return rec
 
     def summary(self, sf):
-        down = _median([t.p1_down for t in sf.trials if t.success])
-        return super().summary(sf).replace("p1 median", "p1 (ascending) median") + \
-            f", p1_down median {down:.3g} N/mm"
+        up, down = self._medians([t for t in sf.trials if t.success])
+        lo, hi = self.mu_ci(sf)
+        return (f"mu = {sf.mu:.4f} (95 % CI {lo:.4f}-{hi:.4f}), load-bearing inset {sf.inset:.2f} mm, "
+                f"pressure rise {sf.kappa:.2f}/mm, slope push medians {up:.3g} (ascending), {down:.3g} "
+                "(descending)")
 
 
 class PressureVariant(Variant):
@@ -372,8 +388,9 @@ class PaperVariant(Variant):
 
     def trial_row(self, tf):
         nan = math.nan
-        return {"mu": tf.mu, "p0": tf.p0, "p1": tf.p1, "p1_se": nan, "p1_down": nan, "p1_down_se": nan,
-                "inset_mm": nan, "kappa_per_mm": nan, "footing": "flat", "objective": tf.objective}
+        return {"mu": tf.mu, "p0": tf.p0, "p1": tf.p1, "p1_se": nan, "push_up": nan, "push_up_se": nan,
+                "push_down": nan, "push_down_se": nan, "inset_mm": nan, "kappa_per_mm": nan,
+                "footing": "flat", "objective": tf.objective}
 
     def subject_row(self, sf):
         nan = math.nan
@@ -451,7 +468,7 @@ def variant_of_params(params) -> Variant:
     """The variant a set of prediction parameters belongs to (LoadParams: load or
     interlock; FrictionParams: the constant pressure of the paper's Eq. 4)."""
     if isinstance(params, LoadParams):
-        return VARIANTS["interlock" if params.asymmetric else "load"]
+        return VARIANTS["interlock" if params.split_push else "load"]
     if isinstance(params, FrictionParams):
         return VARIANTS["paper"]
     raise TypeError(f"params must be LoadParams or FrictionParams, got {type(params).__name__}")

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-__all__ = ["hac_se", "hac_cov", "column_weights", "split_weights", "MIN_COLUMN"]
+__all__ = ["hac_se", "hac_cov", "column_weights", "column_weights_se", "MIN_COLUMN"]
 
 
 def hac_se(b: np.ndarray, e: np.ndarray, lags: int) -> float:
@@ -40,8 +40,8 @@ def hac_cov(X: np.ndarray, e: np.ndarray, lags: int) -> np.ndarray:
     return inv @ S @ inv
 
 
-#: A deformation column whose norm is below this share of the largest column's is not
-#: identified by the trial (e.g. the descending-slope weight on a Step Up).
+#: A column whose norm is below this share of the largest column's is not identified by
+#: the trial (e.g. the descending slopes' weight on a Step Up).
 MIN_COLUMN = 1e-4
 
 
@@ -56,14 +56,12 @@ def column_weights(b: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return p, ok
 
 
-def split_weights(b: np.ndarray, y: np.ndarray, lags: int) -> tuple[float, float, float, float, bool]:
-    """``(p1, p1_se, p1_down, p1_down_se, identified)`` of the deformation term split by
-    slope direction (NaN for a weight the trial does not identify; ``identified`` False
-    when neither is)."""
-    p, ok = column_weights(b, y)
-    se = np.full(2, np.nan)
+def column_weights_se(X: np.ndarray, y: np.ndarray, lags: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`column_weights` with the weights' Newey-West standard errors (``lags``
+    samples, :func:`hac_cov`): ``(p, se, ok)``, each ``(m,)``; a weight the trial does not
+    identify is 0 with SE NaN."""
+    p, ok = column_weights(X, y)
+    se = np.full(p.size, np.nan)
     if ok.any():
-        se[ok] = np.sqrt(np.maximum(np.diag(hac_cov(b[:, ok], y - b @ p, lags)), 0.0))
-    p1, p1_se = (float(p[0]), float(se[0])) if ok[0] else (0.0, math.nan)
-    down, down_se = (float(p[1]), float(se[1])) if ok[1] else (math.nan, math.nan)
-    return p1, p1_se, down, down_se, bool(ok.any())
+        se[ok] = np.sqrt(np.maximum(np.diag(hac_cov(X[:, ok], y - X @ p, lags)), 0.0))
+    return p, se, ok

@@ -53,6 +53,9 @@ the load of a constant pressure, ``F_N = p0 sum_i s_i`` with ``kappa = 0``, the 
 and only height tells them apart. The deformation stress of Eq. (3) is taken as a
 tangential (dissipative) term that carries no load, not the literal reading ``sigma_p =
 p0 + p1 dh/dx``. How each alternative fared on the simulated study: ``docs/fit.md``.
+With ``LoadParams.push_up``, ``push_down`` (interlocking, :func:`slope_terms`) the slope
+push is weighed by slope direction, ``F_int = F_N sum_i w_i (mu K_i + push_up S_up_i +
+push_down S_down_i)``; both 1 is Eq. (2); the fit's ``interlock`` has ``p1 = 0`` (docs/fit.md).
 
 Load-bearing contact. The paper's regions ``C_i`` are geometric: finger and surface within
 3 px (about 70 um) of each other. Under a soft finger the gap opens slowly at a contact
@@ -105,6 +108,7 @@ __all__ = [
     "FrictionModel",
     "friction_force",
     "load_terms",
+    "slope_terms",
     "T_matrix",
 ]
 
@@ -169,23 +173,28 @@ class LoadParams:
     kappa : float
         Rise of the pressure with the mean height of a region, in 1/mm (>= 0; 0 = one
         uniform pressure over the whole contact, the paper's assumption).
-    p1_down : float or None
-        Weight in N/mm of the deformation term on descending slopes (``dh/dx < 0``), where
-        ``p1`` then weighs the ascending ones (:meth:`FrictionModel.deformation_parts`:
-        interlocking, the finger's leading side pushing against a rising feature); None
-        (default) = the same weight ``p1`` on every slope, Eq. (3) as printed.
+    push_up, push_down : float or None
+        Weights (dimensionless) of the interfacial slope push ``S`` of Eq. (2) on ascending
+        and on descending slopes (:func:`slope_terms`): the normal stress's horizontal push
+        against rising ground and its forward push on falling ground, which an elastic finger
+        gives in full (both 1) and a viscoelastic one unequally (interlocking); None (default,
+        both together) = 1, Eq. (2) as printed.
     """
 
     mu: float
     p1: float
     inset: float = 0.0
     kappa: float = 0.0
-    p1_down: float | None = None
+    push_up: float | None = None
+    push_down: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("mu", "p1", "inset", "kappa", "p1_down"):
+        if (self.push_up is None) != (self.push_down is None):
+            raise ValueError("LoadParams.push_up and push_down must be given together (or neither), got "
+                             f"{self.push_up!r} and {self.push_down!r}")
+        for name in ("mu", "p1", "inset", "kappa", "push_up", "push_down"):
             v = getattr(self, name)
-            if name == "p1_down" and v is None:
+            if name in ("push_up", "push_down") and v is None:
                 continue
             if not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
                 raise ValueError(f"LoadParams.{name} must be a finite number, got {v!r}")
@@ -198,21 +207,19 @@ class LoadParams:
             raise ValueError(f"LoadParams.kappa (1/mm) must be >= 0, got {self.kappa!r}")
 
     @property
-    def asymmetric(self) -> bool:
-        """True when the deformation weight differs between ascending and descending slopes."""
-        return self.p1_down is not None
+    def split_push(self) -> bool:
+        """True when the interfacial slope push is weighed by slope direction."""
+        return self.push_up is not None
 
     def to_json(self) -> str:
-        d = asdict(self)
-        if d["p1_down"] is None:
-            del d["p1_down"]
-        return json.dumps({"model": "interlock" if self.asymmetric else "load", **d})
+        d = {k: v for k, v in asdict(self).items() if v is not None}
+        return json.dumps({"model": "interlock" if self.split_push else "load", **d})
 
     @classmethod
     def from_json(cls, text: str) -> LoadParams:
         d = json.loads(text)
         return cls(mu=d["mu"], p1=d["p1"], inset=d.get("inset", 0.0), kappa=d.get("kappa", 0.0),
-                   p1_down=d.get("p1_down"))
+                   push_up=d.get("push_up"), push_down=d.get("push_down"))
 
 
 @dataclass(frozen=True)
@@ -276,9 +283,19 @@ def load_terms(region_integrals, mu: float,
             "region_integrals must be an (n, k, 5) array of S_i, K_i, Q_i, H_i, L_i, got shape "
             f"{I.shape}"
         )
+    S, K, Q, H, L = (I[..., j] for j in range(5))
+    per, sup, any_ok = _shares(S, K, H, L, mu, kappa)
+    g = np.where(any_ok, np.sum(per * (S + mu * K), axis=1), np.nan)
+    b = np.sum(Q + mu * S, axis=1)
+    return g, b, sup
+
+
+def _shares(S, K, H, L, mu: float, kappa: float):
+    """``(w, support, any_ok)``: each region's pressure per unit load ``w_i`` (1/mm, 0 for a
+    region without vertical support), the total support ``sum_i s_i`` (mm, NaN where none)
+    and where any region has one (module notes)."""
     if not (math.isfinite(kappa) and kappa >= 0):
         raise ValueError(f"kappa must be a finite rate >= 0 in 1/mm, got {kappa!r}")
-    S, K, Q, H, L = (I[..., j] for j in range(5))
     sup = K - mu * S
     ok = sup > MIN_SUPPORT_MM
     if kappa:
@@ -291,10 +308,43 @@ def load_terms(region_integrals, mu: float,
     total = np.sum(rel * np.where(ok, sup, 0.0), axis=1)
     any_ok = total > 0
     per = rel / np.where(any_ok, total, 1.0)[:, None]
-    g = np.where(any_ok, np.sum(per * (S + mu * K), axis=1), np.nan)
-    b = np.sum(Q + mu * S, axis=1)
     support = np.where(any_ok, np.sum(np.where(ok, sup, 0.0), axis=1), np.nan)
-    return g, b, support
+    return per, support, any_ok
+
+
+def slope_terms(region_integrals, region_up, mu: float, kappa: float = 0.0) -> np.ndarray:
+    """The load-independent parts of the load-consistent Eq. (4) with the interfacial
+    slope push split by slope direction (``LoadParams.push_up``, ``push_down``).
+
+    Parameters
+    ----------
+    region_integrals : (n, k, 5) array_like
+        As :func:`load_terms`.
+    region_up : (n, k, 2) array_like
+        ``[S_up_i, Q_up_i]``: the ascending parts (``dh/dx > 0``) of ``S_i`` and ``Q_i`` of
+        every region, in mm (:meth:`FrictionModel.region_up`).
+    mu, kappa : float
+        As :func:`load_terms`.
+
+    Returns
+    -------
+    (n, 3) ndarray
+        ``[sum_i w_i mu K_i, sum_i w_i S_up_i, sum_i w_i S_down_i]`` (dimensionless; ``w_i``
+        the pressures per unit load of :func:`load_terms`, ``S_down_i = S_i - S_up_i <= 0``):
+        ``F_int / F_N = c0 + push_up c1 + push_down c2``, and with both weights 1 the
+        ``g`` of :func:`load_terms`; NaN where no region has a vertical support.
+    """
+    I = np.asarray(region_integrals, dtype=float)
+    U = np.asarray(region_up, dtype=float)
+    if I.ndim != 3 or I.shape[2] != 5 or U.shape != I.shape[:2] + (2,):
+        raise ValueError(f"region_integrals (n, k, 5) and region_up (n, k, 2) must match, got shapes "
+                         f"{I.shape} and {U.shape}")
+    S, K, _, H, L = (I[..., j] for j in range(5))
+    per, _, any_ok = _shares(S, K, H, L, mu, kappa)
+    up = U[..., 0]
+    out = np.stack([np.sum(per * mu * K, axis=1), np.sum(per * up, axis=1), np.sum(per * (S - up), axis=1)],
+                   axis=1)
+    return np.where(any_ok[:, None], out, np.nan)
 
 
 class FrictionModel:
@@ -331,7 +381,7 @@ class FrictionModel:
         h = np.asarray(surface.h(x), dtype=float)
         self._H = cumulative_simpson(h, x=x, initial=0.0)  # int h dx (mean heights of regions)
         # The ascending parts (dh/dx > 0) of int sin(alpha) and int s sin(alpha), for the
-        # deformation term split by slope direction (:meth:`deformation_parts`); the
+        # slope push split by slope direction (:meth:`region_up`, :func:`slope_terms`); the
         # trapezoid rule, as the integrand jumps where the slope changes sign.
         up = s > 0
         self._up = np.stack([cumulative_trapezoid(np.where(up, s * c, 0.0), x=x, initial=0.0),
@@ -416,9 +466,10 @@ class FrictionModel:
         out[..., 4] = np.where(valid, b - a, 0.0)
         return out
 
-    def _region_up(self, arr: np.ndarray, inset: float) -> np.ndarray:
+    def _region_up(self, arr: np.ndarray, inset: float, *, per_region: bool = False) -> np.ndarray:
         """``(n_frames, 2)``: the ascending parts ``[S_up, Q_up]`` of ``S`` and ``Q`` summed over
-        the (inset) regions of an already validated regions array."""
+        the (inset) regions of an already validated regions array (``(n_frames, n_max, 2)``,
+        region by region, with ``per_region``)."""
         a = arr[..., 0] + inset
         b = arr[..., 1] - inset
         valid = b > a
@@ -430,37 +481,31 @@ class FrictionModel:
             t = (u - i)[..., None]
             return self._up[i] * (1.0 - t) + self._up[i + 1] * t  # flat beyond the table
 
-        return np.where(valid[..., None], at(b) - at(a), 0.0).sum(axis=1)
+        out = np.where(valid[..., None], at(b) - at(a), 0.0)
+        return out if per_region else out.sum(axis=1)
 
-    def deformation_parts(self, regions, mu: float, *, inset: float = 0.0) -> np.ndarray:
-        """The deformation integral of Eq. (3), ``Q + mu S``, split by slope direction.
+    def region_up(self, regions, *, inset: float = 0.0) -> np.ndarray:
+        """The ascending parts of ``S_i`` and ``Q_i`` region by region.
 
         Parameters
         ----------
         regions : (n_frames, n_max, 2) array_like
             Contact regions in mm.
-        mu : float
-            Coefficient of friction.
         inset : float
             Integrate over each region shortened by ``inset`` mm at both ends.
 
         Returns
         -------
-        (n_frames, 2) ndarray
-            ``[b_up, b_down]`` in mm: ``sum_i int_{C_i} dh/dx (sin alpha + mu cos alpha) dx``
-            over the ascending (``dh/dx > 0``) and the descending parts of the regions;
-            ``b_up + b_down = Q + mu S``. ``b_up >= 0``; ``b_down`` is the descending slopes'
-            ``Q_down - mu |S_down|``, negative where friction outweighs the slope's normal push.
+        (n_frames, n_max, 2) ndarray
+            ``[S_up_i, Q_up_i]`` in mm: ``int sin alpha`` and ``int dh/dx sin alpha`` over
+            the parts of each region where ``dh/dx > 0`` (0 for unused slots); the
+            descending parts are ``S_i - S_up_i`` and ``Q_i - Q_up_i``
+            (:meth:`region_integrals`).
         """
         d = float(inset)
         if not (math.isfinite(d) and d >= 0):
             raise ValueError(f"inset must be a finite length >= 0 in mm, got {inset!r}")
-        arr = as_regions(regions)
-        total = self._region_integrals(arr, d).sum(axis=1)
-        up = self._region_up(arr, d)
-        b = total[:, 2] + mu * total[:, 0]
-        b_up = up[:, 1] + mu * up[:, 0]
-        return np.stack([b_up, b - b_up], axis=1)
+        return self._region_up(as_regions(regions), d, per_region=True)
 
     def basis(self, regions, mu: float) -> np.ndarray:
         """Per-frame integrals multiplying p0 and p1 in Eq. (4).
@@ -514,14 +559,12 @@ class FrictionModel:
             raise TypeError(f"params must be LoadParams, got {type(params).__name__}")
         R = self.region_integrals(regions, inset=params.inset)
         g, b_def, support = load_terms(R, params.mu, params.kappa)
+        if params.split_push:
+            c = slope_terms(R, self.region_up(regions, inset=params.inset), params.mu, params.kappa)
+            g = c @ np.array([1.0, params.push_up, params.push_down])
         fn = np.broadcast_to(np.asarray(f_n, dtype=float), g.shape)
         f_int = fn * g
-        if params.asymmetric:
-            up, down = self.deformation_parts(regions, params.mu, inset=params.inset).T
-            b_def = params.p1 * up + params.p1_down * down
-            f_def = np.where(np.isfinite(g), b_def, np.nan)
-        else:
-            f_def = np.where(np.isfinite(g), params.p1 * b_def, np.nan)
+        f_def = np.where(np.isfinite(g), params.p1 * b_def, np.nan)
         return ModelForces(total=f_int + f_def, interfacial=f_int, deformation=f_def, pressure=fn / support)
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..flags import Flag
-from ..selfcheck import ORDER, Check, OffsetEstimate, OnsetData, estimate_offsets
+from ..selfcheck import ORDER, Check, OffsetEstimate, OnsetData, estimate_offsets, scale_checks
 from ..study.check import check_study
 from ..study.manifest import Study
 from ..study.records import Problem
@@ -66,7 +66,8 @@ class SyncOutcome:
         ``SelfCheckParams.moved_frames`` frame periods, with the shift in s.
     warnings : list of (str, str)
         Trial id, ``'code: message'`` of each warning.
-    elapsed_s : float
+    elapsed_s, cpu_s : float
+        Wall and CPU time (this process) the study-level step took, s.
     """
 
     mode: str
@@ -76,12 +77,14 @@ class SyncOutcome:
     moved: list = field(default_factory=list)
     warnings: list = field(default_factory=list)
     elapsed_s: float = 0.0
+    cpu_s: float = 0.0
 
     def record(self) -> dict:
         """The run record's ``sync`` entry: the mode and each trial's measured offset."""
         return {
             "mode": self.mode,
             "elapsed_s": round(self.elapsed_s, 4),
+            "cpu_s": round(self.cpu_s, 4),
             "trials": {
                 t: {**e.to_dict(), "check": self.checks[t].to_dict() if t in self.checks else None}
                 for t, e in self.estimates.items()
@@ -198,16 +201,21 @@ def synchronise_study(
     -------
     SyncOutcome
     """
-    t_start = time.perf_counter()
+    t_start, c_start = time.perf_counter(), time.process_time()
     params = params or AnalysisParams()
     P = params.selfcheck_params()
     out = SyncOutcome(P.sync)
+    order = [t.id for t in study.trials]
+    scale = scale_checks(_scale_items(store, study))  # the force's scale: whatever the sync mode
     if P.sync == "manifest":
+        for tid in sorted(set(scale) & set(order if trial_ids is None else trial_ids), key=order.index):
+            _act(store, study, params, tid, out, [scale[tid]])
+        out.elapsed_s, out.cpu_s = time.perf_counter() - t_start, time.process_time() - c_start
         return out
-    onsets = _onsets(store, [t.id for t in study.trials])
+    onsets = _onsets(store, order)
     todo = set(onsets) if trial_ids is None else set(trial_ids) & set(onsets)
     if not todo:
-        out.elapsed_s = time.perf_counter() - t_start
+        out.elapsed_s, out.cpu_s = time.perf_counter() - t_start, time.process_time() - c_start
         return out
     periods = {t.id: 1.0 / t.video.fps for t in study.trials if t.video.fps}
     if P.sync == "check":
@@ -219,9 +227,25 @@ def synchronise_study(
         out.estimates = estimate_offsets(onsets.values(), mode="auto", se_floor_s=P.sync_se_floor_s)
         out.checks = sync_checks(out.estimates, periods, P, mode="auto")
         common = {}
-    for tid in sorted(todo, key=[t.id for t in study.trials].index):
-        _act(store, study, params, tid, out, common.get(tid))
-    out.elapsed_s = time.perf_counter() - t_start
+    for tid in sorted(todo, key=order.index):
+        _act(store, study, params, tid, out, [c for c in (common.get(tid), scale.get(tid)) if c is not None])
+    out.elapsed_s, out.cpu_s = time.perf_counter() - t_start, time.process_time() - c_start
+    return out
+
+
+def _scale_items(store: ResultsStore, study: Study) -> dict:
+    """Trial id -> ``(finger, F_N level, contact length on flat ground)`` of every finished
+    trial, from its ``status.json`` (:func:`fingerfriction.selfcheck.scale_checks`)."""
+    out = {}
+    for rec in study.trials:
+        st = store.status(rec.id) or {}
+        if st.get("status") != "ok":
+            continue
+        figs = ((st.get("info") or {}).get("selfcheck") or {}).get("figures") or {}
+        f = (figs.get("forces") or {}).get("f_n_level_n")
+        length = figs.get("contact_flat_mm")
+        out[rec.id] = (str(rec.subject), math.nan if f is None else float(f),
+                       math.nan if length is None else float(length))
     return out
 
 
@@ -231,27 +255,31 @@ def _act(
     params: AnalysisParams,
     tid: str,
     out: SyncOutcome,
-    common: Check | None,
+    others: list,
 ) -> None:
-    """Record, fail or re-process one trial after the synchronisation."""
+    """Record, fail or re-process one trial after the study-level checks: its
+    synchronisation (when measured) and ``others`` (``sync-common``, ``force-scale``)."""
     status = store.status(tid) or {}
     kept = {k: v for k, v in status.items() if k not in _STATUS_KEYS}
     info = dict(kept.get("info") or {})
     sc = dict(info.get("selfcheck") or {})
-    est: OffsetEstimate = out.estimates[tid]
-    check = out.checks[tid]
-    sc["sync"] = {**est.to_dict(), "check": check.to_dict(), "mode": out.mode}
-    extra = [c for c in (check, common) if c is not None and c.finding]
-    sc["checks"] = [*sc.get("checks", []), *(c.to_dict() for c in (check, common) if c is not None)]
+    est: OffsetEstimate | None = out.estimates.get(tid)
+    check = out.checks.get(tid)
+    if est is not None and check is not None:
+        sc["sync"] = {**est.to_dict(), "check": check.to_dict(), "mode": out.mode}
+    mine = [c for c in (check, *others) if c is not None]
+    extra = [c for c in mine if c.finding and c.level != "error"]
+    sc["checks"] = [*sc.get("checks", []), *(c.to_dict() for c in mine)]
     info["selfcheck"] = sc
-    if check.level == "error":
-        reason = f"SelfCheckError: {check.line()}"
+    error = next((c for c in mine if c.level == "error"), None)
+    if error is not None:
+        reason = f"SelfCheckError: {error.line()}"
         store.write_failure(tid, reason, {**kept, "info": info})
         out.failed.append((tid, reason))
         return
     for c in extra:
         out.warnings.append((tid, c.line()))
-    if out.mode == "auto" and est.measured and abs(est.offset_s) >= 1e-4:
+    if out.mode == "auto" and est is not None and est.measured and abs(est.offset_s) >= 1e-4:
         try:
             forces, finfo = _reprocess(store, study, params, tid, est, info)
         except (ValueError, OSError) as exc:
@@ -263,7 +291,7 @@ def _act(
             return
         finfo["flags"] += [c.to_flag().to_dict() for c in extra]
         info["forces"] = finfo
-        if check.level == "warning":
+        if check is not None and check.level == "warning":
             out.moved.append((tid, est.offset_s))
         store.write_trial(tid, store.read_frames(tid), forces, {**kept, "info": info})
         return
@@ -322,7 +350,7 @@ def _reprocess(
 
 
 #: The consistency stage's flag codes (its flags among the force stage's, kept on re-processing).
-_SELFCHECK_CODES = (*ORDER, "sync-offset", "sync-common")
+_SELFCHECK_CODES = (*ORDER, "sync-offset", "sync-common", "force-scale")
 
 
 def deep_check(
@@ -360,6 +388,7 @@ def deep_check(
     shown = str(res.manifest)
     index = res.index or {}
     onsets: dict[str, OnsetData] = {}
+    scale_items: dict = {}
     wanted = None if trials is None else set(trials)
     for rec in st.trials:
         if wanted is not None and rec.id not in wanted:
@@ -374,6 +403,11 @@ def deep_check(
             problems.append(Problem(shown, where, one_line(exc), rec.id, "deep"))
             continue
         found[rec.id] = list(tc.checks)
+        if tc.error is None:
+            length = tc.figures.get("contact_flat_mm")
+            f = (tc.figures.get("forces") or {}).get("f_n_level_n")
+            scale_items[rec.id] = (str(rec.subject), math.nan if f is None else float(f),
+                                   math.nan if length is None else float(length))
         if tc.onset is not None:
             onsets[rec.id] = tc.onset
         if progress is not None:
@@ -385,6 +419,8 @@ def deep_check(
             found[tid].append(c)
         for tid, c in _common_warnings(est, onsets, periods, P).items():
             found[tid].append(c)
+    for tid, c in scale_checks(scale_items).items():
+        found[tid].append(c)
     for rec in st.trials:
         where = f"trials[{index.get(rec.id, '?')}]"
         for c in found.get(rec.id, []):

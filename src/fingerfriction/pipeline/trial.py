@@ -134,6 +134,9 @@ class VideoOutput:
     surface_rows : (width,) ndarray or None
         The calibration frame's surface profile, sub-pixel row per column of the crop
         (:attr:`fingerfriction.video.calibrate.Calibration.surface_row`).
+    gap_mm : (n_frames,) ndarray or None
+        The finger's lowest point above the surface per frame in mm (NaN where its outline
+        was not found; :attr:`fingerfriction.video.VideoResult.gap_px`).
     """
 
     t_s: np.ndarray
@@ -144,6 +147,7 @@ class VideoOutput:
     info: dict = field(default_factory=dict)
     x_source: list | None = None
     surface_rows: np.ndarray | None = None
+    gap_mm: np.ndarray | None = None
 
     @property
     def frame(self) -> np.ndarray:
@@ -232,7 +236,8 @@ def run_video(trial: TrialInput, options: AnalysisOptions | Mapping | None = Non
     return VideoOutput(t_s=v.frame_times(), x_mm=np.asarray(res.x, dtype=float),
                        regions=np.asarray(res.regions, dtype=float), flags=_frame_reasons(res.flags),
                        clipped=res.clipped, info=info, x_source=position_sources(res, opts.position),
-                       surface_rows=np.asarray(res.calibration.surface_row, dtype=float))
+                       surface_rows=np.asarray(res.calibration.surface_row, dtype=float),
+                       gap_mm=None if res.gap_px is None else np.asarray(res.gap_px, float) * res.mm_per_px)
 
 
 
@@ -352,7 +357,8 @@ def check_trial_inputs(trial: TrialInput, video: VideoOutput, record: ForceRecor
     sensor = sensor_signals(record, force_params(params.forces))  # the force stage's own steps, reused
     rec = trial.record
     checks = check_trial(trial_id=trial.id, group=str(rec.subject), record=record, signals=sensor.signals,
-                         t_frames=video.t_s, x_frames=video.x_mm, surface_rows=video.surface_rows,
+                         t_frames=video.t_s, x_frames=video.x_mm, gap_mm=video.gap_mm,
+                         regions=video.regions, surface_rows=video.surface_rows,
                          surface=trial.surface, height_mm=trial.height_mm, speed_mm_s=rec.speed_mm_s,
                          params=sc)
     return replace(checks, sensor=sensor if checks.record.fs_hz == record.fs_hz else None)

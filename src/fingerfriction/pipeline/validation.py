@@ -101,6 +101,15 @@ class OutOfSample:
         keys = sorted(self.estimates, key=lambda k: (str(k[1]), str(k[0])))
         surfaces = list(dict.fromkeys(k[1] for k in keys))
         subjects = sorted({k[0] for k in keys})
+        if not keys:  # no held-out surface could be predicted: say so instead of an empty grid
+            fig, ax = plt.subplots(figsize=(5.2, 1.6))
+            ax.axis("off")
+            ax.text(0.5, 0.5, "no held-out surface could be predicted\n(no successful training fit; "
+                    "see the table's notes)", ha="center", va="center", fontsize=9)
+            p = os.fspath(path)
+            atomic_write(p, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+            plt.close(fig)
+            return p
         size = (2.6 * len(surfaces), 2.2 * len(subjects))
         fig, axes = plt.subplots(len(subjects), len(surfaces), figsize=size, squeeze=False, sharex=True)
         rows = {(r.subject, r.surface): r for r in self.table.itertuples()}
@@ -152,8 +161,8 @@ def leave_one_surface_out(trials, *, model: str = DEFAULT_MODEL, fingers=None, g
     training parameters on the trial's own video regions with its measured normal force
     (``rho_heldout_params_video``).
 
-    ``model='interlock'``: the same with the median weights of the ascending and the
-    descending slopes. ``model='pressure'``: Eq. (4) with the constant pressure, on the
+    ``model='interlock'``: the same with the median slope-push weights of the ascending
+    and the descending slopes. ``model='pressure'``: Eq. (4) with the constant pressure, on the
     absolute footing, with the subject's flat-ground ``mu`` and the median ``p0, p1``.
 
     ``model='paper'``: Eq. (4) as printed, ``mu`` by grid search and the median ``p0, p1``
@@ -351,7 +360,7 @@ def _loso_row(model: str, subject, surf: Surface, trials, ins, got: dict, params
         "p_out_of_sample": out[1],
         "rho_out_of_sample_measured_load": _rho(got["lm"], got["lg"])[0],
         **(variant_of_params(params).row_params(params) if params is not None else
-           dict.fromkeys(("mu", "p0", "p1", "p1_down", "inset_mm", "kappa_per_mm"), nan)),
+           dict.fromkeys(("mu", "p0", "p1", "push_up", "push_down", "inset_mm", "kappa_per_mm"), nan)),
         "note": "",
     }
 

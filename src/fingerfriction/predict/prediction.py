@@ -97,8 +97,8 @@ class Prediction:
         """The parameters in one line with their units."""
         p = self.params
         if isinstance(p, LoadParams):
-            down = f" (ascending), p1_down={p.p1_down:.3g} N/mm" if p.asymmetric else ""
-            return (f"mu={p.mu:.3g}, p1={p.p1:.3g} N/mm{down}, inset={p.inset:.3g} mm, "
+            push = f", slope push {p.push_up:.3g} up, {p.push_down:.3g} down" if p.split_push else ""
+            return (f"mu={p.mu:.3g}, p1={p.p1:.3g} N/mm{push}, inset={p.inset:.3g} mm, "
                     f"kappa={p.kappa:.3g}/mm "
                     f"(load-consistent, F_N={self.load:g} N)")
         return f"mu={p.mu:.3g}, p0={p.p0:.3g} N/mm, p1={p.p1:.3g} N/mm (paper's Eq. 4)"

@@ -29,6 +29,7 @@ from .channels import ForceFigures, check_channels, force_figures
 from .clock import MainsEstimate, check_force_clock, mains_frequency
 from .flags import LEVELS, SYNC_MODES, Check, SelfCheckError, SelfCheckParams, describe_checks, first_error
 from .geometry import FeatureFit, check_geometry, check_speed, measure_feature, sliding_speed
+from .scale import flat_contact_length, scale_checks
 from .stage import ORDER, TrialChecks, check_trial
 from .sync import OffsetEstimate, OnsetData, estimate_offsets, onset_data
 
@@ -58,4 +59,6 @@ __all__ = [
     "OffsetEstimate",
     "onset_data",
     "estimate_offsets",
+    "flat_contact_length",
+    "scale_checks",
 ]

@@ -45,6 +45,12 @@ class OnsetData:
         F_T / F_N, signed by the sliding direction; NaN where the finger does not press.
     frame_period : float
         Video frame period in s.
+    touch_video_s, touch_video_se_s : float
+        The touch-down in the video (video clock, s) and its standard error
+        (:func:`~fingerfriction.selfcheck.touchdown.touch_video`; NaN: not measured).
+    touch_force_s, touch_force_se_s : float
+        The touch-down in the force record (the manifest's force clock, s) and its standard
+        error (:func:`~fingerfriction.selfcheck.touchdown.touch_force`; NaN: not measured).
     """
 
     trial_id: str
@@ -56,10 +62,25 @@ class OnsetData:
     ds: float
     ratio: np.ndarray
     frame_period: float
+    touch_video_s: float = math.nan
+    touch_video_se_s: float = math.nan
+    touch_force_s: float = math.nan
+    touch_force_se_s: float = math.nan
 
     @property
     def s(self) -> np.ndarray:
         return self.s0 + self.ds * np.arange(self.ratio.size)
+
+    @property
+    def touch_offset_s(self) -> float:
+        """The offset the touch-downs give (what to add to the force clock), s (NaN: not
+        measured in both recordings)."""
+        return self.touch_video_s - self.touch_force_s
+
+    @property
+    def touch_se_s(self) -> float:
+        """Its standard error, s."""
+        return math.hypot(self.touch_video_se_s, self.touch_force_se_s)
 
     def shifted(self, offset_s: float, rate: float = 1.0) -> OnsetData:
         """The same data with the force clock moved by ``offset_s`` (and scaled by ``rate``
@@ -74,6 +95,10 @@ class OnsetData:
             self.ds * rate,
             self.ratio,
             self.frame_period,
+            self.touch_video_s,
+            self.touch_video_se_s,
+            self.s0 + offset_s + (self.touch_force_s - self.s0) * rate,
+            self.touch_force_se_s * rate,
         )
 
     def to_dict(self) -> dict:
@@ -87,10 +112,25 @@ class OnsetData:
             "ds": self.ds,
             "frame_period": self.frame_period,
             "ratio": [None if not np.isfinite(v) else round(float(v), 5) for v in self.ratio],
+            "touch": {
+                k: None if not math.isfinite(v) else round(float(v), 8)
+                for k, v in (
+                    ("video_s", self.touch_video_s),
+                    ("video_se_s", self.touch_video_se_s),
+                    ("force_s", self.touch_force_s),
+                    ("force_se_s", self.touch_force_se_s),
+                )
+            },
         }
 
     @classmethod
     def from_dict(cls, d: dict) -> OnsetData:
+        touch = d.get("touch") or {}
+
+        def tv(key: str) -> float:
+            v = touch.get(key)
+            return math.nan if v is None else float(v)
+
         return cls(
             str(d["trial_id"]),
             str(d["group"]),
@@ -101,6 +141,10 @@ class OnsetData:
             float(d["ds"]),
             np.array([np.nan if v is None else v for v in d["ratio"]], float),
             float(d["frame_period"]),
+            tv("video_s"),
+            tv("video_se_s"),
+            tv("force_s"),
+            tv("force_se_s"),
         )
 
 

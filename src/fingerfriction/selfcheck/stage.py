@@ -24,7 +24,9 @@ from .channels import check_channels, force_figures
 from .clock import check_force_clock, mains_frequency
 from .flags import Check, SelfCheckParams, first_error
 from .geometry import check_geometry, check_speed, measure_feature, sliding_speed
+from .scale import flat_contact_length
 from .sync import OnsetData, onset_data
+from .touchdown import touch_force, touch_video
 
 __all__ = ["TrialChecks", "check_trial", "ORDER"]
 
@@ -63,6 +65,8 @@ class TrialChecks:
         The measured figures (JSON-serialisable).
     elapsed_s : float
         Time the checks took, s.
+    cpu_s : float
+        CPU time the checks took in this process, s.
     sensor : object or None
         The force signals the checks used, for the force stage to reuse
         (:class:`fingerfriction.forces.SensorSignals`; None when the record changed).
@@ -74,6 +78,7 @@ class TrialChecks:
     record: ForceRecord
     figures: dict = field(default_factory=dict)
     elapsed_s: float = 0.0
+    cpu_s: float = 0.0
     sensor: object | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -99,7 +104,26 @@ class TrialChecks:
             "onset": None if self.onset is None else self.onset.to_dict(),
             "onset_message": self.onset_message,
             "elapsed_s": round(self.elapsed_s, 4),
+            "cpu_s": round(self.cpu_s, 4),
         }
+
+
+def _with_touch(onset: OnsetData, t_frames, gap_mm, record: ForceRecord, mains, fs_manifest: float,
+                figures: dict) -> OnsetData:
+    """``onset`` with the touch-down in both recordings (:mod:`.touchdown`); what each found
+    goes to ``figures['touch']``."""
+    tv = touch_video(t_frames, gap_mm) if gap_mm is not None else None
+    # the hum on the record's clock (the manifest's, or the mains-corrected one of --sync auto)
+    hum = mains.frequency_hz * record.fs_hz / fs_manifest if mains.found else math.nan
+    tf = touch_force(record.f1, record.f2, record.fs_hz, record.t0_s, mains_hz=hum)
+    figures["touch"] = {
+        "video": "not measured: the video stage gave no gap" if tv is None else tv.message,
+        "force": tf.message,
+    }
+    if tv is None or not tv.measured:
+        return replace(onset, touch_force_s=tf.t_s, touch_force_se_s=tf.se_s)
+    return replace(onset, touch_video_s=tv.t_s, touch_video_se_s=tv.se_s, touch_force_s=tf.t_s,
+                   touch_force_se_s=tf.se_s)
 
 
 def _direction(x_frames) -> int:
@@ -118,6 +142,8 @@ def check_trial(
     signals: ForceSignals,
     t_frames,
     x_frames,
+    gap_mm=None,
+    regions=None,
     surface_rows=None,
     surface: Surface | None = None,
     height_mm: float = math.nan,
@@ -136,6 +162,12 @@ def check_trial(
         Its forces after the sensor's steps (:func:`fingerfriction.forces.sensor_signals`).
     t_frames, x_frames : (n_frames,) array_like
         Frame times (s, the manifest's video clock) and x(t) (mm, NaN unknown).
+    gap_mm : (n_frames,) array_like, optional
+        The finger's lowest point above the surface per frame (mm, NaN unknown), for the
+        touch-down (:mod:`.touchdown`).
+    regions : (n_frames, k, 2) array_like, optional
+        The video's contact regions per frame (mm), for the contact length on flat ground
+        the force's scale is compared with across a finger's trials (:mod:`.scale`).
     surface_rows : (width,) array_like, optional
         The calibration frame's surface profile in rows
         (:attr:`fingerfriction.video.calibrate.Calibration.surface_row`).
@@ -152,7 +184,8 @@ def check_trial(
     TrialChecks
     """
     P = params or SelfCheckParams()
-    t_start = time.perf_counter()
+    t_start, c_start = time.perf_counter(), time.process_time()
+    fs_manifest = record.fs_hz
     figures: dict = {}
     direction = _direction(x_frames)
     fig = force_figures(signals.f_n, signals.f_t, signals.fs_hz, direction)
@@ -188,6 +221,9 @@ def check_trial(
         else:
             figures["feature"] = feature.to_dict()
         checks += check_geometry(feature, surface, height_mm, params=P)
+    if regions is not None and surface is not None:
+        length = flat_contact_length(x_frames, regions, surface.feature_extent)
+        figures["contact_flat_mm"] = None if not math.isfinite(length) else round(length, 4)
     if speed_mm_s:
         v = sliding_speed(t_frames, x_frames)
         figures["speed_mm_s"] = None if not math.isfinite(v) else round(v, 4)
@@ -202,5 +238,6 @@ def check_trial(
         if isinstance(got, str):
             onset_message = got
         else:
-            onset = got
-    return TrialChecks(tuple(checks), onset, onset_message, record, figures, time.perf_counter() - t_start)
+            onset = _with_touch(got, t_frames, gap_mm, record, mains, fs_manifest, figures)
+    return TrialChecks(tuple(checks), onset, onset_message, record, figures, time.perf_counter() - t_start,
+                       time.process_time() - c_start)

@@ -32,13 +32,15 @@ clock against its frames' time stamps (:func:`fingerfriction.video.reader_base.f
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
 from .._check import check_option
+from .estimate import OffsetEstimate
 from .onsets import MOTION_MM, WINDOW_S, OnsetData, onset_data
+from .touchdown import touch_level
 
 __all__ = ["OnsetData", "OffsetEstimate", "onset_data", "estimate_offsets", "MOTION_MM", "PRIOR_D_MM"]
 
@@ -77,62 +79,6 @@ KNOTS_MM = np.array(
 PRIOR_D_MM = (0.02, 0.5)
 #: Fewest trials of a finger for the relative estimate.
 MIN_TRIALS = 3
-
-
-@dataclass(frozen=True)
-class OffsetEstimate:
-    """The measured video-force offset of one trial.
-
-    Attributes
-    ----------
-    trial_id : str
-    offset_s : float
-        What to add to the force clock (``force.t0_s``) to put it on the video clock, s.
-    se_s : float
-        Its standard error, s.
-    relative_s : float
-        The part that differs from the trial's finger's other trials, s (``offset_s`` minus
-        ``common_s``).
-    common_s, common_se_s : float
-        The offset shared by the finger's trials and its standard error, s (NaN when not
-        measured).
-    method : str
-        ``'relative'`` (against the other trials of the finger), ``'prior'`` (one trial
-        alone: the pre-sliding distance's prior range sets the error) or ``'none'``.
-    n_reference : int
-        Trials of the finger the estimate rests on.
-    message : str
-        What was done, or why nothing could be.
-    """
-
-    trial_id: str
-    offset_s: float
-    se_s: float
-    relative_s: float = math.nan
-    common_s: float = math.nan
-    common_se_s: float = math.nan
-    method: str = "relative"
-    n_reference: int = 0
-    message: str = ""
-
-    @property
-    def measured(self) -> bool:
-        return math.isfinite(self.offset_s)
-
-    def to_dict(self) -> dict:
-        def ms(v):
-            return None if not math.isfinite(v) else round(1e3 * float(v), 4)
-
-        return {
-            "offset_ms": ms(self.offset_s),
-            "se_ms": ms(self.se_s),
-            "relative_ms": ms(self.relative_s),
-            "common_ms": ms(self.common_s),
-            "common_se_ms": ms(self.common_se_s),
-            "method": self.method,
-            "n_reference": self.n_reference,
-            "message": self.message,
-        }
 
 
 # --------------------------------------------------------------------------------------
@@ -454,9 +400,15 @@ def _check_group(items, ref, se_floor_s: float, common_floor_s: float) -> dict[s
         med = float(np.median(ref_t[ok]))
         mad = float(np.median(np.abs(ref_t[ok] - med))) * 1.4826
     se = max(mad, se_floor_s)
-    common, common_se = _common_offset(ref, np.zeros(len(ref)))
-    if math.isfinite(common_se):
-        common_se = max(common_se, common_floor_s)
+    level = touch_level(ref, {o.trial_id: taus[o.trial_id] for o in ref})
+    if level is not None:  # the touch-downs fix what the trials share
+        common, common_se = level.at(1.0)
+        how = f"; the offset its trials share from {level.n} touch-downs"
+    else:
+        common, common_se = _common_offset(ref, np.zeros(len(ref)))
+        if math.isfinite(common_se):
+            common_se = max(common_se, common_floor_s)
+        how = ""
     out = {}
     for o in items:
         t = taus[o.trial_id]
@@ -469,7 +421,8 @@ def _check_group(items, ref, se_floor_s: float, common_floor_s: float) -> dict[s
             common_se,
             "relative",
             len(ref),
-            f"against the pre-sliding law of {len(ref)} trials of finger {o.group!r}",
+            f"against the pre-sliding law of {len(ref)} trials of finger {o.group!r}{how}",
+            level_by="touch-down" if level is not None else "starts",
         )
     return out
 
@@ -488,14 +441,46 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
     period = float(np.median([o.frame_period for o in items]))
     tight = fin.sum() >= MIN_TRIALS and np.mean(np.abs(offs[fin]) <= 2 * period) >= 0.7
     if tight:
-        return {
-            k: replace(
+        return _on_consensus(items, checked)
+    return _aligned_from_starts(items, se_floor_s)
+
+
+def _on_consensus(items, checked: dict) -> dict[str, OffsetEstimate]:
+    """``mode='auto'`` when the manifest's clocks agree among themselves: ``mode='check'``'s
+    estimates (``checked``), each moved by what the touch-downs measure of the consensus's
+    own offset (a common shift, and one as speed^-1/4)."""
+    # the consensus's own offset from the touch-downs: a common shift, and one as
+    # speed^-1/4 (what the starts cannot tell from a change of the pre-sliding law)
+    sp = {o.trial_id: _speed(o) for o in items}
+    level = touch_level(items, {k: e.offset_s for k, e in checked.items()}, speeds=sp)
+    out = {}
+    for o in items:
+        e = checked[o.trial_id]
+        if level is not None and e.measured and math.isfinite(sp[o.trial_id]):
+            c, c_se = level.at(sp[o.trial_id])
+            e = replace(
                 e,
-                message=e.message + "; the manifest's clocks agree among themselves: the others "
-                "are put on their consensus",
+                offset_s=e.offset_s + c,
+                se_s=math.hypot(e.se_s, c_se),
+                common_s=c,
+                common_se_s=c_se,
+                message=e.message + f" ({1e3 * c:+.2f} ms for this trial's speed, applied)",
+                level_by="touch-down",
             )
-            for k, e in checked.items()
-        }
+        out[o.trial_id] = replace(
+            e,
+            message=e.message + "; the manifest's clocks agree among themselves: the others "
+            "are put on their consensus",
+        )
+    return out
+
+
+def _aligned_from_starts(items, se_floor_s: float) -> dict[str, OffsetEstimate]:
+    """``mode='auto'`` when the manifest's clocks disagree: every trial starts from its half
+    rise at the prior's central pre-sliding distance and the trials are aligned on each
+    other; what their starts cannot tell apart (a common shift, and a shift growing as
+    speed^-1/4) is placed by the touch-downs, or stays at the prior, whose range sets the
+    error."""
     mid = math.sqrt(PRIOR_D_MM[0] * PRIOR_D_MM[1])
     out = {}
     usable, start, prior_se = [], [], []
@@ -527,7 +512,32 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
         taus = new
     resid = taus - start
     se_rel = max(float(np.median(np.abs(resid - np.median(resid)))) * 1.4826, se_floor_s)
-    for o, t, pse in zip(usable, taus, prior_se, strict=True):
+    # what the starts cannot tell (a common shift and one as speed^-1/4) from the touch-downs
+    level = touch_level(
+        usable,
+        {o.trial_id: float(t) for o, t in zip(usable, taus, strict=True)},
+        speeds={o.trial_id: float(v) for o, v in zip(usable, speeds, strict=True)},
+    )
+    for o, t, pse, v in zip(usable, taus, prior_se, speeds, strict=True):
+        text = (
+            f"the manifest's clocks disagree among themselves: {len(usable)} trials of finger "
+            f"{o.group!r} aligned on each other from their half rise at {mid:.2g} mm of pre-sliding "
+        )
+        if level is not None and math.isfinite(v):
+            c, c_se = level.at(float(v))
+            out[o.trial_id] = OffsetEstimate(
+                o.trial_id,
+                float(t) + c,
+                math.hypot(se_rel, c_se),
+                float(t - np.median(taus)),
+                float(np.median(taus)) + c,
+                c_se,
+                "joint",
+                len(usable),
+                text + f"and placed by {level.n} touch-downs",
+                level_by="touch-down",
+            )
+            continue
         out[o.trial_id] = OffsetEstimate(
             o.trial_id,
             float(t),
@@ -537,9 +547,8 @@ def _auto_group(items, se_floor_s: float, common_floor_s: float) -> dict[str, Of
             float(np.median(prior_se)),
             "joint",
             len(usable),
-            f"the manifest's clocks disagree among themselves: {len(usable)} trials of finger {o.group!r} "
-            f"aligned on each other from their half rise at {mid:.2g} mm of pre-sliding "
-            f"(range {PRIOR_D_MM[0]:g}-{PRIOR_D_MM[1]:g} mm)",
+            text + f"(range {PRIOR_D_MM[0]:g}-{PRIOR_D_MM[1]:g} mm)",
+            level_by="starts",
         )
     return out
 

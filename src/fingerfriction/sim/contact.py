@@ -49,6 +49,7 @@ from ..mechanics.fe import FEProvider
 from ..surfaces import Surface
 from ._geometry import geometric_distance
 from ._io import write_npz
+from .pad import low_load_outline
 
 __all__ = [
     "SimFinger",
@@ -60,6 +61,7 @@ __all__ = [
     "EXTRA_INTEGRALS",
     "default_provider",
     "get_provider",
+    "low_load_outline",
 ]
 
 log = logging.getLogger(__name__)
@@ -430,9 +432,15 @@ class ContactTable:
         return ((1 - v) * ((1 - w) * I[j0, i0] + w * I[j0, i1])
                 + v * ((1 - w) * I[j1, i0] + w * I[j1, i1]))
 
-    def profile(self, x_c: float, load: float) -> tuple[np.ndarray, np.ndarray]:
+    def profile(self, x_c: float, load: float, pad=None) -> tuple[np.ndarray, np.ndarray]:
         """Outline ``y_f`` (mm) and pressure ``p`` (N/mm^2) on :attr:`xi` for one finger
-        position ``x_c`` (mm) and load (N), bilinear in position and load."""
+        position ``x_c`` (mm) and load (N), bilinear in position and load.
+
+        Below the lowest tabulated load, with the pad's force-indentation law ``pad``
+        (:class:`~fingerfriction.sim.kinematics.PadLaw`), the outline is the lowest load's
+        unloaded by the pad (:func:`low_load_outline`: the contact shrinks to a point as
+        the load goes to 0); without it, the lowest load's outline is held.
+        """
         i0, w = self._pos_index(np.array([x_c]))
         j0, v = self._load_index(np.array([load]))
         i0, w, j0, v = int(i0[0]), float(w[0]), int(j0[0]), float(v[0])
@@ -443,6 +451,8 @@ class ContactTable:
             a = (1 - w) * arr[j0, i0].astype(float) + w * arr[j0, i1]
             b = (1 - w) * arr[j1, i0].astype(float) + w * arr[j1, i1]
             out.append((1 - v) * a + v * b)
+        if pad is not None and load < float(self.loads[0]):
+            return low_load_outline(self.xi, out[0], out[1], float(load), float(self.loads[0]), pad)
         return out[0], out[1]
 
     def save(self, path) -> None:

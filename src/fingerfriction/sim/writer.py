@@ -126,7 +126,7 @@ def frame_outline(kin: Kinematics, table: ContactTable, i: int) -> tuple[float, 
         Contact pressure on the same grid (zero off the surface).
     """
     x_c = float(kin.x[i])
-    y_f, p = table.profile(x_c, max(float(kin.f_n[i]), float(table.loads[0])))
+    y_f, p = table.profile(x_c, float(kin.f_n[i]), pad=kin.pad)
     z = float(kin.z[i])
     if z > 0 or not kin.in_contact[i]:
         y_f = y_f + z
@@ -159,6 +159,7 @@ def simulate_trial(plan: TrialPlan, opts: SimOptions, table: ContactTable, law: 
         "mu_load_exponent": np.float64(load_exp),
         "world": np.array(opts.world.name), "chain": np.array(opts.chain_name),
         "F_N_target": np.float64(kin.f_target),
+        "approach_speed_mm_s": np.float64(kin.approach_speed), "t_touch_s": np.float64(kin.t_contact),
         **{k: np.asarray(v, np.float64) if np.ndim(v) == 0 else np.asarray(v)
            for k, v in forces.truth.items()},
         **{k: np.asarray(v) for k, v in truth_extra.items()},

@@ -121,6 +121,8 @@ class VideoResult:
         is a lower bound (the frame's position and its other regions are unaffected).
         Happens near the ends of the 26 mm window, where the pad's contact extends beyond
         the paper's 29 mm field of view (``position='hybrid'``).
+    gap_px : (n_frames,) ndarray or None
+        The finger's lowest point above the surface, px (0: touching; NaN: no outline).
     """
 
     path: str
@@ -144,6 +146,7 @@ class VideoResult:
     x_source: np.ndarray | None = field(default=None, repr=False)
     hybrid: dict = field(default_factory=dict)
     clipped: np.ndarray | None = field(default=None, repr=False)
+    gap_px: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def n_frames(self) -> int:
@@ -348,7 +351,7 @@ class FrameAnalyzer:
             ``h_left``, ``h_right`` the outline's edges at the edge row (mm; NaN unless the
             finger touches the surface). With ``position='hybrid'``, ``x`` is NaN (only
             known for the whole video) and ``regions`` are filled for every frame that may
-            get a hybrid position.
+            get a hybrid position. ``gap`` (k,) px: :attr:`VideoResult.gap_px`.
         """
         opt, cal = self.opt, self.cal
         f, flags = self.outlines(frames)
@@ -395,8 +398,9 @@ class FrameAnalyzer:
         # an edge is a position only while the finger rests on the surface (vertical gap
         # within the contact tolerance somewhere): a lifted finger moves its edges
         with np.errstate(invalid="ignore"):
-            touch = seen & (np.min(np.where(np.isnan(f), np.inf, self.s[None, :] - f), axis=1)
-                            <= opt.contact_tol_px)
+            gap = np.min(np.where(np.isnan(f), np.inf, self.s[None, :] - f), axis=1)
+            touch = seen & (gap <= opt.contact_tol_px)
+        gap = np.where(seen & np.isfinite(gap), np.maximum(gap, 0.0), np.nan)
         el, er = chord_ends(f, self.edge_row)
         h_left = np.where(touch, cal.col_to_mm(el), np.nan)
         h_right = np.where(touch, cal.col_to_mm(er), np.nan)
@@ -431,7 +435,7 @@ class FrameAnalyzer:
         self.n_frames_seen += k
         return {"x": x, "x_cf": x_cf, "x_chord": x_chord, "regions": regions, "flags": flags,
                 "line_row": line, "f": f, "h_chord": chord_all, "h_left": h_left, "h_right": h_right,
-                "too_many": too_many}
+                "too_many": too_many, "gap": gap}
 
 
 def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = None,
@@ -508,7 +512,7 @@ def analyze_video(video, surface_height_mm: float, *, surface: Surface | None = 
                        timings=timings, truncated=bool(truncated), success=n_good > 0, message=msg,
                        x_hybrid=np.where(too_many, np.nan, hyb.x),
                        x_source=np.where(too_many, PositionSource.NONE, hyb.source).astype(np.uint8),
-                       hybrid=hinfo, clipped=clipped)
+                       hybrid=hinfo, clipped=clipped, gap_px=a["gap"])
 
 
 def _frame_range(reader: VideoReader, n_frames: int | None, start: int, stop: int | None):
@@ -547,7 +551,7 @@ def _analyze_frames(reader: VideoReader, an: FrameAnalyzer, opt: AnalysisOptions
     the per-frame arrays (frames the file does not hold stay flagged CORRUPT) and the time
     spent decoding and analysing."""
     m = stop - start
-    a = {k: np.full(m, np.nan) for k in ("x", "x_cf", "x_chord", "h_chord", "h_left", "h_right", "line_row")}
+    a = {k: np.full(m, np.nan) for k in "x x_cf x_chord h_chord h_left h_right line_row gap".split()}
     a["flags"] = np.full(m, int(FrameFlag.CORRUPT), dtype=np.uint8)
     a["regions"] = np.full((m, opt.n_max_regions, 2), np.nan)
     a["too_many"] = np.zeros(m, bool)
