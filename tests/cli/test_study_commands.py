@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 import sys
 from pathlib import Path
 
@@ -46,14 +47,14 @@ def test_fit_and_report_on_a_results_folder(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_study_no_variant_explains_is_rejected_with_exit_status_1(tmp_path):
+def test_a_study_no_variant_explains_is_rejected_with_exit_status_1(rejected_fit, tmp_path):
     """Forces unrelated to the surface: every variant fails its bars, the study gets the
     error 'model rejected', printed with its reason, and fit and report say so."""
-    write_synthetic_results(tmp_path / "r", regions="forward", force_law="unrelated")
-    r = runner.invoke(app, ["fit", str(tmp_path / "r")])
-    assert r.exit_code == 1, r.output
-    assert "error: model rejected: no variant passes the bars (load: " in " ".join(r.output.split())
-    assert "MODEL REJECTED" in r.output and "Traceback" not in r.output
+    fitted, exit_code, output = rejected_fit  # `fit` on them (tests/conftest.py)
+    assert exit_code == 1, output
+    assert "error: model rejected: no variant passes the bars (load: " in " ".join(output.split())
+    assert "MODEL REJECTED" in output and "Traceback" not in output
+    shutil.copytree(fitted, tmp_path / "r")
     r = runner.invoke(app, ["report", str(tmp_path / "r")])
     assert r.exit_code == 0, r.output  # the report was written; the error is the fit's
     assert "error: model rejected" in r.output

@@ -196,16 +196,14 @@ def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp
 
 
 @pytest.mark.slow
-def test_a_rejected_model_is_an_error_at_the_top_of_the_report(tmp_path):
+def test_a_rejected_model_is_an_error_at_the_top_of_the_report(rejected_fit, tmp_path):
     """Forces no variant explains: the fit rejects every variant (exit status 1), and the
     report opens with the error and its reason, above the summary, in the browser."""
     exe = _chromium()
-    from report_synthetic import write_synthetic_results
-
+    fitted, exit_code, output = rejected_fit  # `fit` on them (tests/conftest.py)
+    assert exit_code == 1 and "error: model rejected:" in output, output
     results = tmp_path / "rejected"
-    write_synthetic_results(results, regions="forward", force_law="unrelated")
-    r = CliRunner().invoke(app, ["fit", str(results)])
-    assert r.exit_code == 1 and "error: model rejected:" in r.output, r.output
+    shutil.copytree(fitted, results)
     rep = make_report(results, sample=0, animations=False)
     assert rep.rejection.startswith("no variant passes the bars")
     assert [(f["level"], f["code"]) for f in rep.flags][0] == ("error", "model-rejected")
