@@ -65,7 +65,6 @@ from .common import (
     one_subject,
 )
 from .load_results import (
-    MU_PER,  # noqa: F401 (re-exported: moved to load_results)
     LoadFitOptions,
     LoadSubjectFit,
     LoadTrialFit,

@@ -63,7 +63,6 @@ from .common import (
     one_subject,
 )
 from .paper_results import (
-    OBJECTIVES,  # noqa: F401 (re-exported: moved to paper_results)
     FitOptions,
     SubjectFit,
     TrialFit,

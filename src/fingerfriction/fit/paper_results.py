@@ -119,6 +119,12 @@ class TrialFit:
         """The fitted parameters (raises ``ValueError`` if they are unphysical, p0 < 0)."""
         return FrictionParams(mu=self.mu, p0=self.p0, p1=self.p1)
 
+    @property
+    def used(self) -> np.ndarray:
+        """``(n,)`` bool: the positions compared (where the estimate is defined), as the
+        absolute-footing variants' ``used``."""
+        return np.isfinite(self.estimate)
+
 
 @dataclass(frozen=True, eq=False)
 class SubjectFit:

@@ -309,10 +309,9 @@ def _evidence(name: str, fits: dict, trials: list, table1: pd.DataFrame, loso: d
     xs, meas, res, groups = [], [], [], []
     for tf in tfs:
         t = by_id.get(tf.labels.get("trial", ""))
-        used = getattr(tf, "used", None)
         if t is None or not tf.success:
             continue
-        used = np.isfinite(tf.estimate) if used is None else used
+        used = tf.used
         xs.append(t.x[used])
         meas.append(tf.measured[used])
         res.append((tf.measured - tf.estimate)[used])
