@@ -114,7 +114,7 @@ def test_every_output_follows_the_umask(tmp_path):
         from typer.testing import CliRunner
         from fingerfriction.cli import app
         out = {str(tmp_path)!r}
-        write_synthetic_results(out + "/results")
+        write_synthetic_results(out + "/results", subjects={{"1": 0.55}})  # one subject: the same files
         r = CliRunner()
         for args in (["fit", out + "/results"], ["report", out + "/results"],
                      ["predict", "--surface", "bump-2mm", "--subject", "1", "--step", "0.1",

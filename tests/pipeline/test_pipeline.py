@@ -31,6 +31,7 @@ from fingerfriction.study.store import (
     frames_table,
     regions_from_table,
 )
+from shared_inputs import once_per_run
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 # The options of simulated studies (see fingerfriction.pipeline.sim_params): the defaults.
@@ -211,16 +212,21 @@ def make_tiny_study(out: Path) -> Path:
     return out
 
 
+# The tiny study and its analysis are built once per run (tests/shared_inputs.py), shared by
+# the xdist workers: read-only, a test that writes into one (an edit, a fit, a report) copies it.
 @pytest.fixture(scope="module")
 def tiny_study(tmp_path_factory):
-    return make_tiny_study(tmp_path_factory.mktemp("tiny") / "study")
+    folder, _ = once_per_run(tmp_path_factory, "pipeline-tiny-study", lambda f: make_tiny_study(f / "study"))
+    return folder / "study"
 
 
 @pytest.fixture(scope="module")
 def clean_results(tiny_study, tmp_path_factory):
-    out = tmp_path_factory.mktemp("clean") / "results"
-    res = analyze(tiny_study, out, n_workers=2, progress=False, params=SIM)
-    return res, out
+    def build(folder):
+        return analyze(tiny_study, folder / "results", n_workers=2, progress=False, params=SIM)
+
+    folder, res = once_per_run(tmp_path_factory, "pipeline-clean-results", build)
+    return res, folder / "results"
 
 
 def _trial_ids(study: Path) -> list[str]:
@@ -238,8 +244,10 @@ def _fingerprint(out: Path, tid: str) -> dict:
 
 
 @pytest.mark.slow
-def test_end_to_end_tiny_study(tiny_study, clean_results):
-    res, out = clean_results
+def test_end_to_end_tiny_study(tiny_study, clean_results, tmp_path):
+    res, shared = clean_results
+    out = tmp_path / "results"
+    shutil.copytree(shared, out)  # the fit and the report below write into it
     ids = _trial_ids(tiny_study)
     assert res.n_trials == len(ids) == 4
     assert res.n_computed == 4 and res.n_failed == 0 and res.success, res.failures
@@ -289,6 +297,8 @@ def test_end_to_end_tiny_study(tiny_study, clean_results):
 
 @pytest.mark.slow
 def test_interrupted_run_resumes_without_loss_or_recomputation(tiny_study, tmp_path):
+    shutil.copytree(tiny_study, tmp_path / "study")  # a force file is edited below
+    tiny_study = tmp_path / "study"
     out = tmp_path / "results"
     ids = _trial_ids(tiny_study)
     k = 2
@@ -489,12 +499,14 @@ def test_frames_table_keeps_the_position_source():
 
 
 @pytest.mark.slow
-def test_force_history_is_stored_and_shown_in_the_run_record(clean_results):
+def test_force_history_is_stored_and_shown_in_the_run_record(clean_results, tmp_path):
     """Every step of the force processing, with its fitted values, is in each trial's
     status.json and, as readable lines, in the report's run record."""
     from fingerfriction.report import make_report
 
-    _, out = clean_results
+    _, shared = clean_results
+    out = tmp_path / "results"
+    shutil.copytree(shared, out)  # the report is written into it
     store = ResultsStore(out)
     tid = store.trial_ids()[0]
     history = store.status(tid)["info"]["forces"]["history"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import re
+import shutil
 
 import numpy as np
 import pandas as pd
@@ -17,8 +18,10 @@ from fingerfriction.study.store import ResultsStore
 
 
 @pytest.fixture(scope="module")
-def report(synthetic_results):
-    results, truth = synthetic_results
+def report(synthetic_results, tmp_path_factory):
+    shared, truth = synthetic_results
+    results = tmp_path_factory.mktemp("report") / "results"
+    shutil.copytree(shared, results)  # the report is written into the results folder
     return make_report(results), results, truth
 
 
