@@ -22,12 +22,9 @@ set_hypothesis_home_dir(os.environ.get("FINGERFRICTION_HYPOTHESIS_DIR")
                         or Path(tempfile.gettempdir()) / "fingerfriction-hypothesis")
 
 
-@pytest.fixture(scope="session")
-def rejected_fit(tmp_path_factory):
-    """``(results, exit status, output)`` of `fingerfriction fit` on synthetic results whose
-    forces no variant explains (the forward model's contact, a force unrelated to the
-    surface): every variant rejected. One fit for the command-line and the browser tests
-    of a rejected model; a test that writes into the folder (the report) copies it."""
+def _synthetic_fit(tmp_path_factory, name: str, **kw) -> tuple:
+    """``(results, exit status, output)`` of `fingerfriction fit` on the synthetic results
+    of ``write_synthetic_results(**kw)`` (tests/report/report_synthetic.py), once per run."""
 
     def build(folder):
         import sys
@@ -39,9 +36,30 @@ def rejected_fit(tmp_path_factory):
 
         from fingerfriction.cli import app
 
-        write_synthetic_results(folder / "r", regions="forward", force_law="unrelated")
+        if "truth_dir" in kw:  # a folder beside the results
+            kw["truth_dir"] = folder / kw["truth_dir"]
+        write_synthetic_results(folder / "r", **kw)
         r = CliRunner().invoke(app, ["fit", str(folder / "r")])
         return r.exit_code, r.output
 
-    folder, (exit_code, output) = once_per_run(tmp_path_factory, "rejected-fit", build)
+    folder, (exit_code, output) = once_per_run(tmp_path_factory, name, build)
     return folder / "r", exit_code, output
+
+
+@pytest.fixture(scope="session")
+def rejected_fit(tmp_path_factory):
+    """``(results, exit status, output)`` of `fingerfriction fit` on synthetic results whose
+    forces no variant explains (the forward model's contact, a force unrelated to the
+    surface): every variant rejected. One fit for the command-line and the browser tests
+    of a rejected model; a test that writes into the folder (the report) copies it."""
+    return _synthetic_fit(tmp_path_factory, "rejected-fit", regions="forward", force_law="unrelated")
+
+
+@pytest.fixture(scope="session")
+def forward_fit(tmp_path_factory):
+    """``(results, exit status, output)`` of `fingerfriction fit` on synthetic results with
+    the forward model's contact, forces of a constant pressure with the start transient of
+    real slides, and a truth folder: a study a variant explains, nothing flagged. One fit
+    for the command-line and the browser tests; a test that writes into the folder copies it."""
+    return _synthetic_fit(tmp_path_factory, "forward-fit", regions="forward", transient_mm=0.8,
+                          truth_dir="study/truth")

@@ -3,16 +3,11 @@
 from __future__ import annotations
 
 import shutil
-import sys
-from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
-
-sys.path.insert(0, str(Path(__file__).parents[1] / "report"))
-from report_synthetic import write_synthetic_results  # noqa: E402
 
 runner = CliRunner()
 
@@ -30,16 +25,16 @@ def test_analyze_bad_window_is_one_line_error(tmp_path):
 
 
 @pytest.mark.slow
-def test_fit_and_report_on_a_results_folder(tmp_path):
+def test_fit_and_report_on_a_results_folder(forward_fit, tmp_path):
     # the forward model's contact, forces of a constant pressure: a variant of that family
-    write_synthetic_results(tmp_path / "r", truth_dir=tmp_path / "study" / "truth", regions="forward")
-    r = runner.invoke(app, ["fit", str(tmp_path / "r")])
-    assert r.exit_code == 0, r.output
-    assert "fit: 16 trials, " in r.output and "model used (chosen by --model auto), mu 0." in r.output
-    assert "(subject 1)" in r.output and "model rejected" not in r.output
+    fitted, exit_code, output = forward_fit  # `fit` on them (tests/conftest.py)
+    assert exit_code == 0, output
+    assert "fit: 16 trials, " in output and "model used (chosen by --model auto), mu 0." in output
+    assert "(subject 1)" in output and "model rejected" not in output
     # Table 1 of the model used, titled with its name, then the comparison with a model column
-    i = r.output.index("Table 1 of the model used")
-    assert i < r.output.index("Which model the data support") and "every model" in r.output
+    i = output.index("Table 1 of the model used")
+    assert i < output.index("Which model the data support") and "every model" in output
+    shutil.copytree(fitted, tmp_path / "r")
     r = runner.invoke(app, ["report", str(tmp_path / "r")])
     assert r.exit_code == 0, r.output
     assert "Table 1" in r.output and "blind spots" in r.output and "index.html" in r.output

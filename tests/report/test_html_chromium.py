@@ -30,6 +30,7 @@ from typer.testing import CliRunner
 from fingerfriction.cli import app
 from fingerfriction.report import make_report
 from fingerfriction.report.figures import FIGURES
+from shared_inputs import once_per_run
 
 CHROMIUM = "/usr/bin/chromium"
 #: Where the screenshots are kept for a person to look at (default: the test's tmp_path).
@@ -118,13 +119,19 @@ def _screenshot(exe: str, page: Path, profile: Path, folder: Path, name: str, si
 @pytest.fixture(scope="module")
 def demo_report(tmp_path_factory):
     """A small demo (1 subject, 2 surfaces, 1 speed: 2 simulated trials with videos), its
-    report with a page for every trial."""
-    out = tmp_path_factory.mktemp("demo") / "demo"
-    r = CliRunner().invoke(app, ["demo", "--out", str(out), "--subjects", "1", "--surfaces",
-                                 "bump-2mm,step-up-4mm", "--speeds", "120", "--reps", "1", "--workers", "2"])
-    assert r.exit_code == 0, r.output
-    results = out / "results"
-    return results, make_report(results, sample=None)
+    report with a page for every trial. Made once per run (tests/shared_inputs.py): read-only
+    to the tests, a test that writes into it copies it."""
+
+    def build(folder):
+        out = folder / "demo"
+        r = CliRunner().invoke(app, ["demo", "--out", str(out), "--subjects", "1", "--surfaces",
+                                     "bump-2mm,step-up-4mm", "--speeds", "120", "--reps", "1",
+                                     "--workers", "2"])
+        assert r.exit_code == 0, r.output
+        return make_report(out / "results", sample=None)
+
+    folder, rep = once_per_run(tmp_path_factory, "demo-report", build)
+    return folder / "demo" / "results", rep
 
 
 @pytest.mark.slow
@@ -164,13 +171,13 @@ def test_demo_report_in_headless_chromium(demo_report, tmp_path):
 
 
 @pytest.mark.slow
-def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp_path):
+def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, forward_fit, tmp_path):
     exe = _chromium()
     results, _ = demo_report
     # a fit the fit itself flags: the paper's variant forced, its mu grid stopping below the
     # subject's minimum (mu at its bound)
     flagged = tmp_path / "flagged"
-    shutil.copytree(results, flagged)
+    shutil.copytree(results, flagged, ignore=shutil.ignore_patterns(".probe-*"))  # another test's probe
     r = CliRunner().invoke(app, ["fit", str(flagged), "--mu-min", "0.30", "--mu-max", "0.32",
                                  "--model", "paper"])
     assert r.exit_code in (0, 1), r.output  # 1: every variant rejected (a study-level error)
@@ -179,13 +186,10 @@ def test_warnings_block_when_a_fit_is_flagged_and_not_otherwise(demo_report, tmp
     assert got["warnings"] and "mu-at-grid-edge" in got["warnings_text"]
     # synthetic results with the start transient of real slides: both models fit every
     # trial with their parameters inside their bounds, nothing is flagged
-    from report_synthetic import write_synthetic_results
-
-    from fingerfriction.pipeline.fitting import fit
-
+    fitted, exit_code, output = forward_fit  # `fit` on them (tests/conftest.py)
+    assert exit_code == 0, output
     clean = tmp_path / "clean"
-    write_synthetic_results(clean, transient_mm=0.8, regions="forward")
-    fit(clean, progress=False)
+    shutil.copytree(fitted, clean)
     rep = make_report(clean, sample=0, animations=False)
     assert not [f for f in rep.flags if f["level"] != "info"], rep.flags
     # the comparison variants' flags, if any, are notes, not warnings (the console test shows some)

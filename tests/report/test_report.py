@@ -15,14 +15,21 @@ from fingerfriction.report import make_report
 from fingerfriction.report.data import load_report_data
 from fingerfriction.report.figures import FIGURES
 from fingerfriction.study.store import ResultsStore
+from shared_inputs import once_per_run
 
 
 @pytest.fixture(scope="module")
 def report(synthetic_results, tmp_path_factory):
+    """The report of a copy of the synthetic results (the report is written into the
+    results folder), made once per run (tests/shared_inputs.py): read-only to the tests."""
     shared, truth = synthetic_results
-    results = tmp_path_factory.mktemp("report") / "results"
-    shutil.copytree(shared, results)  # the report is written into the results folder
-    return make_report(results), results, truth
+
+    def build(folder):
+        shutil.copytree(shared, folder / "results")
+        return make_report(folder / "results")
+
+    folder, rep = once_per_run(tmp_path_factory, "synthetic-report", build)
+    return rep, folder / "results", truth
 
 
 @pytest.mark.slow
