@@ -388,10 +388,21 @@ def _print_tables(rep) -> None:
     for key, df in rep.truth.items():
         t = Table(title=f"Recovered vs ground truth: {key}")
         for c in df.columns:
-            t.add_column(str(c))
+            t.add_column("error (%)" if key == "mu" and c == "error" else str(c))
         for row in df.itertuples(index=False):
-            t.add_row(*[f"{v:.3f}" if isinstance(v, float) else str(v) for v in row])
+            t.add_row(*[_truth_cell(key, c, v, row) for c, v in zip(df.columns, row, strict=True)])
         console.print(t)
+
+
+def _truth_cell(key: str, column: str, value, row) -> str:
+    """One cell of a truth table: mu to 5 decimals (a CI can be a few 1e-4 wide) and its
+    error relative to the truth in %, other figures to 3 decimals."""
+    if not isinstance(value, float):
+        return str(value)
+    if key == "mu" and column == "error":
+        true = getattr(row, "mu_true", math.nan)
+        return f"{100.0 * value / true:+.2f}" if true == true and true else "nan"
+    return f"{value:.5f}" if key == "mu" else f"{value:.3f}"
 
 
 def report_cmd(

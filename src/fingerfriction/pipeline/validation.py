@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -302,16 +303,34 @@ def _loso_inputs(trials, fingers) -> tuple[list[Trial], dict[str, Surface], list
     return trials, surfaces, subjects
 
 
+#: Forward sweeps kept in this process across calls (the least recently used dropped beyond
+#: this many; each is a few hundred kB): a fit and a later validation of the same trials in
+#: one session, or several fits of one study, solve each sweep once.
+SWEEP_MEMO_SIZE = 32
+_sweep_memo: OrderedDict = OrderedDict()
+
+
 def _forward_sweep(cache: dict, surf: Surface, finger, trials, *, load: float, contact: str, step: float):
     """``(lo, xs, regions)``: the forward model's sweep over the positions of ``trials``
     (from ``lo`` by ``step`` mm), computed once per surface, finger, load, contact and
-    span (kept in ``cache``)."""
+    span (kept in ``cache``, and in this process's memo of the last
+    :data:`SWEEP_MEMO_SIZE` sweeps; the arrays are read-only)."""
     lo = min(float(t.x[0]) for t in trials)
     hi = max(float(t.x[-1]) for t in trials)
-    key = (surf.name, finger, float(load), contact, round(lo, 9), round(hi, 9), float(step))
+    key = (surf, finger, float(load), contact, round(lo, 9), round(hi, 9), float(step))
     if key not in cache:
-        xs = lo + step * np.arange(int(math.ceil((hi - lo) / step - 1e-9)) + 1)
-        cache[key] = (xs, forward_regions(surf, finger, xs, load=load, contact=contact))
+        entry = _sweep_memo.get(key)
+        if entry is None:
+            xs = lo + step * np.arange(int(math.ceil((hi - lo) / step - 1e-9)) + 1)
+            regions = forward_regions(surf, finger, xs, load=load, contact=contact)
+            xs.setflags(write=False)
+            regions.setflags(write=False)
+            entry = _sweep_memo[key] = (xs, regions)
+            while len(_sweep_memo) > SWEEP_MEMO_SIZE:
+                _sweep_memo.popitem(last=False)
+        else:
+            _sweep_memo.move_to_end(key)
+        cache[key] = entry
     return (lo, *cache[key])
 
 
