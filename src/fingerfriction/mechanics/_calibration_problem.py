@@ -464,3 +464,20 @@ def union_blind_spots(region_list: list[np.ndarray]) -> np.ndarray:
     for i, r in enumerate(region_list):
         arr[i, : r.shape[0]] = r
     return blind_spots(arr).intervals
+
+
+def identification_flags(fields, finger, std: dict, max_rel_std: float, surfaces) -> list[str]:
+    """The calibration's warnings: each fitted field of ``fields`` whose bootstrap std
+    (``std``, field -> std) exceeds ``max_rel_std`` of its value on ``finger``, and each
+    surface fit of ``surfaces`` whose end-point residual RMS exceeds 0.1 mm."""
+    flags = []
+    for f in fields:
+        v = float(getattr(finger, f))
+        if std.get(f, 0.0) > max_rel_std * v:
+            flags.append(f"{f} is poorly identified: bootstrap std {std[f]:.3g} is "
+                         f"{100 * std[f] / v:.0f} % of {v:.4g}")
+    for s in surfaces:
+        if s.rms_end_mm > 0.1:
+            flags.append(f"{s.surface}: end-point residual RMS {s.rms_end_mm:.3f} mm (> 0.1 mm): the model "
+                         "does not reproduce this surface's contact")
+    return flags

@@ -77,6 +77,7 @@ from ._calibration_problem import (
     CalibrationProblem,
     bootstrap_spread,
     end_bias_sensitivity,
+    identification_flags,
     make_fun_jac,
 )
 from .bem import GEOMETRIC_TOL
@@ -522,14 +523,6 @@ def _assess(fine, z, failures: int, finger: FingerParams, std: dict, surfaces, o
     if failures:
         success = False
         msg_parts.append(f"{failures} contact solve(s) did not converge at the optimum")
-    for f in opts.fit:
-        v = float(getattr(finger, f))
-        if std.get(f, 0.0) > opts.max_rel_std * v:
-            flags.append(f"{f} is poorly identified: bootstrap std {std[f]:.3g} is "
-                         f"{100 * std[f] / v:.0f} % of {v:.4g}")
-    for s in surfaces:
-        if s.rms_end_mm > 0.1:
-            flags.append(f"{s.surface}: end-point residual RMS {s.rms_end_mm:.3f} mm (> 0.1 mm): the model "
-                         "does not reproduce this surface's contact")
+    flags.extend(identification_flags(opts.fit, finger, std, opts.max_rel_std, surfaces))
     message = "; ".join(msg_parts) if msg_parts else f"converged ({fine.message})"
     return success, message, flags

@@ -52,7 +52,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..._check import check_option
-from .._calibration_problem import CalibrationProblem, bootstrap_spread, end_bias_sensitivity
+from .._calibration_problem import (
+    CalibrationProblem,
+    bootstrap_spread,
+    end_bias_sensitivity,
+    identification_flags,
+)
 from ..calibrate import CalibrationError, CalibrationTrial, FingerCalibration, optimise
 from ..surface_fit import surface_fits
 from .params import FEFingerParams, FEMeshParams
@@ -501,13 +506,5 @@ def _assess(fine, z, lo, hi, finger, std: dict, surfaces, opts: FECalibrationOpt
         parts.append(f"parameter(s) {', '.join(edge)} at the edge of the tabulated range (ratios "
                      f"{opts.levels[0]:g}..{opts.levels[-1]:g} of the initial finger): the data want a "
                      "finger outside it")
-    for f in opts.fit:
-        v = float(getattr(finger, f))
-        if std.get(f, 0.0) > opts.max_rel_std * v:
-            flags.append(f"{f} is poorly identified: bootstrap std {std[f]:.3g} is "
-                         f"{100 * std[f] / v:.0f} % of {v:.4g}")
-    for s in surfaces:
-        if s.rms_end_mm > 0.1:
-            flags.append(f"{s.surface}: end-point residual RMS {s.rms_end_mm:.3f} mm (> 0.1 mm): the model "
-                         "does not reproduce this surface's contact")
+    flags.extend(identification_flags(opts.fit, finger, std, opts.max_rel_std, surfaces))
     return success, ("; ".join(parts) if parts else f"converged ({fine.message})"), flags
