@@ -40,9 +40,10 @@ the paper's 180: one world and seed costs about 6 min of CPU at 36 trials (simul
 runs of the default set take about an hour on two shared cores at 36 trials.
 
 Run: ``.venv/bin/python benchmarks/worlds.py`` (every world, the default seeds), or
-``--world interlocking --seed 7`` (repeatable). The default seeds are drawn, not chosen:
-the first three of ``numpy.random.default_rng(20).integers(1, 10_000, 3)``. Seed-major
-order: every world's first seed comes before any world's second.
+``--world interlocking --seed 7`` (repeatable; ``--reps 3`` for 108 trials per study).
+The default seeds are drawn, not chosen: the first three of
+``numpy.random.default_rng(20).integers(1, 10_000, 3)``. Seed-major order: every world's
+first seed comes before any world's second.
 """
 
 from __future__ import annotations
@@ -214,11 +215,11 @@ def judge(world: str, seed: int, summary, truth: tuple[dict, dict]) -> str:
     return outcome if not note.startswith(" (NOT MET") else outcome + " (not met)"
 
 
-def run(world: str, seed: int) -> str:
-    name = f"worlds-{world}-seed{seed}"
+def run(world: str, seed: int, reps: int = REPS) -> str:
+    name = f"worlds-{world}-seed{seed}" + (f"-reps{reps}" if reps != REPS else "")
     t0 = time.perf_counter()
     study = simulated_study(name, "--world", world, "--chain", "realistic", "--seed", str(seed),
-                            "--reps", str(REPS))
+                            "--reps", str(reps))
     t_sim = time.perf_counter() - t0
     t0 = time.perf_counter()
     results = analysed(study)
@@ -246,16 +247,18 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--world", action="append", choices=WORLDS, help="a world (repeatable; default: all)")
     ap.add_argument("--seed", action="append", type=int, help="a seed (repeatable; default: the drawn set)")
+    ap.add_argument("--reps", type=int, default=REPS,
+                    help=f"repetitions per condition (default {REPS}: 36 trials; the paper's design is 5)")
     args = ap.parse_args(argv)
     worlds = args.world or list(WORLDS)
     seeds = args.seed or list(DEFAULT_SEEDS)
     print(f"worlds {worlds}, seeds {seeds}" + ("" if args.seed else " (drawn: default_rng(20).integers(1, "
                                                                     "10_000, 3))")
-          + f"; {REPS} repetition per condition (36 trials per study)")
+          + f"; {args.reps} repetition(s) per condition ({36 * args.reps} trials per study)")
     outcomes = {}
     for s in seeds:
         for w in worlds:
-            outcomes[w, s] = run(w, s)
+            outcomes[w, s] = run(w, s, args.reps)
     print("\nsummary")
     print(pd.Series({f"{w} seed {s}": o for (w, s), o in outcomes.items()}).to_string())
     bad = [k for k, o in outcomes.items() if o.startswith("WRONG") or o.endswith("(not met)")]

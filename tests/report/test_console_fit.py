@@ -3,17 +3,15 @@ subject and one summary line, not one line per trial, fold and grid point."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
 from report_synthetic import SUBJECTS, write_synthetic_results
+from typer.testing import CliRunner
 
+from fingerfriction.cli import app
 from fingerfriction.study.store import ResultsStore
-
-SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 @pytest.fixture(scope="module")
@@ -35,13 +33,13 @@ def failing(tmp_path_factory):
 
 
 def _fit(results: Path, *args: str) -> tuple[list[str], list[str], int]:
-    """(stdout lines, stderr lines, exit status) of `fingerfriction fit`."""
-    env = {"PYTHONPATH": str(SRC), "PATH": "/usr/bin:/bin", "COLUMNS": "200"}
-    r = subprocess.run([sys.executable, "-m", "fingerfriction.cli", "fit", str(results), *args],
-                       capture_output=True, text=True, env=env, timeout=600)
-    assert r.returncode in (0, 1), r.stdout + r.stderr
+    """(stdout lines, stderr lines, exit status) of `fingerfriction fit`, run in this process
+    (CliRunner keeps stdout and stderr apart; the console is 200 columns wide, tests/conftest.py):
+    the fits of one study share the forward sweeps of their validation (the process's memo)."""
+    r = CliRunner().invoke(app, ["fit", str(results), *args])
+    assert r.exit_code in (0, 1), r.output + repr(r.exception)
     out = [ln for ln in r.stdout.splitlines() if ln.strip()]
-    return out, [ln for ln in r.stderr.splitlines() if ln.strip()], r.returncode
+    return out, [ln for ln in r.stderr.splitlines() if ln.strip()], r.exit_code
 
 
 @pytest.mark.slow

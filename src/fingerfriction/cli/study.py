@@ -206,6 +206,10 @@ def fit_cmd(
                                    callback=bounded(1, 1001, "samples")),
     seed: int = dataclass_option(f"{_FIT}:fit.seed", "--seed", callback=SEED,
                                  help="Seed of the bootstrap confidence intervals."),
+    validate: bool = typer.Option(True, "--validate/--no-validate",
+                                  help="Validate every variant out of sample (leave one surface out, "
+                                       "fit/loso.csv); --no-validate skips it, faster: the choice then "
+                                       "rests on Table 1 alone."),
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
@@ -220,7 +224,7 @@ def fit_cmd(
     try:
         with console_log(verbosity, echo) as log, _holding(results, "fit"):
             res = fit(results, mu_grid=(mu_min, mu_max, mu_step), progress=show_progress(verbosity),
-                      **given(model=model, method=method, median_kernel=median, seed=seed))
+                      validate=validate, **given(model=model, method=method, median_kernel=median, seed=seed))
     except (ValueError, OSError) as exc:
         fail(str(exc))
     store = ResultsStore(results)
