@@ -1,4 +1,4 @@
-"""The package's argument checks (fingerfriction._check): one vocabulary, one-line messages
+"""The package's argument checks (fingerfriction/_check.py): one vocabulary, one-line messages
 that name the argument, the value and what is allowed."""
 
 from __future__ import annotations
