@@ -24,9 +24,9 @@ import math
 import warnings
 from collections.abc import Iterable
 
-__all__ = ["positive", "nonnegative", "integer", "interval", "SamplingRate", "check_fs", "check_freq",
-           "check_option", "choices_text", "option_message", "validate_type", "check_bool", "parse_json",
-           "MAX_JSON_DEPTH"]
+__all__ = ["positive", "nonnegative", "integer", "in_range", "interval", "SamplingRate", "check_fs",
+           "check_freq", "check_option", "choices_text", "option_message", "validate_type", "check_bool",
+           "parse_json", "MAX_JSON_DEPTH"]
 
 
 def positive(name: str, value, unit: str, *, what: str = "number") -> float:
@@ -91,6 +91,51 @@ def integer(name: str, value, lo: int | None = None, hi: int | None = None, *, w
     if not ok or (lo is not None and int(value) < lo) or (hi is not None and int(value) > hi):
         raise ValueError(f"{name} must be {allowed}, got {value!r}")
     return int(value)
+
+
+def in_range(name: str, value, lo: float | None = None, hi: float | None = None, *, unit: str = "",
+             what: str = "", open_lo: bool = False, open_hi: bool = False) -> float:
+    """``value`` as a finite float between ``lo`` and ``hi`` (either may be None: no bound;
+    each end closed unless ``open_lo`` / ``open_hi``), or a ValueError naming it.
+
+    ``True``/``False`` are not numbers here. The message says the range as it is asked
+    for: "friction must be a friction coefficient in [0, 5], got -0.1", "poisson must be in
+    (0, 0.499], got 0.5", "mu_sd must be <= 0.3 (relative), got 0.5".
+
+    Parameters
+    ----------
+    name : str
+        Argument name used in the message.
+    value : object
+        The value received.
+    lo, hi : float or None
+        The bounds.
+    unit : str
+        Its unit (``'mm'``, ``'DN'``; ``'(relative)'``), after the range in the message.
+    what : str
+        What kind of quantity it is (``'friction coefficient'``), before the range.
+    open_lo, open_hi : bool
+        Exclude the bound itself.
+    """
+    if lo is not None and hi is not None:
+        span = f"in {'(' if open_lo else '['}{lo:g}, {hi:g}{')' if open_hi else ']'}"
+    elif lo is not None:
+        span = f"{'>' if open_lo else '>='} {lo:g}"
+    elif hi is not None:
+        span = f"{'<' if open_hi else '<='} {hi:g}"
+    else:
+        span = ""
+    noun = f"a {what}" if what else "" if span else "a finite number"
+    allowed = " ".join(t for t in (noun, span, unit if span or not unit else f"in {unit}") if t)
+    try:
+        v = float(value) if not isinstance(value, bool) else math.nan
+    except (TypeError, ValueError):
+        v = math.nan
+    ok = math.isfinite(v) and not (lo is not None and (v < lo or (open_lo and v == lo))) \
+        and not (hi is not None and (v > hi or (open_hi and v == hi)))
+    if not ok:
+        raise ValueError(f"{name} must be {allowed}, got {value!r}")
+    return v
 
 
 def interval(name: str, value, unit: str, *, labels: tuple[str, str] = ("lo", "hi")) -> tuple[float, float]:

@@ -241,10 +241,25 @@ def test_friction_shifts_the_patch_against_the_motion_on_any_path():
     ({"friction": -0.1}, r"friction must be a friction coefficient in \[0, 5\], got -0.1"),
     ({"friction": float("nan")}, r"friction must be a friction coefficient"),
     ({"friction": True}, r"friction must be a friction coefficient"),
+    ({"nail_half_angle": 95.0}, r"FEFingerParams.nail_half_angle must be in \(0, 90\) degrees, got 95.0"),
 ])
 def test_bad_fe_finger_parameters_raise_one_line_errors(kw, match):
     with pytest.raises(ValueError, match=match) as e:
         FEFingerParams(**kw)
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize(("cls", "kw", "error", "match"), [
+    (FEFingerParams, {"radius": "11"}, TypeError, r"FEFingerParams.radius must be a number in mm, got str"),
+    (FEFingerParams, {"name": 3}, TypeError, r"FEFingerParams.name must be text, got int"),
+    (FEMeshParams, {"tissue_layers": 2.5}, ValueError, r"FEMeshParams.tissue_layers must be an integer >= 1, "
+                                                       r"got 2.5"),
+    (FEMeshParams, {"penalty": 0.0}, ValueError, r"FEMeshParams.penalty must be a finite positive number in "
+                                                 r"N/mm\^3, got 0.0"),
+])
+def test_bad_fe_options_name_the_value_and_what_is_allowed(cls, kw, error, match):
+    with pytest.raises(error, match=match) as e:
+        cls(**kw)
     assert "\n" not in str(e.value)
 
 

@@ -12,7 +12,7 @@ import pytest
 from fingerfriction.mechanics import SUBJECTS, sweep
 from fingerfriction.mechanics.calibrate import CalibrationError, CalibrationOptions
 from fingerfriction.pipeline.finger_calibration import calibrate_results, trials_from_results
-from fingerfriction.study import ResultsStore, frames_table
+from fingerfriction.study import AnalysedTrial, ResultsStore, frames_table
 from fingerfriction.surfaces import get_surface
 
 TRUE = dataclasses.replace(SUBJECTS[2], radius=24.0, modulus=0.16, flat_length=6.5)
@@ -36,7 +36,7 @@ def _write(root, trials, *, absolute=True, video=None):
         fn = np.full(grid.size, load if absolute else np.nan)
         fo = pd.DataFrame({"x_mm": grid, "F_T_N": 0.0, "F_N_N": 0.0, "F_T_abs_N": 0.1, "F_N_abs_N": fn,
                            "n_samples": 1})
-        store.write_trial(tid, fr, fo, {"info": {"video": {"mm_per_px": MMPP}}})
+        store.write_trial(AnalysedTrial.from_tables(tid, fr, fo, {"info": {"video": {"mm_per_px": MMPP}}}))
     store.write_run({"trials": recs, "surfaces": surfaces,
                      "parameters": {"video": video or {"contact_tol_px": 3.0, "min_gap_px": 5.0,
                                                        "min_region_px": 3.0}}})

@@ -25,6 +25,7 @@ from fingerfriction.pipeline.analyze import analyze
 from fingerfriction.pipeline.fitting import fit
 from fingerfriction.pipeline.params import SIM_CF_CENTROID_PARAMS, AnalysisParams, sim_params
 from fingerfriction.regions import regions_on_grid
+from fingerfriction.study.results import AnalysedTrial
 from fingerfriction.study.store import (
     ResultsStore,
     atomic_write_parquet,
@@ -56,7 +57,7 @@ def _tables(n=5):
 def test_frames_table_round_trip(tmp_path):
     frames, forces, reg = _tables()
     store = ResultsStore(tmp_path)
-    store.write_trial("t1", frames, forces, {"params_sha256": "p"})
+    store.write_trial(AnalysedTrial.from_tables("t1", frames, forces, {"params_sha256": "p"}))
     back = store.read_frames("t1")
     pd.testing.assert_frame_equal(back, frames)
     np.testing.assert_array_equal(regions_from_table(back), reg)
@@ -75,7 +76,7 @@ def test_finished_means_ok_with_same_parameters(tmp_path):
     frames, forces, _ = _tables()
     store = ResultsStore(tmp_path)
     assert not store.is_finished("t1", "p")
-    store.write_trial("t1", frames, forces, {"params_sha256": "p"})
+    store.write_trial(AnalysedTrial.from_tables("t1", frames, forces, {"params_sha256": "p"}))
     assert store.is_finished("t1", "p")
     assert not store.is_finished("t1", "other parameters")
     (store.trial_dir("t1") / "forces.parquet").unlink()  # a table lost: not finished
@@ -85,7 +86,7 @@ def test_finished_means_ok_with_same_parameters(tmp_path):
 def test_failure_is_one_line_and_removes_stale_tables(tmp_path):
     frames, forces, _ = _tables()
     store = ResultsStore(tmp_path)
-    store.write_trial("t1", frames, forces, {"params_sha256": "p"})
+    store.write_trial(AnalysedTrial.from_tables("t1", frames, forces, {"params_sha256": "p"}))
     store.write_failure("t1", "OSError: truncated\n  file video.mkv", {"params_sha256": "p"})
     st = store.status("t1")
     assert st["status"] == "failed" and st["reason"] == "OSError: truncated file video.mkv"

@@ -18,6 +18,7 @@ import pytest
 
 from fingerfriction.pipeline import plan as plan_module
 from fingerfriction.pipeline.analyze import analyze, plan_analysis, trial_entry
+from fingerfriction.study.results import AnalysedTrial
 from fingerfriction.study.store import (
     ResultsInUseError,
     ResultsStore,
@@ -49,9 +50,9 @@ def _finish(study, results):
                       "fingerprint": input_fingerprint(p)} for k, p in paths.items()}
         frames = frames_table(np.arange(6) / 250.0, np.linspace(-1, 1, 6), np.full((6, 1, 2), np.nan))
         forces = pd.DataFrame({"x_mm": np.arange(5) * 0.01, "F_T_N": np.ones(5)})
-        store.write_trial(t.id, frames, forces, {"params_sha256": plan.params_sha256,
-                                                 "parameters": plan.params, "entry": trial_entry(st, t),
-                                                 "inputs": inputs})
+        store.write_trial(AnalysedTrial.from_tables(
+            t.id, frames, forces, {"params_sha256": plan.params_sha256, "parameters": plan.params,
+                                   "entry": trial_entry(st, t), "inputs": inputs}))
     return store
 
 

@@ -166,3 +166,10 @@ def test_cli_render(tmp_path):
     bad = CliRunner().invoke(app, ["render", "--surface", SPEC, "--subject", "1", "--params", str(pfile),
                                    "--speed", "0", "--out", str(wav), "--step", "0.1"])
     assert bad.exit_code == 2 and "--speed must be in [0.1, 10000] mm/s" in bad.output
+    # without --speed and --rate: those of write_command, recorded in the sidecar
+    csv = tmp_path / "cmd.csv"
+    r = CliRunner().invoke(app, ["render", "--surface", SPEC, "--subject", "1", "--params", str(pfile),
+                                 "--out", str(csv), "--step", "0.1"])
+    assert r.exit_code == 0, r.output
+    meta = json.loads((tmp_path / "cmd.csv.json").read_text())
+    assert (meta["speed_mm_s"], meta["rate_hz"]) == (80.0, 2000.0)

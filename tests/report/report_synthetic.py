@@ -8,6 +8,7 @@ import json
 import numpy as np
 
 from fingerfriction.model import FrictionModel, FrictionParams, friction_force
+from fingerfriction.study.results import AnalysedTrial
 from fingerfriction.study.store import ResultsStore, frames_table
 from fingerfriction.surfaces import get_surface
 
@@ -109,8 +110,8 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
                     forces = pd.DataFrame({"x_mm": xg, "F_T_N": F, "F_N_N": np.full(xg.size, 0.0),
                                            "F_T_abs_N": F_T_abs, "F_N_abs_N": F_N,
                                            "n_samples": np.ones(xg.size, dtype=np.int64)})
-                    store.write_trial(tid, frames, forces, {"params_sha256": "synthetic", "inputs": {},
-                                                           "elapsed_s": 0.0})
+                    store.write_trial(AnalysedTrial.from_tables(
+                        tid, frames, forces, {"params_sha256": "synthetic", "inputs": {}, "elapsed_s": 0.0}))
                     trials.append({"id": tid, "subject": subj, "surface": sname, "speed_mm_s": v,
                                    "repetition": r})
     if truth_dir is not None:

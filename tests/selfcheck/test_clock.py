@@ -58,3 +58,15 @@ def test_no_hum_is_not_measured():
     assert not est.found and "no mains hum" in est.message
     c = check_force_clock(est, 10_000.0)
     assert c.level == "info" and "not measured" in c.message
+
+
+def test_the_nominal_mains_frequencies_are_the_options_ones():
+    import inspect
+
+    from fingerfriction.selfcheck import SelfCheckParams
+    from fingerfriction.selfcheck.touchdown import touch_force
+
+    nominal = SelfCheckParams().mains_hz
+    assert nominal == (50.0, 60.0)
+    assert inspect.signature(mains_frequency).parameters["nominal_hz"].default == nominal
+    assert inspect.signature(touch_force).parameters["mains_hz"].default == nominal[0]

@@ -108,7 +108,18 @@ def test_noise_only_in_edge_band_and_deterministic():
 
 @pytest.mark.parametrize("kw, match", [
     (dict(bright=300.0), "bright"), (dict(mm_per_px=0.0), "mm_per_px"), (dict(blur_px=-1.0), "blur_px"),
+    (dict(dark=200.0, bright=100.0), r"CameraParams.dark must be in \[0, 100\) DN \(below bright\), got 200"),
+    (dict(width=15), r"CameraParams.width must be an integer >= 16 pixels, got 15"),
+    (dict(fps=-1.0), r"CameraParams.fps must be a finite positive frame rate in Hz, got -1.0"),
+    (dict(y0_row=float("inf")), r"CameraParams.y0_row must be a finite number in px, got inf"),
 ])
 def test_camera_params_validated(kw, match):
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(ValueError, match=match) as e:
         CameraParams(**kw)
+    assert "\n" not in str(e.value)
+
+
+def test_camera_params_take_numbers_only():
+    with pytest.raises(TypeError, match="CameraParams.gain must be a number, got str"):
+        CameraParams(gain="0.1")
+    assert CameraParams(width=640.0).width == 640 and isinstance(CameraParams(width=640.0).width, int)

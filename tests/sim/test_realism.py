@@ -30,6 +30,18 @@ def test_realism_round_trips_and_widens_the_force_wander():
         SimOptions(realism={"mu_sd": 0.1})
 
 
+@pytest.mark.parametrize(("kw", "message"), [
+    ({"mu_sd": -0.1}, "RealismParams.mu_sd must be a standard deviation >= 0 (relative), got -0.1"),
+    ({"mu_load_exponent": -1.0}, "RealismParams.mu_load_exponent must be a load exponent >= 0, got -1.0"),
+    ({"f_ref_n": 0.0}, "RealismParams.f_ref_n must be a finite positive force in N, got 0.0"),
+    ({"force_sd": -0.01}, "RealismParams.force_sd must be a finite standard deviation >= 0 in N, got -0.01"),
+])
+def test_bad_realism_values_are_one_line(kw, message):
+    with pytest.raises(ValueError) as e:
+        RealismParams(**kw)
+    assert str(e.value) == message
+
+
 def test_realism_draws_leave_the_other_streams_alone():
     spec = SimOptions(reps=1, subjects=("1",), surfaces=("bump-2mm",), speeds=(80.0,)).trial_specs()[0]
     a = [g.standard_normal(3) for g in _rngs(spec, 4)]

@@ -5,6 +5,7 @@ array, and a fit record of an earlier version reads with its documented defaults
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -13,7 +14,7 @@ import pytest
 from fingerfriction.fit import FitOptions, mu_grid
 from fingerfriction.flags import Flag
 from fingerfriction.regions import region_columns, regions_from_columns
-from fingerfriction.study.results import UNRECORDED_MODEL, FitResult
+from fingerfriction.study.results import UNRECORDED_MODEL, AnalysedTrial, FitResult
 from fingerfriction.study.store import ResultsStore, frames_table
 
 TID = "s1-bump-2mm-v080-r1"
@@ -38,7 +39,7 @@ def _store(tmp_path, *, study=None, entry=True) -> tuple[ResultsStore, np.ndarra
         status["entry"] = {"id": TID, "surface": "bump-2mm", "video": {"path": "videos/t.mkv",
                                                                         "calibration_frame": 3},
                            "surface_spec": "bump-2mm"}
-    store.write_trial(TID, frames, forces, status)
+    store.write_trial(AnalysedTrial.from_tables(TID, frames, forces, status))
     return store, reg
 
 
@@ -62,6 +63,27 @@ def test_an_analysed_trial_from_the_store(tmp_path):
     # the stages' flags keep their level; an old 'code: message' string reads as a warning
     assert [(f.level, f.code, f.trial, f.subject) for f in t.flags] == [("error", "e", TID, "1"),
                                                                          ("warning", "old-code", TID, "1")]
+
+
+def test_the_store_writes_an_analysed_trial_its_regions_from_the_array(tmp_path):
+    store, reg = _store(tmp_path)
+    t = store.read_trial(TID)
+    # what the store keeps of its own (trial, status, tables) is not taken from the status given
+    moved = reg + 0.25
+    stale = {"trial_format": 1, "tables": {}, "status": "failed"}
+    again = replace(t, regions=moved, status={**t.status, **stale})
+    store.write_trial(again)
+    back = store.read_trial(TID)
+    np.testing.assert_array_equal(back.regions, moved)  # the array, not the table's old columns
+    np.testing.assert_array_equal(back.frames["a1"], moved[:, 0, 0])
+    assert list(back.frames.columns) == list(t.frames.columns)
+    st = store.status(TID)
+    assert st["status"] == "ok" and st["trial_format"] > 1 and st["tables"]["frames.parquet"]["rows"] == 50
+    assert [(f.level, f.code) for f in back.flags] == [(f.level, f.code) for f in t.flags]
+    with pytest.raises(ValueError, match="regions has 3 frames but the per-frame table has 50"):
+        store.write_trial(replace(t, regions=reg[:3]))
+    with pytest.raises(TypeError, match="write_trial takes an AnalysedTrial, got str"):
+        store.write_trial(TID)
 
 
 def test_the_video_of_a_trial_through_the_store_record(tmp_path):

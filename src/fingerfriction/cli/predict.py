@@ -38,14 +38,16 @@ _SWEEP_KIND = "fingerfriction.mechanics.sweep:SweepResult.blind_spots.kind"
 _PREDICT = "fingerfriction.predict.prediction:predict"
 _DISPLAY = "fingerfriction.predict.render:DisplayModel"
 _VALIDATE_STEP = "fingerfriction.pipeline.validation:validate_results.forward_step"
+_SUBJECT = "fingerfriction.mechanics.finger:get_subject.subject"
+_COMMAND = "fingerfriction.predict.render:HapticRenderer.write_command"
 
 
 def predict_contact(
     surface: str = typer.Option(
         ..., "--surface", help="Paper surface name (bump-4mm ...), spec 'bump:W=3,H=0.5' or x,h CSV (mm)."
     ),
-    subject: int = typer.Option(1, "--subject", help="Calibrated finger of subject 1 or 2.",
-                                callback=SUBJECT),
+    subject: int = dataclass_option(_SUBJECT, "--subject", help="Calibrated finger of subject 1 or 2.",
+                                    callback=SUBJECT),
     load: float = dataclass_option(_SWEEP_LOAD, "--load", help="Normal force in N.", callback=LOAD_N),
     step: float = dataclass_option(_SWEEP_STEP, "--step", callback=STEP_MM,
                                    help="Finger position step in mm over the 26 mm window."),
@@ -64,6 +66,7 @@ def predict_contact(
 
     try:
         load, step = or_default(load, _SWEEP_LOAD), or_default(step, _SWEEP_STEP)
+        subject = or_default(subject, _SUBJECT)
         kind = check_option("--kind", or_default(kind, _SWEEP_KIND), ("geometric", "mechanical"))
         surf = surface_from_spec(surface)
         owns = {"owns": lambda n: n.startswith("occupancy-") and n.endswith(".png"),
@@ -162,10 +165,10 @@ def render_cmd(
     out: str = typer.Option(..., "--out", help="Command signal file: .wav (float32) or .csv."),
     params: str = typer.Option(None, "--params", help="JSON parameters, or a fit's RESULTS folder."),
     model: str = typer.Option(None, "--model", help="load or paper (default: the fit's, else load)."),
-    speed: float = typer.Option(80.0, "--speed", help="Sliding speed in mm/s.",
-                                callback=bounded(0.1, 10_000.0, "mm/s")),
-    rate: float = typer.Option(2000.0, "--rate", help="Display update rate in Hz.",
-                               callback=bounded(1.0, 1e6, "Hz")),
+    speed: float = dataclass_option(f"{_COMMAND}.speed", "--speed", help="Sliding speed in mm/s.",
+                                    callback=bounded(0.1, 10_000.0, "mm/s")),
+    rate: float = dataclass_option(f"{_COMMAND}.rate", "--rate", help="Display update rate in Hz.",
+                                   callback=bounded(1.0, 1e6, "Hz")),
     normal_force: float = typer.Option(None, "--normal-force", help="Display normal force in N.",
                                        callback=LOAD_N),
     load: float = dataclass_option(f"{_PREDICT}.load", "--load", callback=LOAD_N,
@@ -190,7 +193,7 @@ def render_cmd(
         r = HapticRenderer.for_surface(surface, subject, _predict_inputs(params), normal_force=normal_force,
                                        mu_range=(mu_min, mu_max), model=model, finger=finger,
                                        **given(load=load, step=step))
-        files = r.write_command(output_file(out), speed, rate)
+        files = r.write_command(output_file(out), **given(speed=speed, rate=rate))
         if table:
             files["table"] = r.write_table(output_file(table, option="--table"))
     except (ValueError, OSError, RuntimeError) as exc:

@@ -323,8 +323,8 @@ SUBJECTS: dict[int, FingerParams] = {
 }
 
 
-def get_subject(subject: int) -> FingerParams:
-    """The calibrated finger of subject 1 or 2 (:data:`SUBJECTS`)."""
+def get_subject(subject: int = 1) -> FingerParams:
+    """The calibrated finger of subject 1 or 2 (:data:`SUBJECTS`; subject 1 by default)."""
     if subject not in SUBJECTS:
         raise ValueError(f"unknown subject {subject!r}; known subjects: {sorted(SUBJECTS)}")
     return SUBJECTS[subject]

@@ -19,7 +19,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
 
@@ -128,7 +128,8 @@ class AnalyzeResult:
 
 
 def _run_trial(trial: TrialInput, params: dict) -> dict:
-    """Dask task: process one trial, never raise; return tables or a one-line reason."""
+    """Dask task: process one trial, never raise; return it analysed (``trial``, an
+    :class:`~fingerfriction.study.results.AnalysedTrial`) or a one-line reason."""
     t0 = time.perf_counter()
     c0 = time.process_time()  # CPU of this worker process (all its threads)
     inputs: dict[str, dict] = {}
@@ -140,8 +141,8 @@ def _run_trial(trial: TrialInput, params: dict) -> dict:
             inputs[key] = {"path": rel, "sha256": sha256_input(p), "bytes": st.st_size,
                            "mtime_ns": st.st_mtime_ns, "fingerprint": input_fingerprint(p)}
         res = process_trial(trial, AnalysisParams(**params))
-        return {"ok": True, "frames": res.frames, "forces": res.forces, "info": res.info,
-                "inputs": inputs, "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
+        return {"ok": True, "trial": res, "inputs": inputs,
+                "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
     except Exception as exc:  # a failing trial is recorded, the others go on
         logger.debug("trial %s failed:\n%s", trial.id, traceback.format_exc())
         return {"ok": False, "reason": one_line(exc), "inputs": inputs,
@@ -473,7 +474,8 @@ class _Run:
                   "labels": {k: getattr(t, k) for k in _LABELS}}
         try:
             if res["ok"]:
-                self.store.write_trial(t.id, res["frames"], res["forces"], {**status, "info": res["info"]})
+                at = res["trial"]
+                self.store.write_trial(replace(at, status={**status, "info": at.info}))
             else:
                 self.store.write_failure(t.id, res["reason"], status)
         except OSError as exc:  # a full disk, a name too long for the file system: this trial only
@@ -482,7 +484,7 @@ class _Run:
         if res["ok"]:
             self.n_ok += 1
             self.ok_ids.append(t.id)
-            for c in (res["info"].get("selfcheck") or {}).get("checks", []):
+            for c in (res["trial"].info.get("selfcheck") or {}).get("checks", []):
                 if c.get("level") == "warning":  # the console summary groups them by kind (code)
                     logger.warning(f"{c.get('code')} in trial %s: %s", t.id, c.get("message"))
             outcome = TrialOutcome(t.id, "ok", "", status["elapsed_s"])

@@ -34,6 +34,7 @@ from ..fit.select import Evidence, Selection, residual_structure, select_model
 from ..fit.variants import MODELS, FitSettings, get
 from ..model import FrictionModel
 from ..model.stats import correlation_table
+from ..predict.forward import FORWARD_STEP_MM
 from ..study.results import FitResult
 from ..study.store import ResultsStore, now
 from .trial import one_line
@@ -264,7 +265,7 @@ class Comparison:
 
 
 def compare_variants(trials: Sequence, settings: FitSettings | None = None, *, validate: bool = True,
-                     forward_step: float = 0.01, seed: int = 0, n_boot: int | None = 1000,
+                     forward_step: float = FORWARD_STEP_MM, seed: int = 0, n_boot: int | None = 1000,
                      advance=None) -> Comparison:
     """Fit every variant to ``trials``, validate each out of sample (leave one surface out,
     on two surfaces or more) and choose (:func:`fingerfriction.fit.select.select_model`).

@@ -293,7 +293,7 @@ def _act(
         info["forces"] = finfo
         if check is not None and check.level == "warning":
             out.moved.append((tid, est.offset_s))
-        store.write_trial(tid, store.read_frames(tid), forces, {**kept, "info": info})
+        store.write_trial(replace(store.read_trial(tid), forces=forces, status={**kept, "info": info}))
         return
     if extra:
         finfo = dict(info.get("forces") or {})

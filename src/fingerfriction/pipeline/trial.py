@@ -1,6 +1,7 @@
 """One trial of a study through the two stages: typed in (:class:`TrialInput`, the
 manifest's record of the trial with its surface and study folder), typed out
-(:class:`TrialResult`), the force processing's history kept.
+(:class:`~fingerfriction.study.results.AnalysedTrial`, what the results store writes), the
+force processing's history and flags kept.
 
 * :func:`run_video`: the video stage (:func:`fingerfriction.video.analyze_video`) with the
   pipeline's video options (:func:`fingerfriction.pipeline.params.video_options`);
@@ -35,7 +36,8 @@ from ..forces.readers import channel_scale
 from ..selfcheck import SelfCheckError, SelfCheckParams, TrialChecks, check_trial
 from ..study.manifest import Study, TrialRecord, load_manifest, resolve_path
 from ..study.records import FORCE_READER_KEYS
-from ..study.store import frames_table
+from ..study.results import AnalysedTrial
+from ..study.tables import frames_table
 from ..surfaces import Surface, surface_from_spec
 from ..video import FLAG_REASONS, AnalysisOptions, FrameFlag, PositionSource, analyze_video
 from .params import AnalysisParams, force_params, video_options
@@ -43,7 +45,6 @@ from .params import AnalysisParams, force_params, video_options
 __all__ = [
     "TrialInput",
     "VideoOutput",
-    "TrialResult",
     "run_video",
     "read_trial_forces",
     "process_trial_forces",
@@ -153,31 +154,6 @@ class VideoOutput:
     def frame(self) -> np.ndarray:
         """Frame indices ``0 .. n_frames - 1``."""
         return np.arange(self.t_s.size)
-
-
-@dataclass(frozen=True, eq=False)
-class TrialResult:
-    """What :func:`process_trial` returns for one trial.
-
-    Attributes
-    ----------
-    trial_id : str
-    frames : pandas.DataFrame
-        Per-frame table (:func:`fingerfriction.study.tables.frames_table`).
-    forces : pandas.DataFrame
-        Per-position table: ``x_mm``, ``F_T_N``, ``F_N_N`` (paper's footing), ``F_T_abs_N``,
-        ``F_N_abs_N`` (absolute footing, NaN when unavailable), ``n_samples``.
-    info : dict
-        Stage diagnostics (calibration, threshold used, flagged-frame counts, ...); under
-        ``info['forces']['history']`` every step of the force processing with its
-        parameters and fitted values (:attr:`fingerfriction.forces.ForceSignals.history`).
-    """
-
-    trial_id: str
-    frames: pd.DataFrame
-    forces: pd.DataFrame
-    info: dict = field(default_factory=dict)
-
 
 
 def _frame_reasons(flags: np.ndarray) -> list[str]:
@@ -364,7 +340,7 @@ def check_trial_inputs(trial: TrialInput, video: VideoOutput, record: ForceRecor
     return replace(checks, sensor=sensor if checks.record.fs_hz == record.fs_hz else None)
 
 
-def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> TrialResult:
+def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> AnalysedTrial:
     """Run one trial through video analysis, the consistency stage, then force processing.
 
     Parameters
@@ -376,7 +352,15 @@ def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> Tr
 
     Returns
     -------
-    TrialResult
+    AnalysedTrial
+        The per-frame table (:func:`fingerfriction.study.tables.frames_table`), the regions
+        array, the per-position table (``x_mm``, ``F_T_N``, ``F_N_N`` on the paper's footing,
+        ``F_T_abs_N``, ``F_N_abs_N`` on the absolute footing, NaN when unavailable,
+        ``n_samples``), and a status holding the stages' diagnostics under ``info``
+        (calibration, threshold used, flagged-frame counts, ...; the force stage's flags
+        with their level and, under ``info['forces']['history']``, every step of the force
+        processing with its parameters and fitted values,
+        :attr:`fingerfriction.forces.ForceSignals.history`).
 
     Raises
     ------
@@ -407,7 +391,10 @@ def process_trial(trial: TrialInput, params: AnalysisParams | None = None) -> Tr
                                     "fs_hz_used": checks.record.fs_hz, "by": "mains frequency"})
     info = {"video": v.info, "forces": finfo, "n_frames": len(frames), "n_flagged_frames": n_flag,
             "n_positions": len(forces_df), "selfcheck": checks.to_dict()}
-    return TrialResult(trial_id=trial.id, frames=frames, forces=forces_df, info=info)
+    rec = trial.record
+    return AnalysedTrial(id=trial.id, subject=str(rec.subject), surface=rec.surface,
+                         speed_mm_s=rec.speed_mm_s, repetition=rec.repetition, frames=frames,
+                         regions=v.regions, forces=forces_df, status={"info": info})
 
 
 def one_line(exc: BaseException) -> str:

@@ -27,6 +27,7 @@ from ..model import FrictionModel, LoadParams
 from ..model.stats import BOTH, correlation_table, ensemble_correlation
 from ..predict.forward import (
     DEFAULT_LOAD_N,
+    FORWARD_STEP_MM,
     check_profile,
     finger_for_label,
     flat_length_of_kind,
@@ -139,7 +140,7 @@ class OutOfSample:
 
 def leave_one_surface_out(trials, *, model: str = DEFAULT_MODEL, fingers=None, grid=None, options=None,
                           load_options: LoadFitOptions | None = None, load: float = DEFAULT_LOAD_N,
-                          forward_step: float = 0.01, contact: str = "geometric",
+                          forward_step: float = FORWARD_STEP_MM, contact: str = "geometric",
                           forward_cache: dict | None = None, in_sample=None,
                           heldout_fingers: dict | None = None,
                           settings: FitSettings | None = None) -> OutOfSample:
@@ -416,7 +417,7 @@ def trials_from_results(results: str | os.PathLike) -> list:
 
 
 def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | None = None,
-                     forward_step: float = 0.01, models: tuple[str, ...] | None = None,
+                     forward_step: float = FORWARD_STEP_MM, models: tuple[str, ...] | None = None,
                      trials: list | None = None, fingers: dict | None = None,
                      calibrated_fingers: dict | None = None, settings: FitSettings | None = None,
                      in_sample: dict | None = None) -> OutOfSample:
@@ -475,7 +476,7 @@ def validate_results(results: str | os.PathLike, *, out: str | os.PathLike | Non
 
 
 def validate_models(trials: list, models, settings: FitSettings, *, in_sample: dict | None = None,
-                    fingers: dict | None = None, forward_step: float = 0.01,
+                    fingers: dict | None = None, forward_step: float = FORWARD_STEP_MM,
                     forward_cache: dict | None = None,
                     heldout_fingers: dict | None = None) -> dict:
     """:func:`leave_one_surface_out` of each variant of ``models`` on the same trials, sharing

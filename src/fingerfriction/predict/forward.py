@@ -29,6 +29,7 @@ __all__ = [
     "forward_regions",
     "flat_contact_length",
     "FE_FORWARD_STEP",
+    "FORWARD_STEP_MM",
     "FE_MAX_UNCONVERGED",
 ]
 
@@ -39,6 +40,10 @@ GEOM_TOL_MM = GEOMETRIC_TOL
 
 #: The prescribed normal force of the study, in N (Methods "Procedure").
 DEFAULT_LOAD_N = 0.3
+
+#: The forward model's finger step in mm by default (a prediction, a validation's sweeps):
+#: the 0.01 mm grid the measured forces are binned on.
+FORWARD_STEP_MM = 0.01
 
 #: Half-length in mm of the paper's analysis window (26 mm centred on the feature).
 _HALF_WINDOW_MM = 13.0

@@ -27,6 +27,7 @@ from ..surfaces import SURFACE_NAMES, Surface, surface_from_spec
 from .defaults import resolve_params
 from .forward import (
     DEFAULT_LOAD_N,
+    FORWARD_STEP_MM,
     GEOM_TOL_MM,
     MAX_SLOPE_ANGLE,
     check_profile,
@@ -308,8 +309,8 @@ def predict_from_regions(surface: Surface, positions, regions, params: FrictionP
     )
 
 
-def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N, step: float = 0.01,
-            contact: str = "geometric", window: Sequence[float] | None = None,
+def predict(surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
+            step: float = FORWARD_STEP_MM, contact: str = "geometric", window: Sequence[float] | None = None,
             max_slope_angle: float = MAX_SLOPE_ANGLE, model: str | None = None,
             finger=None) -> Prediction:
     """Predict F_T(x), F_int, F_def, occupancy and blind spots on any relief.

@@ -54,7 +54,7 @@ import pandas as pd
 from scipy.io import wavfile
 
 from .._atomic import atomic_write
-from .forward import DEFAULT_LOAD_N, flat_contact_length
+from .forward import DEFAULT_LOAD_N, FORWARD_STEP_MM, flat_contact_length
 from .prediction import Prediction, predict
 
 __all__ = ["DisplayModel", "HapticRenderer", "read_command"]
@@ -190,7 +190,8 @@ class HapticRenderer:
 
     @classmethod
     def for_surface(cls, surface_spec, subject, params=None, *, load: float = DEFAULT_LOAD_N,
-                    normal_force: float | None = None, step: float = 0.01, resolution: float = 0.01,
+                    normal_force: float | None = None, step: float = FORWARD_STEP_MM,
+                    resolution: float = 0.01,
                     mu_range: tuple[float | None, float | None] | None = None, model: str | None = None,
                     finger=None) -> HapticRenderer:
         """Predict a relief for a subject and precompute its renderer.
@@ -321,7 +322,7 @@ class HapticRenderer:
         x = a + speed * t
         return t, x, self.query_many(x)
 
-    def write_command(self, path: str | os.PathLike, speed: float, rate: float, *,
+    def write_command(self, path: str | os.PathLike, speed: float = 80.0, rate: float = 2000.0, *,
                       x_start: float | None = None, x_end: float | None = None) -> dict[str, str]:
         """Export the command signal as WAV (``.wav``) or CSV (``.csv``), atomically.
 
@@ -330,6 +331,17 @@ class HapticRenderer:
           rate, start position, display model, surface and subject needed to map sample
           ``k`` back to position ``x_start + speed * k / rate``.
         * CSV: columns ``t_s, x_mm, mu_cmd`` (and the same sidecar).
+
+        Parameters
+        ----------
+        path : path-like
+            The signal file, ``.wav`` or ``.csv``.
+        speed : float
+            Sliding speed in mm/s (default 80 mm/s, the middle of the paper's three speeds).
+        rate : float
+            Display update rate in Hz (default 2 kHz; an integer for a WAV file).
+        x_start, x_end : float, optional
+            As in :meth:`command_signal`.
 
         Returns
         -------

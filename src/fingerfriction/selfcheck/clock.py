@@ -26,6 +26,8 @@ from scipy.signal import butter, sosfiltfilt, zoom_fft
 
 from .flags import Check, SelfCheckParams
 
+_DEFAULTS = SelfCheckParams()  # the nominal mains frequencies' one definition: SelfCheckParams.mains_hz
+
 __all__ = ["MainsEstimate", "mains_frequency", "check_force_clock"]
 
 #: Smallest ratio of the hum's periodogram peak to the band's median for it to count as a
@@ -86,7 +88,7 @@ def _dtft_power(y: np.ndarray, freqs: np.ndarray, fs: float) -> np.ndarray:
 
 
 def mains_frequency(
-    f1, f2, fs_hz: float, *, nominal_hz=(50.0, 60.0), search: float = 0.05, harmonics=(1, 2, 3, 4, 5, 6)
+    f1, f2, fs_hz: float, *, nominal_hz=_DEFAULTS.mains_hz, search: float = 0.05, harmonics=(1, 2, 3, 4, 5, 6)
 ) -> MainsEstimate:
     """The mains hum's frequency on a force record's time axis.
 
@@ -97,7 +99,9 @@ def mains_frequency(
     fs_hz : float
         The sampling rate the record is labelled with, Hz.
     nominal_hz : sequence of float
-        Nominal mains frequencies looked for, Hz.
+        Nominal mains frequencies looked for, Hz (default
+        :attr:`SelfCheckParams.mains_hz <fingerfriction.selfcheck.flags.SelfCheckParams>`:
+        50 and 60 Hz).
     search : float
         Relative half-width of the search around each nominal frequency (0.05: a record
         labelled up to 5 % off is still read).

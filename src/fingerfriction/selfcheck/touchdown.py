@@ -42,6 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from .flags import SelfCheckParams
+
 __all__ = [
     "TouchDown",
     "TouchLevel",
@@ -185,7 +187,8 @@ def _rest_model(s: np.ndarray, mains_hz: float) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def touch_force(f1, f2, fs_hz: float, t0_s: float = 0.0, *, mains_hz: float = 50.0) -> TouchDown:
+def touch_force(f1, f2, fs_hz: float, t0_s: float = 0.0, *,
+                mains_hz: float = SelfCheckParams().mains_hz[0]) -> TouchDown:
     """The instant the normal force leaves zero, on the force clock.
 
     Parameters
@@ -196,7 +199,8 @@ def touch_force(f1, f2, fs_hz: float, t0_s: float = 0.0, *, mains_hz: float = 50
         The force clock as the manifest states it: sample ``k`` at ``t0_s + k / fs_hz``.
     mains_hz : float
         The mains frequency on that clock (removed from the rest with its harmonics 2-6;
-        NaN: none).
+        NaN: none); default the first nominal one of
+        :attr:`SelfCheckParams.mains_hz <fingerfriction.selfcheck.flags.SelfCheckParams>` (50 Hz).
 
     Returns
     -------

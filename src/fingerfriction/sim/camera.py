@@ -31,12 +31,12 @@ black level costs ~100 kB per frame (``benchmarks/simulate.py`` measures both). 
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 
 import cv2
 import numpy as np
 
+from .._check import in_range, integer, nonnegative, positive, validate_type
 from ..surfaces import Surface
 
 __all__ = ["CameraParams", "Camera"]
@@ -81,17 +81,19 @@ class CameraParams:
     read_noise: float = 0.0
 
     def __post_init__(self) -> None:
+        own = "CameraParams"
         for k, v in asdict(self).items():
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"CameraParams.{k} must be a finite number, got {v!r}")
-        if self.width < 16 or self.height < 16 or self.fps <= 0 or self.mm_per_px <= 0:
-            raise ValueError("CameraParams: width/height >= 16 px, fps and mm_per_px > 0 required")
-        if self.blur_px < 0 or self.gain < 0 or self.read_noise < 0:
-            raise ValueError("CameraParams: blur_px, gain and read_noise must be >= 0")
-        if not 0 <= self.dark < self.bright <= 255:
-            raise ValueError(
-                f"CameraParams: need 0 <= dark < bright <= 255 DN, got {self.dark}, {self.bright}"
-            )
+            validate_type(f"{own}.{k}", v, (int, float), "a number")
+        for k in ("width", "height"):
+            object.__setattr__(self, k, integer(f"{own}.{k}", getattr(self, k), 16, what="pixels"))
+        positive(f"{own}.fps", self.fps, "Hz", what="frame rate")
+        positive(f"{own}.mm_per_px", self.mm_per_px, "mm per pixel", what="image scale")
+        in_range(f"{own}.x0_px", self.x0_px, unit="px")
+        in_range(f"{own}.y0_row", self.y0_row, unit="px")
+        for k in ("blur_px", "gain", "read_noise"):
+            nonnegative(f"{own}.{k}", getattr(self, k), "px" if k == "blur_px" else "DN")
+        in_range(f"{own}.bright", self.bright, 0.0, 255.0, unit="DN")
+        in_range(f"{own}.dark", self.dark, 0.0, self.bright, unit="DN (below bright)", open_hi=True)
 
     @property
     def field_mm(self) -> tuple[float, float]:

@@ -39,11 +39,11 @@ it, not a restatement: fits recover ``mu`` and the force pattern, not exact para
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from .._check import in_range, nonnegative, positive, validate_type
 from .contact import ContactTable
 from .kinematics import min_jerk
 
@@ -78,13 +78,15 @@ class ForceLaw:
     transient_mm: float = 0.6
 
     def __post_init__(self) -> None:
+        own = "ForceLaw"
         for k, v in asdict(self).items():
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"ForceLaw.{k} must be a finite number, got {v!r}")
-        if not 0 <= self.mu <= 5:
-            raise ValueError(f"ForceLaw.mu must be in [0, 5], got {self.mu!r}")
-        if self.beta0 < 0 or self.transient < 0 or self.transient_mm <= 0 or self.v_ref <= 0:
-            raise ValueError("ForceLaw: beta0 and transient must be >= 0, transient_mm and v_ref > 0")
+            validate_type(f"{own}.{k}", v, (int, float), "a number")
+        in_range(f"{own}.mu", self.mu, 0.0, 5.0, what="friction coefficient")
+        in_range(f"{own}.beta0", self.beta0, 0.0, what="weight")
+        in_range(f"{own}.beta_speed", self.beta_speed)
+        positive(f"{own}.v_ref", self.v_ref, "mm/s", what="speed")
+        in_range(f"{own}.transient", self.transient, 0.0, unit="(relative)", what="peak height")
+        positive(f"{own}.transient_mm", self.transient_mm, "mm", what="length")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -121,13 +123,15 @@ class RealismParams:
     force_sd: float = 0.025
 
     def __post_init__(self) -> None:
+        own = "RealismParams"
         for k, v in asdict(self).items():
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"RealismParams.{k} must be a finite number >= 0, got {v!r}")
-        if self.mu_sd > 0.3:
-            raise ValueError(f"RealismParams.mu_sd must be <= 0.3 (relative), got {self.mu_sd!r}")
-        if self.f_ref_n <= 0:
-            raise ValueError(f"RealismParams.f_ref_n must be a positive force in N, got {self.f_ref_n!r}")
+            validate_type(f"{own}.{k}", v, (int, float), "a number")
+        in_range(f"{own}.mu_sd", self.mu_sd, 0.0, unit="(relative)", what="standard deviation")
+        in_range(f"{own}.mu_sd", self.mu_sd, hi=0.3, unit="(relative)")
+        in_range(f"{own}.mu_load_exponent", self.mu_load_exponent, 0.0, what="load exponent")
+        positive(f"{own}.f_ref_n", self.f_ref_n, "N", what="force")
+        for k in ("force_sd_trial", "force_sd"):
+            nonnegative(f"{own}.{k}", getattr(self, k), "N", what="standard deviation")
 
     def to_dict(self) -> dict:
         return asdict(self)

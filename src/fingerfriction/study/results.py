@@ -9,6 +9,7 @@ record (inputs, the force stage's history and flags), a fit its options and flag
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +22,7 @@ from ..fit.variants import MODELS, FitSettings, get
 from ..flags import LEVELS, Flag
 from ..surfaces import Surface
 from ..video import AnalysisOptions
+from .tables import regions_from_table
 
 __all__ = ["AnalysedTrial", "FitResult", "VideoInput", "UNRECORDED_MODEL", "subject_keys"]
 
@@ -44,7 +46,8 @@ class AnalysedTrial:
         Per-frame table (``frame, t_s, x_mm, n_regions, a1, b1, ..., clipped, flag``,
         :mod:`fingerfriction.study.tables`).
     regions : (n_frames, n_max, 2) ndarray
-        Contact regions C_i in mm per frame (the table's ``a1, b1, ...`` columns).
+        Contact regions C_i in mm per frame: read from the table's ``a1, b1, ...`` columns,
+        and what the store writes into them (:func:`~fingerfriction.study.tables.with_regions`).
     forces : pandas.DataFrame
         Per-position table (``x_mm, F_T_N, F_N_N, F_T_abs_N, F_N_abs_N, n_samples``).
     model : pandas.DataFrame or None
@@ -52,7 +55,11 @@ class AnalysedTrial:
         F_T_N, F_hat_N, F_model_N, F_int_N, F_def_N``, per variant with a prefix), None
         before the fit.
     status : dict
-        The trial's ``status.json`` (inputs, stage diagnostics under ``info``).
+        The trial's ``status.json`` (inputs, stage diagnostics under ``info``: the force
+        stage's flags with their level and its history, :attr:`flags`,
+        :attr:`force_history`); what the analysis hands the store to write
+        (:meth:`~fingerfriction.study.store.ResultsStore.write_trial`) without the fields
+        the store adds (``trial``, ``status``, ``trial_format``, ``tables``).
     """
 
     id: str
@@ -65,6 +72,23 @@ class AnalysedTrial:
     forces: pd.DataFrame
     model: pd.DataFrame | None = None
     status: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_tables(cls, trial_id: str, frames: pd.DataFrame, forces: pd.DataFrame,
+                    status: dict | None = None, *, subject: str = "", surface: str = "",
+                    speed_mm_s: float = math.nan, repetition: int | None = None,
+                    model: pd.DataFrame | None = None) -> AnalysedTrial:
+        """An analysed trial from its tables, its regions read from the per-frame table's
+        ``a1, b1, ...`` columns (:func:`~fingerfriction.study.tables.regions_from_table`).
+
+        Raises
+        ------
+        ValueError
+            A per-frame table without region columns.
+        """
+        return cls(id=trial_id, subject=subject, surface=surface, speed_mm_s=speed_mm_s,
+                   repetition=repetition, frames=frames, regions=regions_from_table(frames), forces=forces,
+                   model=model, status={} if status is None else status)
 
     @property
     def info(self) -> dict:

@@ -88,7 +88,7 @@ from .digests import input_fingerprint, params_digest, sha256_file, sha256_input
 from .fitstore import FitFolder, read_fit_table, read_json_object
 from .manifest import resolve_path, validate_id
 from .results import AnalysedTrial, VideoInput
-from .tables import atomic_write_parquet, clipped_on_grid, frames_table, regions_from_table
+from .tables import atomic_write_parquet, clipped_on_grid, frames_table, regions_from_table, with_regions
 
 __all__ = [
     "RESULTS_FORMAT",
@@ -115,6 +115,11 @@ RESULTS_SCHEMA_VERSION = 1
 #: forces ``F_T_abs_N``, ``F_N_abs_N`` to ``forces.parquet``. A trial written with another
 #: version is not finished: ``analyze`` recomputes it.
 TRIAL_FORMAT = 2
+
+
+#: The fields of a finished trial's ``status.json`` the store writes itself (a status read from
+#: the store and written again keeps none of its old ones).
+_STORE_KEYS = ("trial", "status", "trial_format", "reason", "tables")
 
 
 def now() -> str:
@@ -226,23 +231,28 @@ class ResultsStore(FitFolder):
         d = self.trial_dir(trial_id)
         return (d / "frames.parquet").is_file() and (d / "forces.parquet").is_file()
 
-    def write_trial(
-        self, trial_id: str, frames: pd.DataFrame, forces: pd.DataFrame, status: dict
-    ) -> None:
-        """Write a finished trial: both tables, then its status (the commit marker)."""
-        d = self.trial_dir(trial_id)
+    def write_trial(self, trial: AnalysedTrial) -> None:
+        """Write a finished trial: its per-frame table (its regions flattened into the
+        ``a1, b1, ...`` columns, :func:`~.tables.with_regions`), its per-position table, then
+        its status (the commit marker): ``trial.status`` with the store's ``trial``,
+        ``status: "ok"``, ``trial_format`` and ``tables``."""
+        if not isinstance(trial, AnalysedTrial):
+            raise TypeError(f"write_trial takes an AnalysedTrial, got {type(trial).__name__}")
+        d = self.trial_dir(trial.id)
+        frames = with_regions(trial.frames, trial.regions)
         # Remove the old status first, so a crash between the writes below leaves the
         # trial unfinished rather than pointing at a mix of old and new tables.
         (d / "status.json").unlink(missing_ok=True)
         tables = {}
-        for name, df in (("frames.parquet", frames), ("forces.parquet", forces)):
+        for name, df in (("frames.parquet", frames), ("forces.parquet", trial.forces)):
             buf = io.BytesIO()
             df.to_parquet(buf, engine="pyarrow", index=False)
             data = buf.getvalue()
             atomic_write(d / name, lambda tmp, data=data: tmp.write_bytes(data))
             # what resume checks before it trusts the table again (verify_tables)
             tables[name] = {"rows": len(df), "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
-        atomic_write_json(d / "status.json", {"trial": trial_id, "status": "ok", "trial_format": TRIAL_FORMAT,
+        status = {k: v for k, v in trial.status.items() if k not in _STORE_KEYS}
+        atomic_write_json(d / "status.json", {"trial": trial.id, "status": "ok", "trial_format": TRIAL_FORMAT,
                                               **status, "tables": tables})
 
     def write_failure(self, trial_id: str, reason: str, status: dict) -> None:
@@ -422,13 +432,12 @@ class ResultsStore(FitFolder):
             entry = next((m for m in self.read_run().get("trials", []) if m.get("id") == entry), None) or \
                 {"id": entry}
         tid = entry["id"]
-        frames = self.read_frames(tid)
-        return AnalysedTrial(
-            id=tid, subject=str(entry.get("subject")), surface=str(entry.get("surface")),
+        return AnalysedTrial.from_tables(
+            tid, self.read_frames(tid), self.read_forces(tid),
+            (self.status(tid) or {}) if status is None else status,
+            subject=str(entry.get("subject")), surface=str(entry.get("surface")),
             speed_mm_s=float(entry.get("speed_mm_s") or math.nan), repetition=entry.get("repetition"),
-            frames=frames, regions=regions_from_table(frames), forces=self.read_forces(tid),
-            model=self.read_model(tid) if model else None,
-            status=(self.status(tid) or {}) if status is None else status)
+            model=self.read_model(tid) if model else None)
 
     def trial_video(self, trial_id: str) -> VideoInput:
         """A trial's video as the store recorded its inputs (the run record's study folder,

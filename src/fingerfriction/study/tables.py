@@ -31,7 +31,7 @@ import pandas as pd
 from .._atomic import atomic_write
 from ..regions import as_regions, region_columns, regions_from_columns
 
-__all__ = ["frames_table", "regions_from_table", "atomic_write_parquet", "clipped_on_grid"]
+__all__ = ["frames_table", "with_regions", "regions_from_table", "atomic_write_parquet", "clipped_on_grid"]
 
 
 def atomic_write_parquet(path: str | os.PathLike, df: pd.DataFrame) -> None:
@@ -93,13 +93,7 @@ def frames_table(
     flags = ["" if f is None else str(f) for f in flags]
     if len(flags) != n:
         raise ValueError(f"flags has {len(flags)} entries but t_s has {n}")
-    cols: dict[str, Any] = {
-        "frame": frame,
-        "t_s": t_s,
-        "x_mm": x_mm,
-        "n_regions": np.sum(~np.isnan(reg[..., 0]), axis=1).astype(np.int64),
-    }
-    cols.update(region_columns(reg) if n else {"a1": reg[:, 0, 0], "b1": reg[:, 0, 1]})
+    cols: dict[str, Any] = {"frame": frame, "t_s": t_s, "x_mm": x_mm, **_region_part(reg)}
     clipped = np.zeros(n, bool) if clipped is None else np.asarray(clipped, dtype=bool).ravel()
     if clipped.size != n:
         raise ValueError(f"clipped has {clipped.size} entries but t_s has {n}")
@@ -111,6 +105,48 @@ def frames_table(
             raise ValueError(f"x_source has {len(src)} entries but t_s has {n}")
         cols["x_source"] = pd.array(src, dtype="string")
     return pd.DataFrame(cols)
+
+
+def _region_part(reg: np.ndarray) -> dict[str, np.ndarray]:
+    """``n_regions`` and ``a1, b1, ...`` of regions ``(n_frames, n_max, 2)`` (one NaN pair
+    for no frame)."""
+    cols = {"n_regions": np.sum(~np.isnan(reg[..., 0]), axis=1).astype(np.int64)}
+    cols.update(region_columns(reg) if reg.shape[0] else {"a1": reg[:, 0, 0], "b1": reg[:, 0, 1]})
+    return cols
+
+
+def with_regions(frames: pd.DataFrame, regions) -> pd.DataFrame:
+    """The per-frame table as the store writes it: the columns of ``frames`` with its
+    ``n_regions, a1, b1, ...`` made from ``regions`` (the one place an analysed trial's
+    regions are flattened into the table), after ``x_mm`` as in :func:`frames_table`.
+
+    Parameters
+    ----------
+    frames : pandas.DataFrame
+        A per-frame table (its region columns, if any, are replaced).
+    regions : (n_frames, n_max, 2) array_like
+        Contact regions in mm.
+
+    Raises
+    ------
+    ValueError
+        Regions of another number of frames, or invalid regions
+        (:func:`~fingerfriction.regions.as_regions`).
+    """
+    n = len(frames)
+    reg = as_regions(regions) if n else np.full((0, 1, 2), np.nan)
+    if reg.shape[0] != n:
+        raise ValueError(f"regions has {reg.shape[0]} frames but the per-frame table has {n}")
+    old = {"n_regions", *(c for c in frames.columns if _is_region_column(c))}
+    keep = [c for c in frames.columns if c not in old]
+    at = keep.index("x_mm") + 1 if "x_mm" in keep else len(keep)
+    col = {c: frames[c].reset_index(drop=True) for c in keep}
+    return pd.DataFrame({**{c: col[c] for c in keep[:at]}, **_region_part(reg),
+                         **{c: col[c] for c in keep[at:]}})
+
+
+def _is_region_column(name) -> bool:
+    return isinstance(name, str) and len(name) > 1 and name[0] in "ab" and name[1:].isdigit()
 
 
 def regions_from_table(df: pd.DataFrame) -> np.ndarray:

@@ -24,14 +24,14 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from ..._check import positive
+from ..._check import in_range, integer, positive, validate_type
 
 __all__ = ["FEFingerParams", "FEMeshParams", "LITERATURE_FINGER", "HOMOGENEOUS_FINGER"]
 
 
 def _pos(owner: str, name: str, value, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise TypeError(f"{owner}.{name} must be a number in {unit}, got {value!r}")
+    """A positive number field (TypeError for anything but a number, bool included)."""
+    validate_type(f"{owner}.{name}", value, (int, float), f"a number in {unit}")
     return positive(f"{owner}.{name}", value, unit)
 
 
@@ -107,17 +107,12 @@ class FEFingerParams:
             unit = {"poisson": "(dimensionless)", "nail_half_angle": "degrees"}.get(
                 f.name, "MPa" if "modulus" in f.name else "mm")
             object.__setattr__(self, f.name, _pos(own, f.name, getattr(self, f.name), unit))
-        mu = self.friction
-        if isinstance(mu, bool) or not isinstance(mu, (int, float)) or not (0 <= mu <= 5):
-            raise ValueError(f"{own}.friction must be a friction coefficient in [0, 5], got {mu!r}")
-        object.__setattr__(self, "friction", float(mu))
-        if not isinstance(self.name, str):
-            raise TypeError(f"{own}.name must be text, got {self.name!r}")
-        if self.poisson > 0.499:
-            raise ValueError(f"{own}.poisson must be in (0, 0.499] (a compressible solid), "
-                             f"got {self.poisson!r}")
-        if self.nail_half_angle >= 90:
-            raise ValueError(f"{own}.nail_half_angle must be below 90 degrees, got {self.nail_half_angle!r}")
+        object.__setattr__(self, "friction", in_range(f"{own}.friction", self.friction, 0.0, 5.0,
+                                                      what="friction coefficient"))
+        validate_type(f"{own}.name", self.name, str, "text")
+        in_range(f"{own}.poisson", self.poisson, 0.0, 0.499, unit="(a compressible solid)", open_lo=True)
+        in_range(f"{own}.nail_half_angle", self.nail_half_angle, 0.0, 90.0, unit="degrees", open_lo=True,
+                 open_hi=True)
         if self.skin_thickness >= self.pulp_thickness:
             raise ValueError(f"{own}.skin_thickness ({self.skin_thickness:g} mm) must be below "
                              f"pulp_thickness ({self.pulp_thickness:g} mm)")
@@ -196,12 +191,10 @@ class FEMeshParams:
 
     def __post_init__(self) -> None:
         own = "FEMeshParams"
-        for name in ("surface_cell", "contact_half_width", "penalty"):
-            object.__setattr__(self, name, _pos(own, name, getattr(self, name), "mm"))
+        for name, unit in (("surface_cell", "mm"), ("contact_half_width", "mm"), ("penalty", "N/mm^3")):
+            object.__setattr__(self, name, _pos(own, name, getattr(self, name), unit))
         for name in ("skin_layers", "tissue_layers", "top_cells"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ValueError(f"{own}.{name} must be an integer >= 1, got {v!r}")
+            object.__setattr__(self, name, integer(f"{own}.{name}", getattr(self, name), 1))
 
     def to_dict(self) -> dict:
         return asdict(self)

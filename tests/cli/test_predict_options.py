@@ -1,0 +1,33 @@
+"""The forward model's commands leave their defaults to where they are defined: an option
+the user does not give is None, and its help shows the default of the function or
+dataclass that applies it."""
+
+from __future__ import annotations
+
+import inspect
+
+import typer
+
+from fingerfriction.cli import app
+from fingerfriction.cli._common import FieldDefault
+from fingerfriction.mechanics.finger import get_subject
+from fingerfriction.predict.render import HapticRenderer
+
+
+def _option(command: str, opt: str):
+    cmd = typer.main.get_command(app).commands[command]
+    return next(p for p in cmd.params if opt in p.opts)
+
+
+def test_render_and_predict_contact_defaults_live_with_the_code_that_applies_them():
+    command = inspect.signature(HapticRenderer.write_command).parameters
+    for cmd, opt, default in (("render", "--speed", command["speed"].default),
+                              ("render", "--rate", command["rate"].default),
+                              ("predict-contact", "--subject",
+                               inspect.signature(get_subject).parameters["subject"].default)):
+        p = _option(cmd, opt)
+        assert p.default is None and isinstance(p.show_default, FieldDefault), (cmd, opt)
+        assert p.show_default.value() == default, (cmd, opt)
+    assert str(_option("render", "--speed").show_default) == "80"
+    assert str(_option("render", "--rate").show_default) == "2000"
+    assert get_subject() is get_subject(1)
