@@ -6,9 +6,7 @@ from __future__ import annotations
 import json
 import os
 import stat
-import subprocess
 import sys
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -105,17 +103,15 @@ def test_outputs_are_created_where_missing(tmp_path):
 @pytest.mark.slow
 def test_every_output_follows_the_umask(tmp_path):
     """Under umask 027 every file the commands write is 0640 (tables, loso.*, predictions,
-    render commands, figures, the report), as a colleague in the group can read them."""
-    script = textwrap.dedent(f"""
-        import os, sys
-        os.umask(0o027)
-        sys.path.insert(0, {str(Path(__file__).parents[1] / "report")!r})
-        from report_synthetic import write_synthetic_results
-        from typer.testing import CliRunner
-        from fingerfriction.cli import app
-        out = {str(tmp_path)!r}
-        write_synthetic_results(out + "/results", subjects={{"1": 0.55}})  # one subject: the same files
-        r = CliRunner()
+    render commands, figures, the report), as a colleague in the group can read them. In this
+    process, its umask set for the commands and restored after them."""
+    sys.path.insert(0, str(Path(__file__).parents[1] / "report"))
+    from report_synthetic import write_synthetic_results
+
+    out = str(tmp_path)
+    old = os.umask(0o027)
+    try:
+        write_synthetic_results(out + "/results", subjects={"1": 0.55})  # one subject: the same files
         for args in (["fit", out + "/results"], ["report", out + "/results"],
                      ["predict", "--surface", "bump-2mm", "--subject", "1", "--step", "0.1",
                       "--out", out + "/p"],
@@ -123,10 +119,10 @@ def test_every_output_follows_the_umask(tmp_path):
                       "--out", out + "/pc"],
                      ["render", "--surface", "bump-2mm", "--subject", "1", "--step", "0.1",
                       "--out", out + "/r/cmd.wav", "--table", out + "/r/table.csv"]):
-            res = r.invoke(app, args)
+            res = runner.invoke(app, args)
             assert res.exit_code == 0, (args, res.output)
-    """)
-    subprocess.run([sys.executable, "-c", script], check=True, timeout=600)
+    finally:
+        os.umask(old)
     modes = {}
     for p in tmp_path.rglob("*"):
         if p.is_file():
