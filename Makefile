@@ -39,9 +39,12 @@ chromium:
 	  else echo "note: chromium not found; install Debian's chromium package for the HTML report test"; fi; }
 
 # Tests run on every core (pytest-xdist): the whole suite in `make test` (CI), the fast tier
-# (everything not marked slow) in `make check` for everyday work.
+# (everything not marked slow) in `make check` for everyday work. The whole suite runs one
+# worker more than there are cores: a test that waits (for a subprocess, a browser, a Dask
+# cluster starting) leaves its core to another worker's test.
+TEST_WORKERS ?= $(shell echo $$(( $$(nproc 2>/dev/null || echo 1) + 1 )))
 test: $(VENV)/.installed-test lint chromium
-	$(BIN)/python -m pytest -n auto
+	$(BIN)/python -m pytest -n $(TEST_WORKERS)
 
 check: $(VENV)/.installed-test lint
 	$(BIN)/python -m pytest -n auto -m "not slow"
