@@ -31,3 +31,15 @@ def test_render_and_predict_contact_defaults_live_with_the_code_that_applies_the
     assert str(_option("render", "--speed").show_default) == "80"
     assert str(_option("render", "--rate").show_default) == "2000"
     assert get_subject() is get_subject(1)
+
+
+def test_the_finger_calibration_options_default_to_the_stage():
+    from fingerfriction.mechanics.fe.calibration import FECalibrationOptions
+    from fingerfriction.pipeline.finger_calibration import calibrate_held_out, calibrate_results
+
+    model = {"validate": calibrate_held_out, "calibrate-finger": calibrate_results}
+    for cmd in ("validate", "calibrate-finger"):
+        for opt, default in (("--finger-model", inspect.signature(model[cmd]).parameters["model"].default),
+                             ("--workers", FECalibrationOptions().workers)):
+            p = _option(cmd, opt)
+            assert p.default is None and p.show_default.value() == default, (cmd, opt)

@@ -40,6 +40,9 @@ _DISPLAY = "fingerfriction.predict.render:DisplayModel"
 _VALIDATE_STEP = "fingerfriction.pipeline.validation:validate_results.forward_step"
 _SUBJECT = "fingerfriction.mechanics.finger:get_subject.subject"
 _COMMAND = "fingerfriction.predict.render:HapticRenderer.write_command"
+_FINGER_MODEL = "fingerfriction.pipeline.finger_calibration:calibrate_results.model"
+_HELD_OUT_MODEL = "fingerfriction.pipeline.finger_calibration:calibrate_held_out.model"
+_FE_WORKERS = "fingerfriction.mechanics.fe.calibration:FECalibrationOptions.workers"
 
 
 def predict_contact(
@@ -222,26 +225,28 @@ def validate_cmd(
     ] = None,
     calibrated: bool = typer.Option(False, "--calibrated-fingers", help="Also predict each held-out surface "
                                     "with each subject's finger calibrated on the other surfaces (slow)."),
-    finger_model: str = typer.Option("halfspace", "--finger-model", help="The family of the calibrated "
-                                     "fingers: halfspace, or fe (the layered FE finger, its tables cached)."),
-    workers: int = typer.Option(1, "--workers", callback=WORKERS,
-                                help="Processes solving the FE calibration's tables (--finger-model fe)."),
+    finger_model: str = dataclass_option(_HELD_OUT_MODEL, "--finger-model", help="The family of the "
+                                         "calibrated fingers: halfspace, or fe (the layered FE finger, its "
+                                         "tables cached)."),
+    workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS, help="Processes solving the "
+                                    "FE calibration's tables (--finger-model fe)."),
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
-    from ..pipeline.finger_calibration import calibrate_held_out  # heavy (numba); likewise
+    from ..pipeline.finger_calibration import FINGER_FAMILIES, calibrate_held_out  # heavy (numba); likewise
     from ..pipeline.validation import validate_results  # heavy (the forward model); likewise
 
     fingers = read_fingers(items=finger, model="any")  # half-space or FE finger files
     try:
-        check_option("--finger-model", finger_model, ("halfspace", "fe"))
+        finger_model = check_option("--finger-model", or_default(finger_model, _HELD_OUT_MODEL),
+                                    FINGER_FAMILIES)
         held = None
         if calibrated:
             opts = None
             if finger_model == "fe":
                 from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-                opts = FECalibrationOptions(verify=False, workers=workers)
+                opts = FECalibrationOptions(verify=False, **given(workers=workers))
             with console.status("calibrating the fingers without each surface...") as st:
                 held = calibrate_held_out(results, options=opts, model=finger_model,
                                           progress=lambda k, n, what: st.update(
@@ -286,22 +291,24 @@ def calibrate_finger_cmd(
     surfaces: str = typer.Option(None, "--surfaces", help="Calibrate on these surfaces only (comma list)."),
     seed: int = dataclass_option("fingerfriction.mechanics.calibrate:CalibrationOptions.seed", "--seed",
                                  help="Seed of the bootstrap uncertainties.", callback=SEED),
-    finger_model: str = typer.Option("halfspace", "--finger-model", help="halfspace (radius, modulus, flat "
-                                     "length), or fe: the layered FE finger (pulp modulus and outline "
-                                     "radius, through a grid of cached FE tables; docs/mechanics-fe.md)."),
+    finger_model: str = dataclass_option(_FINGER_MODEL, "--finger-model", help="halfspace (radius, "
+                                         "modulus, flat length), or fe: the layered FE finger (pulp modulus "
+                                         "and outline radius, through a grid of cached FE tables; "
+                                         "docs/mechanics-fe.md)."),
     friction: float = typer.Option(None, "--friction", callback=bounded(0.0, 5.0),
                                    help="FE finger: the sliding friction of its contact (default: the "
                                    "study's fitted flat-ground mu)."),
-    workers: int = typer.Option(1, "--workers", callback=WORKERS,
-                                help="Processes solving the FE grid's tables (--finger-model fe)."),
+    workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS,
+                                    help="Processes solving the FE grid's tables (--finger-model fe)."),
 ) -> None:
     """Fit the subject's finger to its measured contact regions and write it as a finger JSON
     that predict, validate and render accept (predict-contact and render: half-space only)."""
     from ..mechanics.calibrate import CalibrationOptions  # heavy (numba); when the command runs
-    from ..pipeline.finger_calibration import calibrate_results  # heavy (the forward model); likewise
+    from ..pipeline.finger_calibration import FINGER_FAMILIES, calibrate_results  # heavy; likewise
 
     try:
-        check_option("--finger-model", finger_model, ("halfspace", "fe"))
+        finger_model = check_option("--finger-model", or_default(finger_model, _FINGER_MODEL),
+                                    FINGER_FAMILIES)
     except ValueError as exc:
         fail(str(exc))
     start = None if initial is None else read_fingers(initial, model=finger_model)
@@ -311,7 +318,7 @@ def calibrate_finger_cmd(
         if finger_model == "fe":
             from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-            opts = FECalibrationOptions(**given(seed=seed), workers=workers)
+            opts = FECalibrationOptions(**given(seed=seed, workers=workers))
         else:
             opts = CalibrationOptions(**given(seed=seed))
         t0 = time.process_time()
