@@ -48,7 +48,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.signal import butter, sosfiltfilt
 
-from .._check import check_fs, in_range, positive
+from .._check import check_fs, positive
 from .pad import PadLaw
 
 __all__ = ["KinematicsParams", "Kinematics", "PadLaw", "simulate_kinematics", "min_jerk", "smooth_noise"]
@@ -113,7 +113,10 @@ class KinematicsParams:
 
     def __post_init__(self) -> None:
         for k, v in asdict(self).items():
-            in_range(f"KinematicsParams.{k}", v, None if k in ("x_start", "x_stop") else 0)
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"KinematicsParams.{k} must be a finite number, got {v!r}")
+            if k not in ("x_start", "x_stop") and v < 0:
+                raise ValueError(f"KinematicsParams.{k} must be >= 0, got {v!r}")
         if not self.x_start < -self.window / 2 < self.window / 2 < self.x_stop:
             raise ValueError(
                 f"KinematicsParams: the slide [{self.x_start}, {self.x_stop}] mm must cover the "
