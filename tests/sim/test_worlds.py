@@ -190,6 +190,8 @@ def test_world_names_and_errors():
         Interlocking(fluct_sd=0.6)
     with pytest.raises(ValueError, match=r"^ConstantPressure.p1 must be >= 0, got True$"):
         ConstantPressure(p1=True)
+    with pytest.raises(ValueError, match=r"^ConstantPressure.p1 must be a number, got '0.2'$"):
+        ConstantPressure(p1="0.2")
 
 
 def test_options_round_trip_with_world_and_chain():

@@ -119,7 +119,10 @@ def _check_fields(obj, ranges: dict) -> None:
     name = type(obj).__name__
     for f in fields(obj):
         lo, hi, open_lo = ranges.get(f.name, (None, None, False))
-        in_range(f"{name}.{f.name}", getattr(obj, f.name), lo, hi, open_lo=open_lo)
+        v = getattr(obj, f.name)
+        if isinstance(v, str):  # the field stays as given: text would reach the arithmetic
+            raise ValueError(f"{name}.{f.name} must be a number, got {v!r}")
+        in_range(f"{name}.{f.name}", v, lo, hi, open_lo=open_lo)
 
 
 def _start(motion: TrialMotion) -> np.ndarray:
