@@ -50,6 +50,16 @@ def test_bad_speed(speed):
         simulate_kinematics(speed, np.random.default_rng(0))
 
 
+@pytest.mark.parametrize("field, value, message", [
+    ("pre_s", -0.1, r"^KinematicsParams.pre_s must be >= 0, got -0.1$"),
+    ("force_sd", float("inf"), r"^KinematicsParams.force_sd must be a finite number, got inf$"),
+    ("ramp_s", "0.06", r"^KinematicsParams.ramp_s must be a finite number, got '0.06'$"),
+])
+def test_bad_kinematics_field_one_line(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        KinematicsParams(**{field: value})
+
+
 def test_params_must_cover_window():
     with pytest.raises(ValueError, match="window"):
         KinematicsParams(x_start=-10.0)

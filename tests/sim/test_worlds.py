@@ -180,10 +180,18 @@ def test_world_names_and_errors():
         SimOptions(world="paper")
     with pytest.raises(ValueError, match=r"^unknown chain 'perfect'; chains: ideal, realistic$"):
         SimOptions(chain="perfect")
-    with pytest.raises(ValueError, match="p1_sd must be <= 0.3"):
+    with pytest.raises(ValueError, match=r"^ConstantPressure.p1_sd must be in \[0, 0.3\], got 0.5$"):
         ConstantPressure(p1_sd=0.5)
     with pytest.raises(ValueError, match="down_return must be in"):
         Interlocking(down_return=1.5)
+    with pytest.raises(ValueError, match=r"^Interlocking.v_ref must be > 0, got 0$"):
+        Interlocking(v_ref=0)
+    with pytest.raises(ValueError, match=r"^Interlocking.fluct_sd must be in \[0, 0.5\], got 0.6$"):
+        Interlocking(fluct_sd=0.6)
+    with pytest.raises(ValueError, match=r"^ConstantPressure.p1 must be >= 0, got True$"):
+        ConstantPressure(p1=True)
+    with pytest.raises(ValueError, match=r"^ConstantPressure.p1 must be a number, got '0.2'$"):
+        ConstantPressure(p1="0.2")
 
 
 def test_options_round_trip_with_world_and_chain():

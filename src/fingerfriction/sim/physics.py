@@ -150,7 +150,7 @@ SUBJECT_FORCE_LAWS: dict[str, ForceLaw] = {
 
 def true_forces(table: ContactTable, law: ForceLaw, x_c: np.ndarray, f_n: np.ndarray,
                 sliding_distance: np.ndarray, speed_mm_s: float, in_contact: np.ndarray, *,
-                mu_scale: float = 1.0, load_exponent: float = 0.0, f_ref_n: float = 0.3):
+                mu_scale: float = 1.0, load_exponent: float = 0.0, f_ref_n: float = RealismParams.f_ref_n):
     """True tangential force of a trial on the force clock.
 
     Parameters

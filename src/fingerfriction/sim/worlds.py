@@ -34,9 +34,10 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
+from .._check import in_range
 from .contact import ContactTable
 from .kinematics import min_jerk, smooth_noise
-from .physics import SUBJECT_FORCE_LAWS, true_forces
+from .physics import SUBJECT_FORCE_LAWS, RealismParams, true_forces
 
 __all__ = [
     "WORLD_NAMES",
@@ -112,16 +113,16 @@ class WorldForces:
     truth: dict
 
 
-def _check_fields(obj, *, nonneg=(), positive=()) -> None:
+def _check_fields(obj, ranges: dict) -> None:
+    """Every field of a world's parameters through :func:`fingerfriction._check.in_range`:
+    ``ranges`` maps a field to ``(lo, hi, open_lo)`` (``None``: no bound)."""
     name = type(obj).__name__
     for f in fields(obj):
+        lo, hi, open_lo = ranges.get(f.name, (None, None, False))
         v = getattr(obj, f.name)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ValueError(f"{name}.{f.name} must be a finite number, got {v!r}")
-        if f.name in nonneg and v < 0:
-            raise ValueError(f"{name}.{f.name} must be >= 0, got {v!r}")
-        if f.name in positive and v <= 0:
-            raise ValueError(f"{name}.{f.name} must be > 0, got {v!r}")
+        if isinstance(v, str):  # the field stays as given: text would reach the arithmetic
+            raise ValueError(f"{name}.{f.name} must be a number, got {v!r}")
+        in_range(f"{name}.{f.name}", v, lo, hi, open_lo=open_lo)
 
 
 def _start(motion: TrialMotion) -> np.ndarray:
@@ -162,7 +163,7 @@ class LoadSharing:
 
     def trial_forces(self, table: ContactTable, motion: TrialMotion, subject: str,
                      rng: np.random.Generator, *, mu_scale: float = 1.0, load_exponent: float = 0.0,
-                     f_ref_n: float = 0.3, law=None) -> WorldForces:
+                     f_ref_n: float = RealismParams.f_ref_n, law=None) -> WorldForces:
         """The trial's forces (see :class:`ConstantPressure.trial_forces` for the parameters;
         ``law``, a :class:`~fingerfriction.sim.physics.ForceLaw`, overrides the subject's).
         Draws nothing from ``rng``."""
@@ -209,9 +210,7 @@ class ConstantPressure:
     name = "constant-pressure"
 
     def __post_init__(self) -> None:
-        _check_fields(self, nonneg=("p1", "p1_sd"))
-        if self.p1_sd > 0.3:
-            raise ValueError(f"ConstantPressure.p1_sd must be <= 0.3 (relative), got {self.p1_sd!r}")
+        _check_fields(self, {"p1": (0, None, False), "p1_sd": (0, 0.3, False)})
 
     def to_dict(self) -> dict:
         return {"name": self.name, "params": asdict(self),
@@ -219,7 +218,7 @@ class ConstantPressure:
 
     def trial_forces(self, table: ContactTable, motion: TrialMotion, subject: str,
                      rng: np.random.Generator, *, mu_scale: float = 1.0, load_exponent: float = 0.0,
-                     f_ref_n: float = 0.3) -> WorldForces:
+                     f_ref_n: float = RealismParams.f_ref_n) -> WorldForces:
         """The trial's forces.
 
         Parameters
@@ -335,13 +334,11 @@ class Interlocking:
     name = "interlocking"
 
     def __post_init__(self) -> None:
-        _check_fields(self, nonneg=("psi_up", "down_return", "speed_exponent", "psi_sd", "mu_sd", "fluct_sd",
-                                    "aging"),
-                      positive=("v_ref", "fluct_hz", "memory_mm"))
-        if self.down_return > 1:
-            raise ValueError(f"Interlocking.down_return must be in [0, 1], got {self.down_return!r}")
-        if self.mu_sd > 0.3 or self.fluct_sd > 0.5:
-            raise ValueError("Interlocking: mu_sd must be <= 0.3 and fluct_sd <= 0.5 (relative)")
+        nonneg, positive = (0, None, False), (0, None, True)
+        _check_fields(self, {"psi_up": nonneg, "down_return": (0, 1, False), "speed_exponent": nonneg,
+                             "psi_sd": nonneg, "mu_sd": (0, 0.3, False), "fluct_sd": (0, 0.5, False),
+                             "aging": nonneg, "v_ref": positive, "fluct_hz": positive,
+                             "memory_mm": positive})
 
     def to_dict(self) -> dict:
         return {"name": self.name, "params": asdict(self),
@@ -370,7 +367,7 @@ class Interlocking:
 
     def trial_forces(self, table: ContactTable, motion: TrialMotion, subject: str,
                      rng: np.random.Generator, *, mu_scale: float = 1.0, load_exponent: float = 0.0,
-                     f_ref_n: float = 0.3) -> WorldForces:
+                     f_ref_n: float = RealismParams.f_ref_n) -> WorldForces:
         """The trial's forces (parameters as :meth:`ConstantPressure.trial_forces`; the load
         exponent applies to ``mu``: ``mu (F_N / f_ref_n)^-load_exponent``).
 
