@@ -5,17 +5,22 @@ BIN := $(VENV)/bin
 
 .PHONY: demo test check lint venv clean chromium
 
+# The packages go in with uv (itself installed by pip from the package registry into the
+# venv): the test environment took 8 s with it against 53 s with pip (49 s the install,
+# 4 s upgrading pip) on a fresh clone of this 2-core machine. pip does it when uv cannot.
+INSTALL = { $(BIN)/uv pip install --quiet --python $(BIN)/python $(1) || $(BIN)/python -m pip install --quiet $(1); }
+
 $(BIN)/python:
 	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "error: $(PYTHON) not found; set PYTHON=/path/to/python3.11"; exit 1; }
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet uv || echo "note: uv not installed; installing with pip (slower)"
 
 $(VENV)/.installed-test: $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(call INSTALL,-e ".[test]")
 	@touch $@
 
 $(VENV)/.installed: $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e .
+	$(call INSTALL,-e .)
 	@touch $@
 
 venv: $(VENV)/.installed

@@ -16,7 +16,8 @@ ROOT = "fingerfriction"
 #: A name is a module or a package (``study.store``; ``study`` is the package's
 #: ``__init__``); a module belongs to the longest name that matches it.
 LAYERS = [
-    ("base", ["_atomic", "_check", "_console", "_mainguard", "_outputs", "_progress", "_style", "flags"]),
+    ("base", ["_atomic", "_check", "_console", "_mainguard", "_outputs", "_progress", "_style", "_workers",
+              "flags"]),
     ("geometry", ["surfaces", "regions"]),
     ("models", ["model", "mechanics", ""]),  # "": the package root's re-exports
     ("stages", ["fit", "video", "forces", "selfcheck"]),

@@ -1,8 +1,9 @@
 """The check that a script starting worker processes protects its top level.
 
-:func:`~fingerfriction.sim.simulate_study` (a ``forkserver`` process pool) and
-:func:`~fingerfriction.pipeline.analyze.analyze` (a Dask ``LocalCluster``, ``spawn``) start
-worker processes that import the user's script again as ``__mp_main__``. A script that calls
+:func:`~fingerfriction.sim.simulate_study` (a process pool) and
+:func:`~fingerfriction.pipeline.analyze.analyze` (a Dask ``LocalCluster``) start worker
+processes (``fingerfriction._workers``: ``forkserver``, or ``spawn`` where there is none)
+that import the user's script again as ``__mp_main__``. A script that calls
 them at its top level, without ``if __name__ == "__main__":``, then runs itself again in
 every new process: the pool breaks (``BrokenProcessPool``) or Dask's workers fail to start,
 after a long multiprocessing traceback. The check below finds that case before any process

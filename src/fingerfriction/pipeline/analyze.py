@@ -25,11 +25,13 @@ from pathlib import Path
 
 import dask
 from distributed import Client, LocalCluster, as_completed
+from distributed.utils import get_mp_context
 
 from .. import __version__
 from .._mainguard import check_main_guard
 from .._outputs import check_output_dir
 from .._progress import ProgressBar
+from .._workers import forkserver_context
 from ..study.check import check_files
 from ..study.manifest import Study, TrialRecord
 from ..study.store import ResultsStore, input_fingerprint, now, sha256_file, sha256_input
@@ -147,6 +149,25 @@ def _run_trial(trial: TrialInput, params: dict) -> dict:
         logger.debug("trial %s failed:\n%s", trial.id, traceback.format_exc())
         return {"ok": False, "reason": one_line(exc), "inputs": inputs,
                 "elapsed_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
+
+
+def _local_cluster_config() -> dict:
+    """Dask settings of the local cluster.
+
+    * ``allowed-failures=0``: a trial that kills its worker (a crash in a decoder) is
+      reported at once instead of being retried on, and killing, the others.
+    * Worker processes start from the package's ``forkserver`` (``fingerfriction._workers``),
+      where the platform has one and the user's Dask configuration keeps the default
+      ``spawn``.
+    """
+    cfg: dict = {"distributed.scheduler.allowed-failures": 0}
+    method = dask.config.get("distributed.worker.multiprocessing-method", "spawn")
+    if method == "spawn" and forkserver_context() is not None:
+        cfg["distributed.worker.multiprocessing-method"] = "forkserver"
+        with dask.config.set(cfg):
+            get_mp_context()  # Dask sets its own preload list the first time: ours replaces it
+        forkserver_context()
+    return cfg
 
 
 def _versions() -> dict:
@@ -394,16 +415,20 @@ class _Run:
     def on_dask(self, todo: list[TrialInput], raw: dict, scheduler: str | None, n_workers: int | None,
                 bar: ProgressBar) -> None:
         """Start (or connect to) the cluster, run ``todo``, record each result."""
+        # the local cluster's settings hold while it runs: a worker killed by its trial is
+        # started again by its nanny, with the same start method
+        with dask.config.set(_local_cluster_config()):
+            self._on_dask(todo, raw, scheduler, n_workers, bar)
+
+    def _on_dask(self, todo: list[TrialInput], raw: dict, scheduler: str | None, n_workers: int | None,
+                 bar: ProgressBar) -> None:
         cluster = None
         if scheduler is None:
             nw = n_workers or os.cpu_count() or 1
-            # allowed-failures=0: a trial that kills its worker (a crash in a decoder)
-            # is reported at once instead of being retried on, and killing, the others.
-            with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-                # dashboard_address=":0": a free port; None still tries 8787 and warns on the
-                # console when another cluster holds it (measured with distributed 2026.8)
-                cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
-                                       dashboard_address=":0", silence_logs=logging.ERROR)
+            # dashboard_address=":0": a free port; None still tries 8787 and warns on the
+            # console when another cluster holds it (measured with distributed 2026.8)
+            cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
+                                   dashboard_address=":0", silence_logs=logging.ERROR)
             client = Client(cluster)
             self.scheduler = "local"
         else:

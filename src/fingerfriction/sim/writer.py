@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import logging
-import multiprocessing as mp
 import os
 import shutil
 from collections.abc import Callable
@@ -28,6 +27,7 @@ import numpy as np
 from .. import __version__
 from .._atomic import atomic_write_text
 from .._mainguard import check_main_guard
+from .._workers import forkserver_context
 from ..regions import regions_from_mask
 from ..study import ForceInfo, Study, TrialRecord, VideoInfo, write_manifest
 from ..surfaces import Surface, surface_from_spec
@@ -455,8 +455,8 @@ def _run_tasks(out: Path, opts: SimOptions, groups: dict, table_paths: dict, wor
     cache = out / ".cache"
     cache.mkdir(exist_ok=True)
     if workers > 1:
-        ctx = mp.get_context("forkserver") if "forkserver" in mp.get_all_start_methods() else None
-        ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+        ex = ProcessPoolExecutor(max_workers=workers, mp_context=forkserver_context(),
+                                 initializer=_init_worker)
     else:
         ex = _Serial()
     try:
