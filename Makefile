@@ -46,16 +46,19 @@ chromium:
 	  else echo "note: chromium not found; install Debian's chromium package for the HTML report test"; fi; }
 
 # Tests run on every core (pytest-xdist): the whole suite in `make test` (CI), the fast tier
-# (everything not marked slow) in `make check` for everyday work. One worker per core: on a
-# fresh clone of a quiet 2-core machine a third worker made the suite slower (pytest 553 s and
-# 16m27s user with 3 workers against 522 s and 14m04s with 2, the same clone); override with
+# (everything not marked slow) in `make check` for everyday work. One worker more than the
+# cores: much of the suite waits on processes it starts (the analysis' cluster, the CLI in a
+# subprocess, Chromium), and a third worker on 2 cores fills those waits. Measured on fresh
+# clones of this quiet 2-core machine, with the workers started from a forkserver
+# (fingerfriction._workers): pytest 430 s with 3 workers against 490 s with 2. (With the
+# former spawned workers it was the other way round, 553 s against 522 s.) Override with
 # `make test TEST_WORKERS=N`.
-TEST_WORKERS ?= auto
+TEST_WORKERS ?= $(shell echo $$(( $$(getconf _NPROCESSORS_ONLN 2>/dev/null || echo 1) + 1 )))
 test: $(VENV)/.installed-test lint chromium
 	$(BIN)/python -m pytest -n $(TEST_WORKERS)
 
 check: $(VENV)/.installed-test lint
-	$(BIN)/python -m pytest -n auto -m "not slow"
+	$(BIN)/python -m pytest -n $(TEST_WORKERS) -m "not slow"
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info .pytest_cache .ruff_cache $(CHROMIUM_LOG)

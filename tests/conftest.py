@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from hypothesis.configuration import set_hypothesis_home_dir
 
-from shared_inputs import once_per_run
+from shared_inputs import SMALL_DEMO, once_per_run
 
 # The command line prints through rich, which wraps at the terminal's width (80 columns
 # when the output is not a terminal). Tests look for phrases that contain paths under
@@ -63,6 +63,25 @@ def forward_fit(tmp_path_factory):
     for the command-line and the browser tests; a test that writes into the folder copies it."""
     return _synthetic_fit(tmp_path_factory, "forward-fit", regions="forward", transient_mm=0.8,
                           truth_dir="study/truth")
+
+
+@pytest.fixture(scope="session")
+def small_demo(tmp_path_factory):
+    """``(folder, console output)`` of `fingerfriction demo` on the small design
+    (``shared_inputs.SMALL_DEMO``), run once per test run: for the demo command's own test
+    and the report opened in a browser. Read-only; a test that writes into it copies it."""
+
+    def build(folder):
+        from typer.testing import CliRunner
+
+        from fingerfriction.cli import app
+
+        r = CliRunner().invoke(app, ["demo", "--out", str(folder / "demo"), *SMALL_DEMO])
+        assert r.exit_code == 0, r.output
+        return r.output
+
+    folder, output = once_per_run(tmp_path_factory, "small-demo", build)
+    return folder / "demo", output
 
 
 #: The test files that keep a worker longest (wall seconds in a whole-suite run on 2 cores,

@@ -7,6 +7,11 @@ import os
 import pickle
 import shutil
 
+#: The small demo's design (the session fixture ``small_demo``): 1 subject, 2 surfaces,
+#: 1 speed, 1 repetition (2 simulated trials with videos), on 2 workers.
+SMALL_DEMO = ("--subjects", "1", "--surfaces", "bump-2mm,step-up-4mm", "--speeds", "120", "--reps", "1",
+              "--workers", "2")
+
 
 def once_per_run(tmp_path_factory, name: str, build):
     """``(folder, value)``: ``build(folder)`` run once per test run, whatever the number of

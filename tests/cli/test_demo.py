@@ -1,35 +1,35 @@
 """The `demo` command: simulate -> analyze -> fit -> report, tables printed, resumable."""
 
 import re
+import shutil
 
 import pytest
 from typer.testing import CliRunner
 
 from fingerfriction.cli import app
 from fingerfriction.fit.variants import get
+from shared_inputs import SMALL_DEMO
 
 
 @pytest.mark.slow
-def test_demo_small_design_end_to_end_and_resumed(tmp_path):
-    args = ["demo", "--out", str(tmp_path / "demo"), "--subjects", "1", "--surfaces", "bump-2mm",
-            "--speeds", "120", "--reps", "1", "--workers", "2"]
-    r = CliRunner().invoke(app, args)
-    assert r.exit_code == 0, r.output
-    assert "Table 1" in r.output and "Tactile blind spots" in r.output
+def test_demo_small_design_end_to_end_and_resumed(small_demo, tmp_path):
+    demo, output = small_demo  # `demo` on the small design (tests/conftest.py), run once per test run
+    assert "Table 1" in output and "Tactile blind spots" in output
     # as a new user reads it: the first Table 1 names its model, the one the fit chose
-    text = " ".join(r.output.split())
+    text = " ".join(output.split())
     first = re.search(r"Table 1 of the model used, (.+?) \((\w+)\): Pearson rho", text)
     assert first and text.index("Table 1") == first.start(), text[:2000]
     assert first.group(1) == get(first.group(2)).title
-    assert "demo: 1 trial," in text and f"{first.group(2)} model: mu 0." in text  # the summary line
-    # why that model, after the tables: one surface, so no comparison out of sample
+    assert "demo: 2 trials," in text and f"{first.group(2)} model: mu 0." in text  # the summary line
+    # why that model, after the tables: two surfaces, so no comparison out of sample
     assert f"model: {first.group(2)} (" in text and "not cross-validated: too few surfaces" in text
-    assert "1 computed, 0 already done, 0 failed" in r.output
-    assert (tmp_path / "demo" / "results" / "report" / "index.html").is_file()
-    assert (tmp_path / "demo" / "study" / "manifest.json").is_file()
-    r = CliRunner().invoke(app, args)  # the second run finds everything done
+    assert "2 computed, 0 already done, 0 failed" in text
+    assert (demo / "results" / "report" / "index.html").is_file()
+    assert (demo / "study" / "manifest.json").is_file()
+    shutil.copytree(demo, tmp_path / "demo")  # the second run (on a copy) finds everything done
+    r = CliRunner().invoke(app, ["demo", "--out", str(tmp_path / "demo"), *SMALL_DEMO])
     assert r.exit_code == 0, r.output
-    assert "0 computed, 1 already done, 0 failed" in r.output
+    assert "0 computed, 2 already done, 0 failed" in " ".join(r.output.split())
 
 
 def test_demo_bad_options_are_one_line_errors(tmp_path):
