@@ -8,7 +8,11 @@ worker is then a fork of it, instead of a new interpreter importing SciPy, panda
 Dask and this package again, which can take longer than the work of a small run. The
 server lives as long as the calling process, so later runs in it (a notebook, a script
 over several studies, the test suite) start their workers at once. As with ``spawn``, each
-worker still imports the calling script as ``__mp_main__`` (see ``_mainguard``).
+worker still imports the calling script as ``__mp_main__`` (see ``_mainguard``) and starts
+in the caller's current working directory with its ``sys.path``. Unlike ``spawn``, an
+environment variable the caller sets after the server started does not reach the workers
+(they keep the server's environment): set such variables (thread counts, say) before the
+first run.
 """
 
 from __future__ import annotations

@@ -38,3 +38,23 @@ def test_the_analysis_cluster_workers_come_from_the_same_server():
 def test_a_users_own_start_method_is_kept():
     with dask.config.set({"distributed.worker.multiprocessing-method": "fork"}):
         assert "distributed.worker.multiprocessing-method" not in _local_cluster_config()
+
+
+def _cwd_and_probe():
+    import os
+
+    return os.getcwd(), os.environ.get("FINGERFRICTION_TEST_PROBE")
+
+
+def test_a_worker_starts_in_the_callers_working_directory(tmp_path, monkeypatch):
+    """As with spawn, the working directory at each start is the caller's (relative paths in a
+    notebook that changed directory resolve as the user expects); the environment is the
+    server's (documented in fingerfriction._workers)."""
+    with ProcessPoolExecutor(1, mp_context=forkserver_context()) as ex:
+        ex.submit(_cwd_and_probe).result(timeout=120)  # the server runs from here on
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("FINGERFRICTION_TEST_PROBE", "set after the server started")
+    with ProcessPoolExecutor(1, mp_context=forkserver_context()) as ex:
+        cwd, probe = ex.submit(_cwd_and_probe).result(timeout=120)
+    assert cwd == str(tmp_path)
+    assert probe is None
