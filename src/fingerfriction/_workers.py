@@ -9,15 +9,20 @@ Dask and this package again, which can take longer than the work of a small run.
 server lives as long as the calling process, so later runs in it (a notebook, a script
 over several studies, the test suite) start their workers at once. As with ``spawn``, each
 worker still imports the calling script as ``__mp_main__`` (see ``_mainguard``) and starts
-in the caller's current working directory with its ``sys.path``. Unlike ``spawn``, an
-environment variable the caller sets after the server started does not reach the workers
-(they keep the server's environment): set such variables (thread counts, say) before the
-first run.
+in the caller's current working directory with its ``sys.path``.
+
+The environment is the server's, from when it started: the caller's later changes do not
+reach a forked worker by themselves. The package's own variables (``FINGERFRICTION_*``,
+which choose the FE finger's mesh and cache) are therefore handed to each worker at its
+start (:func:`package_environ`), so that a study simulated after ``os.environ[...] = ...``
+in a notebook uses what was set. Other libraries' variables read at import (thread counts)
+keep the server's values: set them before the first run.
 """
 
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 
 #: Imported by the forkserver before its first worker (an import that fails is skipped by
 #: multiprocessing, and the worker imports what it needs itself).
@@ -36,3 +41,16 @@ def forkserver_context():
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(list(PRELOAD))
     return ctx
+
+
+#: The package's environment variables that its workers read (``mechanics.fe.provider``);
+#: an empty value reads as unset.
+PACKAGE_ENV = ("FINGERFRICTION_FE_MESH", "FINGERFRICTION_CACHE")
+
+
+def package_environ() -> dict[str, str]:
+    """The caller's package variables for a worker to take at its start: every
+    ``FINGERFRICTION_*`` set, and an empty value for each of :data:`PACKAGE_ENV` that is not
+    (a worker forked from a server started while it was set then reads it as unset)."""
+    env = {k: v for k, v in os.environ.items() if k.startswith("FINGERFRICTION_")}
+    return {**dict.fromkeys(PACKAGE_ENV, ""), **env}

@@ -43,18 +43,32 @@ def test_a_users_own_start_method_is_kept():
 def _cwd_and_probe():
     import os
 
-    return os.getcwd(), os.environ.get("FINGERFRICTION_TEST_PROBE")
+    return os.getcwd(), os.environ.get("FINGERFRICTION_CACHE")
 
 
-def test_a_worker_starts_in_the_callers_working_directory(tmp_path, monkeypatch):
-    """As with spawn, the working directory at each start is the caller's (relative paths in a
-    notebook that changed directory resolve as the user expects); the environment is the
-    server's (documented in fingerfriction._workers)."""
+def test_a_worker_has_the_callers_directory_and_package_variables(tmp_path, monkeypatch):
+    """Set after the server started (a notebook that changed directory and chose a cache):
+    the simulator's workers and the analysis' workers see both, as with spawn."""
+    from distributed import Client, LocalCluster
+
+    from fingerfriction._workers import package_environ
+    from fingerfriction.sim.writer import _init_worker
+
     with ProcessPoolExecutor(1, mp_context=forkserver_context()) as ex:
         ex.submit(_cwd_and_probe).result(timeout=120)  # the server runs from here on
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("FINGERFRICTION_TEST_PROBE", "set after the server started")
-    with ProcessPoolExecutor(1, mp_context=forkserver_context()) as ex:
-        cwd, probe = ex.submit(_cwd_and_probe).result(timeout=120)
-    assert cwd == str(tmp_path)
-    assert probe is None
+    monkeypatch.setenv("FINGERFRICTION_CACHE", str(tmp_path / "cache"))
+    want = (str(tmp_path), str(tmp_path / "cache"))
+    with ProcessPoolExecutor(1, mp_context=forkserver_context(), initializer=_init_worker,
+                             initargs=(package_environ(),)) as ex:
+        assert ex.submit(_cwd_and_probe).result(timeout=120) == want
+    with dask.config.set(_local_cluster_config()):
+        with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
+                          silence_logs=logging.ERROR, env=package_environ()) as cluster, \
+                Client(cluster) as client:
+            assert tuple(client.submit(_cwd_and_probe, pure=False).result(timeout=120)) == want
+    # unset again: the workers read it as unset, whatever the server had
+    monkeypatch.delenv("FINGERFRICTION_CACHE")
+    with ProcessPoolExecutor(1, mp_context=forkserver_context(), initializer=_init_worker,
+                             initargs=(package_environ(),)) as ex:
+        assert ex.submit(_cwd_and_probe).result(timeout=120)[1] in (None, "")

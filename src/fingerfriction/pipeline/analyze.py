@@ -31,7 +31,7 @@ from .. import __version__
 from .._mainguard import check_main_guard
 from .._outputs import check_output_dir
 from .._progress import ProgressBar
-from .._workers import forkserver_context
+from .._workers import forkserver_context, package_environ
 from ..study.check import check_files
 from ..study.manifest import Study, TrialRecord
 from ..study.store import ResultsStore, input_fingerprint, now, sha256_file, sha256_input
@@ -427,8 +427,10 @@ class _Run:
             nw = n_workers or os.cpu_count() or 1
             # dashboard_address=":0": a free port; None still tries 8787 and warns on the
             # console when another cluster holds it (measured with distributed 2026.8)
+            # env: the caller's package variables, which a forked worker would not have
             cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.ERROR)
+                                   dashboard_address=":0", silence_logs=logging.ERROR,
+                                   env=package_environ())
             client = Client(cluster)
             self.scheduler = "local"
         else:

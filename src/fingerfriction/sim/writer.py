@@ -27,7 +27,7 @@ import numpy as np
 from .. import __version__
 from .._atomic import atomic_write_text
 from .._mainguard import check_main_guard
-from .._workers import forkserver_context
+from .._workers import forkserver_context, package_environ
 from ..regions import regions_from_mask
 from ..study import ForceInfo, Study, TrialRecord, VideoInfo, write_manifest
 from ..surfaces import Surface, surface_from_spec
@@ -355,8 +355,10 @@ def _get_table(paths: tuple[str, ...]) -> ContactTable:
     return _TABLE_CACHE[paths]
 
 
-def _init_worker() -> None:
-    """One OpenCV thread per worker process: the pool already uses every core."""
+def _init_worker(env: dict) -> None:
+    """The caller's package variables (``_workers.package_environ``); one OpenCV thread per
+    worker process: the pool already uses every core."""
+    os.environ.update(env)
     cv2.setNumThreads(1)
 
 
@@ -456,7 +458,7 @@ def _run_tasks(out: Path, opts: SimOptions, groups: dict, table_paths: dict, wor
     cache.mkdir(exist_ok=True)
     if workers > 1:
         ex = ProcessPoolExecutor(max_workers=workers, mp_context=forkserver_context(),
-                                 initializer=_init_worker)
+                                 initializer=_init_worker, initargs=(package_environ(),))
     else:
         ex = _Serial()
     try:
