@@ -72,3 +72,40 @@ def test_a_worker_has_the_callers_directory_and_package_variables(tmp_path, monk
     with ProcessPoolExecutor(1, mp_context=forkserver_context(), initializer=_init_worker,
                              initargs=(package_environ(),)) as ex:
         assert ex.submit(_cwd_and_probe).result(timeout=120)[1] in (None, "")
+
+
+BURN = '''
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+from fingerfriction._workers import forkserver_context
+
+
+def burn(seconds):
+    t = time.process_time()
+    while time.process_time() - t < seconds:
+        pass
+    return True
+
+
+if __name__ == "__main__":
+    with ProcessPoolExecutor(1, mp_context=forkserver_context()) as ex:
+        assert ex.submit(burn, 1.5).result(timeout=120)
+'''
+
+
+def test_a_commands_workers_count_in_its_cpu_time(tmp_path):
+    """A command's workers' CPU time reaches whoever ran it (``RUSAGE_CHILDREN``: what the
+    benchmarks print), as with spawned workers: the command stops its server at its exit
+    and waits for it, and the server has reaped its workers."""
+    import resource
+    import subprocess
+    import sys
+
+    script = tmp_path / "burn.py"
+    script.write_text(BURN)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run([sys.executable, str(script)], check=True, cwd=tmp_path, timeout=300)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    assert cpu >= 1.5, f"the command's CPU time counted {cpu:.2f} s, its worker alone burned 1.5 s"
