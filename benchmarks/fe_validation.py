@@ -7,7 +7,9 @@ For each finger seed (the three the previous session drew from ``SeedSequence()`
 
 1. ``simulate``: 2 subjects x 6 surfaces x 3 speeds x 1 repetition, study seed 0, the drawn
    layered fingers (``--finger-model fe --finger-seed N``; their contact carries each
-   subject's friction), FE tables at ``$FINGERFRICTION_FE_MESH``;
+   subject's friction), FE tables at ``$FINGERFRICTION_FE_MESH``, by default here the coarse
+   mesh :data:`COARSE_MESH` (flat contact edges within 1.5 % of the package's default mesh,
+   ``docs/mechanics-fe.md``; a default-mesh table took over 3 min of CPU where these take 4-35 s);
 2. ``analyze``; 3. ``fit`` (the study's own mu per subject);
 4. ``validate --calibrated-fingers --finger-model fe``: leave-one-surface-out rho with the
    default (half-space) finger and with each subject's FE finger calibrated on the other five
@@ -44,6 +46,8 @@ import numpy as np
 import pandas as pd
 
 SEEDS = (9167, 6414, 2199)
+#: The mesh of the validation when ``$FINGERFRICTION_FE_MESH`` is not set.
+COARSE_MESH = {"surface_cell": 0.4, "skin_layers": 1, "tissue_layers": 3, "top_cells": 8}
 STEPS = ("simulate", "analyze", "fit", "validate", "true", "calibrate", "table")
 
 
@@ -266,7 +270,8 @@ def main() -> None:
     for s in redo:
         if s not in STEPS:
             ap.error(f"--redo: unknown step {s!r}; steps: {', '.join(STEPS)}")
-    print(f"mesh: FINGERFRICTION_FE_MESH={os.environ.get('FINGERFRICTION_FE_MESH', '(default mesh)')}; "
+    os.environ.setdefault("FINGERFRICTION_FE_MESH", json.dumps(COARSE_MESH))  # the commands' mesh
+    print(f"mesh: FINGERFRICTION_FE_MESH={os.environ['FINGERFRICTION_FE_MESH']}; "
           f"cache: {os.environ.get('FINGERFRICTION_CACHE', '~/.cache/fingerfriction')}")
     summary = [seed_run(int(s), Path(args.out), args.workers, redo, args.until)
                for s in args.seeds.split(",")]
