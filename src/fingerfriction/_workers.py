@@ -56,7 +56,7 @@ def _stop_server() -> None:
     ``ForkServer._stop`` is the standard library's own way to stop it (used by CPython's
     tests); where a Python lacks it, nothing is done.
     """
-    from multiprocessing import forkserver
+    from multiprocessing import forkserver  # at exit only; the module is loaded when a forkserver ran
 
     stop = getattr(forkserver._forkserver, "_stop", None)
     if stop is not None:
