@@ -294,7 +294,7 @@ def synchronise_copies(root: Path, rows: dict, index: dict) -> None:
     onsets = {cid: OnsetData.from_dict(r["onset"]) for cid, r in rows.items() if r["onset"]}
     clean = {cid for cid in onsets if index[cid][0] == "unmodified"}
     est = estimate_offsets(onsets.values(), mode="check", reference=clean, se_floor_s=P.sync_se_floor_s)
-    found = list(sync_checks(est, periods, P, mode="check").items())
+    found = list(sync_checks(est, periods, P, mode="check", onsets=onsets).items())
     # the force's scale: each copy against its finger's unmodified trials
     items = {cid: tuple(r["scale"]) for cid, r in rows.items() if r.get("scale") and r["level"] != "error"}
     ref = {cid for cid in items if index[cid][0] == "unmodified"}

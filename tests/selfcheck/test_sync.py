@@ -167,3 +167,50 @@ def test_touch_downs_round_trip_through_json_and_move_with_the_clock():
     assert moved.touch_offset_s == pytest.approx(o.touch_offset_s - 0.01, abs=1e-9)
     old = {k: v for k, v in o.to_dict().items() if k != "touch"}  # a status.json of before
     assert math.isnan(OnsetData.from_dict(old).touch_offset_s)
+
+
+def _checked(bad_start_ms: float, bad_touch_ms: float | None, se_v: float = 3e-4):
+    """A finger's six trials with clean clocks and touch-downs, and a seventh whose start of
+    the slide is off by ``bad_start_ms`` and whose touch-down by ``bad_touch_ms`` (None: not
+    measured), through the analysis' ``sync-offset`` check (``--sync check``)."""
+    from fingerfriction.pipeline.selfcheck import sync_checks
+    from fingerfriction.selfcheck import SelfCheckParams
+
+    rng = np.random.default_rng(5)
+    items = [_touched(_onset(i, v), 0.0, rng) for i, v in enumerate(SPEEDS)]
+    bad = _onset(9, 75.0, t0=bad_start_ms * 1e-3)
+    if bad_touch_ms is not None:
+        bad = _touched(bad, bad_touch_ms * 1e-3, rng, se_v=se_v)
+    items.append(bad)
+    onsets = {o.trial_id: o for o in items}
+    est = estimate_offsets(items, mode="check")
+    periods = {o.trial_id: o.frame_period for o in items}
+    return est, sync_checks(est, periods, SelfCheckParams(), mode="check", onsets=onsets)
+
+
+@pytest.mark.parametrize("wrong_ms", [-15.0, -5.0, 5.0, 15.0])
+def test_a_wrong_clock_moves_both_events_and_stays_an_error(wrong_ms):
+    """The force clock off: the start of the slide and the touch-down move alike, so the
+    touch-down corroborates the start's reading and the trial fails."""
+    est, checks = _checked(wrong_ms, wrong_ms)
+    assert checks["t9"].level == "error", checks["t9"]
+    assert est["t9"].offset_s == pytest.approx(-wrong_ms * 1e-3, abs=1e-3)
+    assert all(checks[f"t{i}"].level == "ok" for i in range(len(SPEEDS)))
+
+
+@pytest.mark.parametrize("start_ms", [-5.0, 5.0])
+def test_an_unusual_start_contradicted_by_the_touch_down_is_a_warning(start_ms):
+    """Only the start of the slide off (the clock right, as its touch-down shows): a warning
+    that names both readings, not a failed trial."""
+    _, checks = _checked(start_ms, 0.0)
+    c = checks["t9"]
+    assert c.level == "warning", c
+    assert "touch-down" in c.message and "not its clock" in c.message
+
+
+def test_without_a_touch_down_or_with_a_vague_one_the_start_decides():
+    """No touch-down, or one too uncertain to contradict the start (SE 5 ms): an error."""
+    _, checks = _checked(5.0, None)
+    assert checks["t9"].level == "error", checks["t9"]
+    _, checks = _checked(5.0, 0.0, se_v=5e-3)
+    assert checks["t9"].level == "error", checks["t9"]

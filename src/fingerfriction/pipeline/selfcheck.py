@@ -104,7 +104,34 @@ def _onsets(store: ResultsStore, ids) -> dict[str, OnsetData]:
     return out
 
 
-def sync_checks(estimates: dict, periods: dict, params, *, mode: str = "check") -> dict[str, Check]:
+def _touch_contradicts(
+    e: OffsetEstimate, onset: OnsetData | None, allowed: float
+) -> tuple[float, float] | None:
+    """The trial's own touch-down offset against its finger's other trials, ``(offset, SE)``
+    in s, when it contradicts an error found at the start of the slide: within ``allowed``
+    of 0 and more than 3 combined SE from the start's offset. None otherwise (no touch-down,
+    the finger's common offset not placed by touch-downs, or the two agree).
+
+    The touch-down offset less the common offset the finger's touch-downs place
+    (:func:`~fingerfriction.selfcheck.touchdown.touch_level`) is what the touch-down says of
+    the trial against the others: the same quantity as the start's relative offset, measured
+    on another event with no pre-sliding law in between. A wrong force clock moves both
+    events alike; an unusual start of the slide moves only the start's reading.
+    """
+    if onset is None or e.level_by != "touch-down" or not math.isfinite(e.common_s):
+        return None
+    own = onset.touch_offset_s - e.common_s
+    se = math.hypot(onset.touch_se_s, e.common_se_s if math.isfinite(e.common_se_s) else 0.0)
+    if not (math.isfinite(own) and math.isfinite(se)):
+        return None
+    if abs(own) <= allowed and abs(e.offset_s - own) > 3.0 * math.hypot(se, e.se_s):
+        return own, se
+    return None
+
+
+def sync_checks(
+    estimates: dict, periods: dict, params, *, mode: str = "check", onsets: dict | None = None
+) -> dict[str, Check]:
     """The ``sync-offset`` check of each trial from its measured offset.
 
     Parameters
@@ -115,9 +142,15 @@ def sync_checks(estimates: dict, periods: dict, params, *, mode: str = "check") 
         Trial id -> its video's frame period in s.
     params : SelfCheckParams
     mode : {'check', 'auto'}
-        ``'check'``: an offset beyond ``max(sync_frames periods, 3 SE)`` is an error.
+        ``'check'``: an offset beyond ``max(sync_frames periods, 3 SE)`` is an error, unless
+        the trial's own touch-down contradicts it (:func:`_touch_contradicts`): then a
+        warning, the start of that slide being unusual rather than its clock wrong.
         ``'auto'``: it is applied; beyond ``moved_frames`` periods it is a warning.
+    onsets : dict, optional
+        Trial id -> :class:`~fingerfriction.selfcheck.OnsetData` (their touch-downs); without
+        it every offset beyond the bound is an error.
     """
+    onsets = onsets or {}
     out = {}
     for tid, e in estimates.items():
         period = periods.get(tid, math.nan)
@@ -140,6 +173,18 @@ def sync_checks(estimates: dict, periods: dict, params, *, mode: str = "check") 
                 "frames): the manifest's clocks disagree"
                 if moved
                 else f"{text}; --sync auto applied it",
+                "force.t0_s",
+            )
+        elif abs(e.offset_s) > allowed and (touch := _touch_contradicts(e, onsets.get(tid), allowed)):
+            out[tid] = Check(
+                "sync-offset",
+                "warning",
+                ms,
+                "ms",
+                f"{text}, more than max({params.sync_frames:g} frame periods, 3 SE) = "
+                f"{1e3 * allowed:.2f} ms, but the trial's own touch-down puts it at "
+                f"{1e3 * touch[0]:+.2f} +- {1e3 * touch[1]:.2f} ms against the finger's other trials: "
+                "the start of this slide is unusual, not its clock; look at the trial",
                 "force.t0_s",
             )
         elif abs(e.offset_s) > allowed:
@@ -221,7 +266,7 @@ def synchronise_study(
     if P.sync == "check":
         # the trials acted on are measured against all others; ones checked before are the reference
         out.estimates = estimate_offsets(onsets.values(), mode="check", se_floor_s=P.sync_se_floor_s)
-        out.checks = sync_checks(out.estimates, periods, P, mode="check")
+        out.checks = sync_checks(out.estimates, periods, P, mode="check", onsets=onsets)
         common = _common_warnings(out.estimates, onsets, periods, P)
     else:
         out.estimates = estimate_offsets(onsets.values(), mode="auto", se_floor_s=P.sync_se_floor_s)
@@ -415,7 +460,7 @@ def deep_check(
     if P.sync != "manifest" and onsets:
         periods = {t.id: 1.0 / t.video.fps for t in st.trials if t.video.fps}
         est = estimate_offsets(onsets.values(), mode="check", se_floor_s=P.sync_se_floor_s)
-        for tid, c in sync_checks(est, periods, P, mode="check").items():
+        for tid, c in sync_checks(est, periods, P, mode="check", onsets=onsets).items():
             found[tid].append(c)
         for tid, c in _common_warnings(est, onsets, periods, P).items():
             found[tid].append(c)
