@@ -62,3 +62,45 @@ def test_fit_on_a_folder_that_is_not_a_results_folder(tmp_path):
     assert r.exit_code == 2 and "not a results folder" in r.output
     r = runner.invoke(app, ["report", str(tmp_path)])
     assert r.exit_code == 2 and "not a results folder" in r.output
+
+
+def _captured_params(monkeypatch, tmp_path, *options):
+    """The analysis parameters ``analyze`` would run with, given ``options`` (the run itself
+    replaced by a stand-in that records them and stops)."""
+    import fingerfriction.pipeline.analyze as stage
+
+    seen = {}
+
+    def stand_in(study, out, *, params, **kw):
+        seen["params"] = params
+        raise ValueError("stand-in: not run")
+
+    monkeypatch.setattr(stage, "analyze", stand_in)
+    r = runner.invoke(app, ["analyze", str(tmp_path), "--out", str(tmp_path / "out"), *options])
+    assert "stand-in: not run" in r.output, r.output
+    from fingerfriction.pipeline.params import force_params
+
+    return force_params(seen["params"].forces)
+
+
+def test_analyze_takes_the_sensors_high_pass(monkeypatch, tmp_path):
+    """A lab whose sensor has a second pole, or another cut-off, says so on the command line."""
+    f = _captured_params(monkeypatch, tmp_path)
+    assert (f.highpass_model, f.sensor_highpass_hz, f.estimate_highpass) == ("first-order", 5.0, False)
+    f = _captured_params(monkeypatch, tmp_path, "--highpass-model", "second-order", "--highpass-hz", "4")
+    assert (f.highpass_model, f.sensor_highpass_hz) == ("second-order", 4.0)
+    f = _captured_params(monkeypatch, tmp_path, "--estimate-highpass", "--highpass-hz", "6")
+    assert f.estimate_highpass and f.sensor_highpass_hz == 6.0
+    f = _captured_params(monkeypatch, tmp_path, "--highpass-hz", "0")
+    assert f.sensor_highpass_hz is None
+
+
+@pytest.mark.parametrize("options, says", [
+    (("--highpass-model", "third-order"), "--highpass-model"),
+    (("--highpass-model", "second-order", "--highpass-hz", "0"), "needs sensor_highpass_hz"),
+    (("--highpass-hz", "-1"), "--highpass-hz must be in [0, 1000] Hz"),
+])
+def test_analyze_bad_high_pass_is_one_line_error(tmp_path, options, says):
+    r = runner.invoke(app, ["analyze", str(tmp_path), "--out", str(tmp_path / "out"), *options])
+    assert r.exit_code == 2 and says in r.output, r.output
+    assert "Traceback" not in r.output

@@ -8,6 +8,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from .._check import check_option
 from .._console import one_line
 
 console = Console()
@@ -117,6 +118,46 @@ def dataclass_option(field: str, *names: str, **kwargs):
     default of ``field`` (a :class:`FieldDefault` path), which the command leaves to the
     dataclass when the option is not given."""
     return typer.Option(None, *names, show_default=FieldDefault(field), **kwargs)
+
+
+#: The force stage's parameters, whose fields the force options default to.
+FORCE_PARAMS = "fingerfriction.forces.params:ForceProcessingParams"
+
+
+def highpass_options() -> dict:
+    """The force sensor's high-pass options of ``forces`` and ``analyze`` (typer parameters by
+    name; each defaults to the dataclass's value): ``--highpass-model``, ``--highpass-hz``,
+    ``--estimate-highpass``. :func:`highpass_params` turns the given ones into
+    :class:`~fingerfriction.forces.ForceProcessingParams` keywords."""
+    return {
+        "highpass_model": dataclass_option(
+            f"{FORCE_PARAMS}.highpass_model", "--highpass-model",
+            help="the force sensor's high-pass to invert: first-order (one pole at --highpass-hz, both "
+                 "forces) or second-order (each channel's two-pole response, estimated on the rests "
+                 "before the touch and after the lift-off; --highpass-hz is its prior)"),
+        "highpass_hz": dataclass_option(
+            f"{FORCE_PARAMS}.sensor_highpass_hz", "--highpass-hz",
+            help="sensor high-pass cut-off to invert, Hz (the prior with --estimate-highpass or "
+                 "--highpass-model second-order); 0: none", callback=bounded(0.0, 1000.0, "Hz")),
+        "estimate_highpass": typer.Option(
+            False, "--estimate-highpass", help="fit the first-order sensor's cut-off on the rests "
+                                               "(--highpass-hz: the prior)"),
+    }
+
+
+def highpass_params(highpass_model: str | None, highpass_hz: float | None, estimate_highpass: bool) -> dict:
+    """The given high-pass options (:func:`highpass_options`) as force-parameter keywords;
+    ``--highpass-hz 0`` is no compensation. An unknown model is a ValueError naming the option."""
+    from ..forces.params import HIGHPASS_MODELS  # the force stage's (numpy): when a command runs
+
+    if highpass_model is not None:
+        check_option("--highpass-model", highpass_model, HIGHPASS_MODELS)
+    kw = given(highpass_model=highpass_model)
+    if highpass_hz is not None:
+        kw["sensor_highpass_hz"] = highpass_hz or None
+    if estimate_highpass:
+        kw["estimate_highpass"] = True
+    return kw
 
 
 def or_default(value, field: str):

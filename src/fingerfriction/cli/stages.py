@@ -8,7 +8,17 @@ import typer
 from rich.markup import escape
 
 from .._outputs import output_file
-from ._common import bounded, console, dataclass_option, fail, given, warn
+from ._common import (
+    FORCE_PARAMS,
+    bounded,
+    console,
+    dataclass_option,
+    fail,
+    given,
+    highpass_options,
+    highpass_params,
+    warn,
+)
 
 _OVERLAY = "fingerfriction.video.overlay:write_overlay"
 
@@ -50,7 +60,7 @@ def overlay_cmd(
     console.print(f"[green]wrote[/] {info.path}: {info.n_frames} frames ({info.n_flagged} flagged)")
 
 
-_FP = "fingerfriction.forces.params:ForceProcessingParams"
+_HP = highpass_options()
 
 
 def forces_cmd(
@@ -60,20 +70,17 @@ def forces_cmd(
     positions: str = typer.Option(None, "--positions", help="finger x (mm) per frame: .csv x_mm / .npy"),
     from_video: bool = typer.Option(False, "--from-video", help="x(t) and contact regions from the video"),
     from_truth: bool = typer.Option(False, "--from-truth", help="use the simulated study's true finger x"),
-    highpass_hz: float = dataclass_option(f"{_FP}.sensor_highpass_hz", "--highpass-hz",
-                                          help="sensor high-pass to invert, Hz; 0: none",
-                                          callback=bounded(0.0, 1000.0, "Hz")),
-    mains: str = dataclass_option(f"{_FP}.mains", "--mains",
+    highpass_hz: float = _HP["highpass_hz"],
+    mains: str = dataclass_option(f"{FORCE_PARAMS}.mains", "--mains",
                                   help="mains interference: fit (sinusoids fitted on the rest before the "
                                        "touch), notch (the paper's notch filters) or both"),
-    notch_q: float = dataclass_option(f"{_FP}.notch_q", "--notch-q",
+    notch_q: float = dataclass_option(f"{FORCE_PARAMS}.notch_q", "--notch-q",
                                       help="quality factor of the notches at the mains frequencies (used by "
                                            "--mains notch or both, and by the notch that replaces the fit "
                                            "when the record has no rest before the touch)",
                                       callback=bounded(0.1, 1000.0)),
-    estimate_highpass: bool = typer.Option(
-        False, "--estimate-highpass", help="fit the sensor cut-off on the rests (--highpass-hz: the prior)"
-    ),
+    estimate_highpass: bool = _HP["estimate_highpass"],
+    highpass_model: str = _HP["highpass_model"],
 ) -> None:
     """Process the forces of one trial: F_T(x) on a 0.01 mm grid over the 26 mm window.
 
@@ -86,9 +93,8 @@ def forces_cmd(
         tr = TrialInput.from_study(study, trial)
         x, regions = finger_positions(tr, positions=positions, from_truth=from_truth, from_video=from_video)
         kw = given(mains=mains, notch_q=notch_q)
-        if highpass_hz is not None:
-            kw["sensor_highpass_hz"] = highpass_hz or None  # 0: no compensation
-        params = ForceProcessingParams(**kw, estimate_highpass=estimate_highpass)
+        kw.update(highpass_params(highpass_model, highpass_hz, estimate_highpass))
+        params = ForceProcessingParams(**kw)
         if notch_q is not None and params.mains == "fit":
             warn("--notch-q: the fit removes the mains (--mains fit), the notches run only when the record "
                  "has no rest before the touch; give --mains notch or both to filter with them")

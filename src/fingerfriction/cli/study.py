@@ -30,6 +30,8 @@ from ._common import (
     finish,
     given,
     grouped_failures,
+    highpass_options,
+    highpass_params,
     plural,
     print_problems,
     print_summary,
@@ -80,6 +82,9 @@ def _deep_check(study: str) -> None:
     console.print(f"{study}: {len(found)} trials analysed, no problem found{more}", highlight=False)
 
 
+_HP = highpass_options()
+
+
 def analyze_cmd(
     study: str = typer.Argument(..., help="Study folder (with manifest.json)."),
     out: str = typer.Option(..., "--out", "-o", help="Results folder (created; resumed if it exists)."),
@@ -108,6 +113,9 @@ def analyze_cmd(
                                  help="Video-force clock offset: check (measure it from the start of each "
                                       "slide and fail a trial whose manifest offset is off), auto (use the "
                                       "measured offset) or manifest (trust the manifest)."),
+    highpass_model: str = _HP["highpass_model"],
+    highpass_hz: float = _HP["highpass_hz"],
+    estimate_highpass: bool = _HP["estimate_highpass"],
     verbose: bool = VERBOSE,
     quiet: bool = QUIET,
 ) -> None:
@@ -132,7 +140,9 @@ def analyze_cmd(
         opts["selfcheck"] = given(sync=sync)
         if window_mm is not None:
             opts["forces"]["window_mm"] = window_mm
+        opts["forces"].update(highpass_params(highpass_model, highpass_hz, estimate_highpass))
         params = AnalysisParams(**opts)
+        params.resolved()  # the options checked together (a ValueError) before any folder is read
         verbosity = verbosity_of(verbose, quiet)
         if dry_run:
             plan = plan_analysis(study, out, params=params, force=force, quick_resume=quick_resume)
