@@ -9,8 +9,9 @@ measurement chain, which the analysis does not invert exactly) and seed it print
   (``truth/<trial>.npz``), its error and whether the 95 % CI covers it; and against that
   mean as the sensor records it: the lab's crosstalk calibration is off by about 10 %, so
   0.2-0.5 % of crosstalk reaches the files and moves the flat-ground F_T / F_N by up to
-  about 1 %, a systematic error of the instrument that no analysis of its recordings can
-  undo, nor put in a statistical interval (the truth records the matrices);
+  about 2 % (``docs/worlds.md``), a systematic error of the instrument that no analysis of
+  its recordings can undo, nor put in a statistical interval (the truth records the
+  matrices);
 * Table 1 and the leave-one-surface-out rho of every variant, cell by cell;
 * the study-level flags;
 * the outcome: **Correct** (mu within 2 % of the realised mean, with the CI covering that
@@ -30,17 +31,18 @@ few tens of mN, which no law can predict from the surface, and where a surface's
 signal is small (Step Down in the interlocking world) that is most of what is measured;
 the exact law fails it on synthetic data (``docs/fit.md``).
 
-The study: the paper's design with one repetition per condition, 2 subjects x 6 surfaces
-x 3 speeds = 36 trials (every cell of Table 1 holds 3 trials per subject, 6 pooled;
-every held-out surface 6 trials), simulated with ``--chain realistic`` into
-``benchmarks/out/studies/worlds-WORLD-seedS`` (gitignored; reused by later runs) and
-analysed with the second-order sensor model the realistic chain needs. Why 36 and not
-the paper's 180: one world and seed costs about 6 min of CPU at 36 trials (simulation
-4, analysis 1, fit with the validation of four variants 1), 5x that at 180; the nine
-runs of the default set take about an hour on two shared cores at 36 trials.
+The study: the paper's design with three repetitions per condition, 2 subjects x 6
+surfaces x 3 speeds x 3 = 108 trials (every cell of Table 1 holds 9 trials per subject,
+18 pooled; every held-out surface 18 trials), simulated with ``--chain realistic`` into
+``benchmarks/out/studies/worlds-WORLD-seedS-repsN`` (gitignored; reused by later runs)
+and analysed with the second-order sensor model the realistic chain needs. Why 108: at
+one repetition (36 trials) the constant-pressure world's flat-ground F_T / F_N scatters
+so much from trial to trial (the participant's force-control loop wanders, and the
+interfacial force does not follow it) that 18 trials a subject put the 2 % bar at one to
+two standard errors (``docs/worlds.md``, with what a run costs).
 
 Run: ``.venv/bin/python benchmarks/worlds.py`` (every world, the default seeds), or
-``--world interlocking --seed 7`` (repeatable; ``--reps 3`` for 108 trials per study).
+``--world interlocking --seed 7`` (repeatable; ``--reps 1`` for 36 trials per study).
 The default seeds are drawn, not chosen: the first three of
 ``numpy.random.default_rng(20).integers(1, 10_000, 3)``. Seed-major order: every world's
 first seed comes before any world's second.
@@ -71,7 +73,7 @@ WORLDS = ("load-sharing", "constant-pressure", "interlocking")
 #: acceptable, a variant that represents it is better).
 MUST_BE_CORRECT = {"load-sharing": True, "constant-pressure": True, "interlocking": False}
 DEFAULT_SEEDS = tuple(int(s) for s in np.random.default_rng(20).integers(1, 10_000, 3))
-REPS = 1
+REPS = 3
 MU_TOL = 0.02
 
 
@@ -173,7 +175,7 @@ def judge(world: str, seed: int, summary, truth: tuple[dict, dict]) -> str:
     n1, n1_ok = len(t1), cells_ok(t1["rho"], 0.75)
     nl, nl_ok = (len(lo), cells_ok(bar_values(lo), 0.70)) if lo is not None else (0, 0)
     nn_ok = cells_ok(lo[NOMINAL_COLUMN], 0.70) if lo is not None else 0
-    mu_ok, literal_ok = True, True
+    mu_ok, literal_ok, recorded_ok = True, True, True
     for s in sorted(summary.mu):
         mu, (a, b) = summary.mu[s], summary.mu_ci[s]
         t, ts = raw.get(s, math.nan), seen.get(s, math.nan)
@@ -181,6 +183,7 @@ def judge(world: str, seed: int, summary, truth: tuple[dict, dict]) -> str:
         cover, cover_s = a <= t <= b, a <= ts <= b
         mu_ok &= abs(err) <= MU_TOL and cover_s
         literal_ok &= cover
+        recorded_ok &= abs(err_s) <= MU_TOL and cover_s
         print(f"  subject {s}: mu = {mu:.5f}, 95 % CI [{a:.5f}, {b:.5f}]; realised mean of the trials' mu "
               f"{t:.5f}; error {100 * err:+.2f} % (target 2 %), CI covers it: {'yes' if cover else 'NO'}")
         print(f"    through the sensor's residual crosstalk (after the lab's calibration) that mean reads "
@@ -195,14 +198,18 @@ def judge(world: str, seed: int, summary, truth: tuple[dict, dict]) -> str:
     flags = [f for f in summary.flags if not f.trial]
     print("  study-level flags: " + ("; ".join(f"{f.level} {f.code}" + (f" (subject {f.subject})" if f.subject
                                                                          else "") for f in flags) or "none"))
-    def verdict(held_out_ok: bool) -> str:
+    def verdict(held_out_ok: bool, mu_fine: bool = mu_ok) -> str:
         if summary.rejected:
             return "Refused"
-        return "Correct" if mu_ok and t1_ok and held_out_ok else "WRONG"
+        return "Correct" if mu_fine and t1_ok and held_out_ok else "WRONG"
 
     outcome = verdict(lo_ok)
     if outcome == "Correct" and not literal_ok:
         outcome += " (CI covers the mean as recorded, not the raw one)"
+    if outcome == "WRONG" and verdict(lo_ok, recorded_ok) == "Correct":
+        # both readings printed: the issue's 2 % is of the raw mean, which the instrument's
+        # own residual crosstalk moves by up to about 2 % before any analysis
+        outcome += " (against the mean as recorded: Correct, within 2 % and covered)"
     if verdict(nominal_ok) != verdict(lo_ok):
         outcome += f" [at the nominal load: {verdict(nominal_ok)}, held out {nn_ok} of {nl}]"
     family_ok = get(used).family == world
@@ -216,7 +223,7 @@ def judge(world: str, seed: int, summary, truth: tuple[dict, dict]) -> str:
 
 
 def run(world: str, seed: int, reps: int = REPS) -> str:
-    name = f"worlds-{world}-seed{seed}" + (f"-reps{reps}" if reps != REPS else "")
+    name = f"worlds-{world}-seed{seed}-reps{reps}"
     t0 = time.perf_counter()
     study = simulated_study(name, "--world", world, "--chain", "realistic", "--seed", str(seed),
                             "--reps", str(reps))
@@ -248,7 +255,7 @@ def main(argv=None) -> int:
     ap.add_argument("--world", action="append", choices=WORLDS, help="a world (repeatable; default: all)")
     ap.add_argument("--seed", action="append", type=int, help="a seed (repeatable; default: the drawn set)")
     ap.add_argument("--reps", type=int, default=REPS,
-                    help=f"repetitions per condition (default {REPS}: 36 trials; the paper's design is 5)")
+                    help=f"repetitions per condition (default {REPS}: {36 * REPS} trials; the paper's: 5)")
     args = ap.parse_args(argv)
     worlds = args.world or list(WORLDS)
     seeds = args.seed or list(DEFAULT_SEEDS)
