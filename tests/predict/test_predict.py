@@ -484,6 +484,70 @@ def test_params_from_pipeline_fit_and_validate_results(tmp_path):
     assert got["1", "bump-2mm"] == pytest.approx(ref["1", "Bump"], abs=1e-6)
     bad = CliRunner().invoke(app, ["validate", str(tmp_path / "nowhere")])
     assert bad.exit_code == 2 and "Traceback" not in bad.output
+    _a_failed_sweep_is_a_row_not_an_abort(root, tmp_path)
+
+
+def _a_failed_sweep_is_a_row_not_an_abort(root, tmp_path):
+    """The forward model's contact solver failing on one held-out surface (an FE finger's
+    unconverged positions, say) costs that surface's cells, with the reason, not the run:
+    the other surfaces are predicted, the table written, the exit status 1."""
+    from collections import OrderedDict
+
+    from typer.testing import CliRunner
+
+    from fingerfriction.cli import app
+    from fingerfriction.pipeline import validation
+
+    real = validation.forward_regions
+
+    def failing(surface, finger, positions, **kw):
+        if surface.name == "step-down-4mm":
+            raise RuntimeError("the FE contact solver failed at 19 of 261 finger positions on step-down-4mm")
+        return real(surface, finger, positions, **kw)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(validation, "forward_regions", failing)
+        mp.setattr(validation, "_sweep_memo", OrderedDict())  # solve again, not from this process's memo
+        r = CliRunner().invoke(app, ["validate", str(root), "--step", "0.05",
+                                     "--out", str(tmp_path / "l.csv")])
+    assert r.exit_code == 1, r.output
+    assert "Traceback" not in r.output
+    import re
+
+    from fingerfriction.fit.variants import MODELS
+
+    said = re.search(r"not predicted \(([a-z, ]+)\) step-down-4mm: no prediction for subject 1 on "
+                     r"step-down-4mm: the FE contact solver failed at 19 of 261", " ".join(r.output.split()))
+    assert said and set(said.group(1).split(", ")) == set(MODELS), r.output  # one line for every variant
+    df = pd.read_csv(tmp_path / "l.csv", dtype={"subject": str})
+    down, bump = df[df["surface"] == "step-down-4mm"], df[df["surface"] == "bump-2mm"]
+    assert down["rho_out_of_sample"].isna().all() and bump["rho_out_of_sample"].notna().all()
+    assert down["note"].str.len().gt(0).all() and bump["note"].isna().all()
+    pooled = down[~down["subject"].isin(["1", "2"])]["note"]
+    assert len(pooled) == 4 and pooled.str.startswith("no pooled prediction: subject 1, 2").all()
+
+
+def test_a_failed_forward_sweep_is_kept_and_raised_again(monkeypatch):
+    """The variants of one validation share the forward sweeps: a sweep the solver failed is
+    not solved again for the next variant, its error is raised again."""
+    from types import SimpleNamespace
+
+    from fingerfriction.pipeline import validation
+
+    calls = []
+
+    def failing(surface, finger, positions, **kw):
+        calls.append(surface)
+        raise RuntimeError("the contact solver failed at 3 of 41 finger positions")
+
+    monkeypatch.setattr(validation, "forward_regions", failing)
+    trials = [SimpleNamespace(x=np.linspace(-1.0, 1.0, 21))]
+    cache = {}
+    for _ in range(2):
+        with pytest.raises(RuntimeError, match="failed at 3 of 41"):
+            validation._forward_sweep(cache, "bump", "finger", trials, load=0.3, contact="geometric",
+                                      step=0.1)
+    assert calls == ["bump"]
 
 
 @pytest.mark.slow

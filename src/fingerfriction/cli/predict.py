@@ -276,7 +276,18 @@ def validate_cmd(
                   f"{r.rho_heldout_params_video:.2f}", f"{r.rho_out_of_sample:.2f}",
                   *([f"{r.rho_out_of_sample_calibrated_finger:.2f}"] if cal else []))
     console.print(t)
-    finish(not (held and held.errors))  # a held-out surface without its calibrated finger: status 1
+    # why a cell has no prediction (the others were made): status 1, as a held-out surface
+    # without its calibrated finger
+    notes: dict[str, list] = {}  # the line -> the variants it holds for
+    for col, finger_kind in (("note", ""), ("note_calibrated_finger", ", calibrated finger")):
+        if col in res.table.columns:
+            for m, surf, n in zip(res.table["model"], res.table["surface"], res.table[col], strict=True):
+                if isinstance(n, str) and n:
+                    notes.setdefault(f"{surf}{finger_kind}: {n}", []).append(m)
+    for line, models in notes.items():
+        which = ", ".join(dict.fromkeys(models))
+        console.print(f"[yellow]not predicted[/] ({which}) {line}", highlight=False, soft_wrap=True)
+    finish(not (held and held.errors) and not notes)
 
 
 def calibrate_finger_cmd(

@@ -216,6 +216,9 @@ def leave_one_surface_out(trials, *, model: str = DEFAULT_MODEL, fingers=None, g
     Returns
     -------
     OutOfSample
+        A subject and surface that cannot be predicted (no successful training fit, or the
+        forward model's contact solver failed on the held-out surface) is a row with NaN
+        rho and a ``note`` saying why, and its pooled row likewise; the others go on.
 
     Notes
     -----
@@ -250,6 +253,7 @@ def leave_one_surface_out(trials, *, model: str = DEFAULT_MODEL, fingers=None, g
         fits = fit_all(train)
         fmodel = FrictionModel(surf)
         pooled: dict[str, list] = {"m": [], "g": [], "vm": [], "vg": [], "lm": [], "lg": []}
+        unpredicted: list = []
         for subj in sorted({t.subject for t in test}):
             ttest = [t for t in test if t.subject == subj]
             if subj not in train_subjects:
@@ -264,8 +268,16 @@ def leave_one_surface_out(trials, *, model: str = DEFAULT_MODEL, fingers=None, g
                 continue
             params = variant.params_for(sf, ok)
             finger = _heldout_finger(subj, name, fingers, heldout_fingers)
-            lo, xs, fwd = _forward_sweep(cache, surf, finger, ttest, load=load, contact=contact,
-                                         step=forward_step)
+            try:
+                lo, xs, fwd = _forward_sweep(cache, surf, finger, ttest, load=load, contact=contact,
+                                             step=forward_step)
+            except RuntimeError as exc:  # the contact solver failed: said in the row, the others go on
+                note = f"no prediction for subject {subj} on {name}: {exc}"
+                log.warning("leave-one-surface-out (%s model): %s", model, note)
+                rows.append({**_loso_row(model, subj, surf, ttest, ins, {k: [] for k in pooled}, params),
+                             "note": note})
+                unpredicted.append(subj)
+                continue
             ctx = HeldOut(load=float(load), paper=settings.paper, kernel=settings.load.median_kernel,
                           flat_length=lambda f=finger: flat_length_of_kind(f, float(load), contact),
                           min_load=settings.load.min_load)
@@ -280,7 +292,12 @@ def leave_one_surface_out(trials, *, model: str = DEFAULT_MODEL, fingers=None, g
             for k in pooled:
                 pooled[k] += got[k]
             rows.append(_loso_row(model, subj, surf, ttest, ins, got, params))
-        rows.append(_loso_row(model, BOTH, surf, test, ins, pooled, None))
+        if unpredicted:  # a pooled rho of the other subjects alone would not be the surface's
+            rows.append({**_loso_row(model, BOTH, surf, test, ins, {k: [] for k in pooled}, None),
+                         "note": f"no pooled prediction: subject {', '.join(unpredicted)} could not be "
+                                 "predicted on this surface"})
+        else:
+            rows.append(_loso_row(model, BOTH, surf, test, ins, pooled, None))
     return OutOfSample(table=_in_table1_order(pd.DataFrame(rows), subjects), estimates=estimates)
 
 
@@ -315,15 +332,22 @@ def _forward_sweep(cache: dict, surf: Surface, finger, trials, *, load: float, c
     """``(lo, xs, regions)``: the forward model's sweep over the positions of ``trials``
     (from ``lo`` by ``step`` mm), computed once per surface, finger, load, contact and
     span (kept in ``cache``, and in this process's memo of the last
-    :data:`SWEEP_MEMO_SIZE` sweeps; the arrays are read-only)."""
+    :data:`SWEEP_MEMO_SIZE` sweeps; the arrays are read-only). A sweep the contact solver
+    failed raises its ``RuntimeError``, kept in ``cache`` and raised again without solving."""
     lo = min(float(t.x[0]) for t in trials)
     hi = max(float(t.x[-1]) for t in trials)
     key = (surf, finger, float(load), contact, round(lo, 9), round(hi, 9), float(step))
+    if isinstance(cache.get(key), RuntimeError):  # failed before: the other variants are told at once
+        raise cache[key]
     if key not in cache:
         entry = _sweep_memo.get(key)
         if entry is None:
             xs = lo + step * np.arange(int(math.ceil((hi - lo) / step - 1e-9)) + 1)
-            regions = forward_regions(surf, finger, xs, load=load, contact=contact)
+            try:
+                regions = forward_regions(surf, finger, xs, load=load, contact=contact)
+            except RuntimeError as exc:
+                cache[key] = exc
+                raise
             xs.setflags(write=False)
             regions.setflags(write=False)
             entry = _sweep_memo[key] = (xs, regions)
@@ -502,11 +526,12 @@ def write_validation(res: OutOfSample, path: str | os.PathLike) -> None:
 
 def _with_calibrated(table: pd.DataFrame, cal: pd.DataFrame, calibrated_fingers: dict) -> pd.DataFrame:
     """``table`` with the out-of-sample rho and p of ``cal`` (the calibrated-finger run) as
-    two more columns; NaN where a subject (or, pooled, any subject) kept its default finger."""
+    two more columns, and its notes (``note_calibrated_finger``: why a cell has no
+    prediction); NaN where a subject (or, pooled, any subject) kept its default finger."""
     key = ["model", "subject", "surface"]
-    got = cal.loc[:, key + ["rho_out_of_sample", "p_out_of_sample"]].rename(columns={
+    got = cal.loc[:, key + ["rho_out_of_sample", "p_out_of_sample", "note"]].rename(columns={
         "rho_out_of_sample": "rho_out_of_sample_calibrated_finger",
-        "p_out_of_sample": "p_out_of_sample_calibrated_finger"})
+        "p_out_of_sample": "p_out_of_sample_calibrated_finger", "note": "note_calibrated_finger"})
     out = table.merge(got, on=key, how="left")
     subjects = sorted(set(out["subject"]) - {BOTH})
     cols = ["rho_out_of_sample_calibrated_finger", "p_out_of_sample_calibrated_finger"]
