@@ -204,11 +204,18 @@ def test_bad_options(tmp_path):
 # --------------------------------------------------------------------------------------
 
 
+#: Trials of the tiny study: enough for a run stopped after some (2) with others left to do
+#: (and one corrupt trial beside good ones), no more (each is simulated, then analysed again
+#: by most tests below).
+N_TINY = 3
+
+
 def make_tiny_study(out: Path) -> Path:
-    """1 subject x 1 surface x 1 speed (120 mm/s, the shortest slides) x 4 repetitions."""
+    """1 subject x 1 surface x 1 speed (120 mm/s, the shortest slides) x :data:`N_TINY`
+    repetitions."""
     from fingerfriction.sim import SimOptions, simulate_study
 
-    simulate_study(out, SimOptions(reps=4, subjects=("1",), surfaces=("bump-2mm",), speeds=(120.0,),
+    simulate_study(out, SimOptions(reps=N_TINY, subjects=("1",), surfaces=("bump-2mm",), speeds=(120.0,),
                                    seed=3), workers=1)
     return out
 
@@ -230,6 +237,22 @@ def clean_results(tiny_study, tmp_path_factory):
     return res, folder / "results"
 
 
+@pytest.fixture(scope="module")
+def clean_report(clean_results, tmp_path_factory):
+    """``(results, fit summary, report)``: a copy of the clean results, fitted and reported,
+    once per run: read-only, for the tests of the fit and report on top of `analyze`."""
+    _, shared = clean_results
+
+    def build(folder):
+        from fingerfriction.report import make_report
+
+        shutil.copytree(shared, folder / "results")
+        return fit(folder / "results", progress=False), make_report(folder / "results")
+
+    folder, (summary, rep) = once_per_run(tmp_path_factory, "pipeline-clean-report", build)
+    return folder / "results", summary, rep
+
+
 def _trial_ids(study: Path) -> list[str]:
     return [t["id"] for t in json.loads((study / "manifest.json").read_text())["trials"]]
 
@@ -245,13 +268,11 @@ def _fingerprint(out: Path, tid: str) -> dict:
 
 
 @pytest.mark.slow
-def test_end_to_end_tiny_study(tiny_study, clean_results, tmp_path):
-    res, shared = clean_results
-    out = tmp_path / "results"
-    shutil.copytree(shared, out)  # the fit and the report below write into it
+def test_end_to_end_tiny_study(tiny_study, clean_results, clean_report):
+    res, out = clean_results
     ids = _trial_ids(tiny_study)
-    assert res.n_trials == len(ids) == 4
-    assert res.n_computed == 4 and res.n_failed == 0 and res.success, res.failures
+    assert res.n_trials == len(ids) == N_TINY
+    assert res.n_computed == N_TINY and res.n_failed == 0 and res.success, res.failures
     assert res.scheduler == "local" and res.n_workers == 2
     store = ResultsStore(out)
     run = store.read_run()
@@ -279,12 +300,9 @@ def test_end_to_end_tiny_study(tiny_study, clean_results, tmp_path):
         assert fo["x_mm"].iloc[0] == pytest.approx(-13.0) and fo["x_mm"].iloc[-1] == pytest.approx(13.0)
         assert fr["x_mm"].min() < -12.5 and fr["x_mm"].max() > 12.5
         assert store.status(tid)["info"]["forces"]["flags"] == []
-    # the fit and the report on top
-    summary = fit(out, progress=False)
-    assert summary.n_trials == 4 and set(summary.mu) == {"1"}
-    from fingerfriction.report import make_report
-
-    rep = make_report(out)
+    # the fit and the report on top (of a copy of these results: clean_report)
+    _, summary, rep = clean_report
+    assert summary.n_trials == N_TINY and set(summary.mu) == {"1"}
     assert rep.html.is_file() and rep.table1 is not None
     assert "mu" in rep.truth  # a simulated study: recovered next to the truth
     mu = rep.truth["mu"]  # one row per model variant, the one used (load-consistent) first
@@ -293,7 +311,7 @@ def test_end_to_end_tiny_study(tiny_study, clean_results, tmp_path):
     assert mu["model"].tolist() == ["load", *[m for m in MODELS if m != "load"]]
     assert mu["mu_true"].tolist() == [0.55] * len(MODELS)  # the simulator's subject 1
     track = rep.truth["tracking"]
-    assert track["n_trials"].tolist() == [4] and np.all(track["x_rms_max_mm"] < 1.0)
+    assert track["n_trials"].tolist() == [N_TINY] and np.all(track["x_rms_max_mm"] < 1.0)
 
 
 @pytest.mark.slow
@@ -372,7 +390,7 @@ def test_corrupt_trial_is_reported_and_the_others_are_intact(tiny_study, clean_r
     video.write_bytes(data[: len(data) // 3])  # a truncated video file
 
     res = analyze(study, tmp_path / "results", n_workers=2, progress=False, params=SIM)
-    assert res.n_failed == 1 and res.n_computed == 3
+    assert res.n_failed == 1 and res.n_computed == N_TINY - 1
     (tid, reason), = res.failures
     assert tid == bad["id"] and reason and "\n" not in reason
     store = ResultsStore(tmp_path / "results")
@@ -383,7 +401,7 @@ def test_corrupt_trial_is_reported_and_the_others_are_intact(tiny_study, clean_r
             continue
         pd.testing.assert_frame_equal(store.read_frames(t["id"]), ResultsStore(clean).read_frames(t["id"]))
         pd.testing.assert_frame_equal(store.read_forces(t["id"]), ResultsStore(clean).read_forces(t["id"]))
-    # the fit and report go on with the three good trials and list the bad one
+    # the fit and report go on with the good trials and list the bad one
     fit(tmp_path / "results", progress=False)
     from fingerfriction.report import make_report
 
@@ -413,7 +431,8 @@ def test_run_on_a_separate_dask_scheduler_and_worker(tiny_study, clean_results, 
              "--no-dashboard"], env=env, stdout=logs[0], stderr=subprocess.STDOUT))
         procs.append(subprocess.Popen(
             [sys.executable, "-m", "dask", "worker", addr, "--host", "127.0.0.1", "--nworkers", "1",
-             "--nthreads", "1", "--no-dashboard", "--name", "external-worker"],
+             "--nthreads", "1", "--no-dashboard", "--name", "external-worker",
+             "--no-nanny"],  # the worker itself, not a nanny starting it as a third interpreter
             env=env, stdout=logs[1], stderr=subprocess.STDOUT))
         deadline = time.monotonic() + 90
         while True:
@@ -433,7 +452,7 @@ def test_run_on_a_separate_dask_scheduler_and_worker(tiny_study, clean_results, 
         res = analyze(tiny_study, tmp_path / "results", scheduler=addr, force=True, progress=False,
                       params=SIM)
         assert res.scheduler == addr and res.n_workers == 1
-        assert res.n_computed == 4 and res.n_skipped == 0 and res.n_failed == 0, res.failures
+        assert res.n_computed == N_TINY and res.n_skipped == 0 and res.n_failed == 0, res.failures
         assert ResultsStore(tmp_path / "results").read_run()["runs"][-1]["scheduler"] == addr
         for tid in _trial_ids(tiny_study):  # same results as on the local cluster
             pd.testing.assert_frame_equal(ResultsStore(tmp_path / "results").read_frames(tid),
@@ -482,10 +501,10 @@ def test_analyze_command_interrupted_by_ctrl_c_then_resumed(tiny_study, tmp_path
             proc.wait()
     store = ResultsStore(out)
     finished = [t for t in _trial_ids(tiny_study) if (store.status(t) or {}).get("status") == "ok"]
-    assert 1 <= len(finished) < 4
+    assert 1 <= len(finished) < N_TINY
     before = {tid: _fingerprint(out, tid) for tid in finished}
     res = analyze(tiny_study, out, n_workers=1, progress=False, params=SIM)
-    assert res.n_skipped == len(finished) and res.n_computed == 4 - len(finished) and res.n_failed == 0
+    assert res.n_skipped == len(finished) and res.n_computed == N_TINY - len(finished) and res.n_failed == 0
     for tid in finished:
         assert _fingerprint(out, tid) == before[tid]
 
@@ -500,14 +519,10 @@ def test_frames_table_keeps_the_position_source():
 
 
 @pytest.mark.slow
-def test_force_history_is_stored_and_shown_in_the_run_record(clean_results, tmp_path):
+def test_force_history_is_stored_and_shown_in_the_run_record(clean_results, clean_report):
     """Every step of the force processing, with its fitted values, is in each trial's
     status.json and, as readable lines, in the report's run record."""
-    from fingerfriction.report import make_report
-
-    _, shared = clean_results
-    out = tmp_path / "results"
-    shutil.copytree(shared, out)  # the report is written into it
+    _, out = clean_results
     store = ResultsStore(out)
     tid = store.trial_ids()[0]
     history = store.status(tid)["info"]["forces"]["history"]
@@ -515,7 +530,7 @@ def test_force_history_is_stored_and_shown_in_the_run_record(clean_results, tmp_
     assert steps == ["decompose", "remove_baseline", "lowpass", "compensate_highpass", "remove_rest_drift",
                      "remove_drift"]
     assert history[3]["cutoff_hz"] == 5.0 and np.isfinite(history[4]["F_T_slope_N_per_s"])
-    page = make_report(out).html.read_text(encoding="utf-8")
+    page = clean_report[2].html.read_text(encoding="utf-8")  # the report of a copy of these results
     assert "sensor high-pass inverted at 5 Hz (first order)" in page
     assert "residual drift fitted through the compensation on the rests" in page
     assert "{&#39;step&#39;" not in page and "{'step'" not in page  # readable lines, not dict text
