@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 
 import numpy as np
@@ -19,6 +20,19 @@ TRUE = dataclasses.replace(SUBJECTS[2], radius=24.0, modulus=0.16, flat_length=6
 MMPP = 0.023
 
 
+@functools.cache
+def _measured(name: str, load: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, regions)`` of the true finger on the surface ``name`` at ``load``: the sweep of
+    each (surface, load), solved once per process (the tests below write the same trials into
+    several results folders; read-only arrays)."""
+    x = np.arange(-9.0, 9.0, 0.1)
+    r = sweep(get_surface(name), TRUE, x, load=load, n=1024, gap_tol=3 * MMPP)
+    x, regions = np.where(r.success, x, np.nan), np.asarray(r.geometric_regions)
+    x.setflags(write=False)
+    regions.setflags(write=False)
+    return x, regions
+
+
 def _write(root, trials, *, absolute=True, video=None):
     """A results folder as `analyze` writes it, with the forward model's regions as the
     'measured' ones (vertical-gap geometric contact of a 1024-cell sweep)."""
@@ -28,10 +42,8 @@ def _write(root, trials, *, absolute=True, video=None):
         s = get_surface(name)
         surfaces[name] = s.to_dict()
         recs.append({"id": tid, "subject": subject, "surface": name})
-        x = np.arange(-9.0, 9.0, 0.1)
-        r = sweep(s, TRUE, x, load=load, n=1024, gap_tol=3 * MMPP)
-        x = np.where(r.success, x, np.nan)
-        fr = frames_table(np.arange(x.size) * 1e-3, x, r.geometric_regions)
+        x, regions = _measured(name, load)
+        fr = frames_table(np.arange(x.size) * 1e-3, x, regions)
         grid = np.round(np.arange(-13.0, 13.0 + 1e-9, 0.01), 2)
         fn = np.full(grid.size, load if absolute else np.nan)
         fo = pd.DataFrame({"x_mm": grid, "F_T_N": 0.0, "F_N_N": 0.0, "F_T_abs_N": 0.1, "F_N_abs_N": fn,
@@ -118,8 +130,6 @@ def _cli(args):
 
 @pytest.mark.slow
 def test_calibrate_finger_command_writes_a_finger_the_other_commands_accept(tmp_path, monkeypatch):
-    import functools
-
     import fingerfriction.mechanics.calibrate as cal
     from fingerfriction.mechanics.finger_file import read_finger_file
 
