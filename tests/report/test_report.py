@@ -110,12 +110,17 @@ def test_fit_recovers_parameters(synthetic_results):
     np.testing.assert_allclose(model["F_int_N"] + model["F_def_N"], model["F_model_N"], atol=1e-12)
 
 
+# The tests below that write their own results look at the report's page, its tables and
+# figures: their reports leave out the trial pages (sample=0, the flagged trials' alone),
+# which test_flags_pages.py and the shared report above test.
+
+
 @pytest.mark.slow
 def test_report_before_fit_leaves_out_model_figures(tmp_path):
     from report_synthetic import write_synthetic_results
 
     write_synthetic_results(tmp_path / "r")
-    rep = make_report(tmp_path / "r")
+    rep = make_report(tmp_path / "r", sample=0)
     assert rep.table1 is None
     names = {p.name for p in rep.files}
     assert "fig3_occupancy.png" in names and "fig6_model.png" not in names
@@ -132,7 +137,7 @@ def test_failed_trials_listed(tmp_path):
     store.write_failure(tid, "ValueError: video truncated\nat frame 12", {})
     data = load_report_data(tmp_path / "r")
     assert (tid, "ValueError: video truncated at frame 12") in data.failed
-    html = make_report(tmp_path / "r").html.read_text()
+    html = make_report(tmp_path / "r", sample=0).html.read_text()
     assert tid in html and "video truncated at frame 12" in html
 
 
@@ -182,7 +187,7 @@ def test_fit_without_validation_says_so(tmp_path):
     summary = fit(tmp_path / "r", progress=False, validate=False)
     assert summary.loso is None and summary.loso_message == "not requested"
     assert not (tmp_path / "r" / "fit" / "loso.csv").exists()  # never a table of another fit
-    rep = make_report(tmp_path / "r")
+    rep = make_report(tmp_path / "r", sample=0)
     assert rep.loso is None and rep.table1 is not None
     assert "Not computed: not requested" in rep.html.read_text()
     assert "loso.csv" not in {p.name for p in rep.files}
@@ -217,7 +222,7 @@ def test_one_subject_report_does_not_say_both_subjects(tmp_path):
 
     write_synthetic_results(tmp_path / "r", subjects={"1": 0.55})
     fit(tmp_path / "r", progress=False, validate=False)
-    rep = make_report(tmp_path / "r")
+    rep = make_report(tmp_path / "r", sample=0)
     html = rep.html.read_text().lower()
     assert "both subjects" not in html
     assert set(rep.table1["subject"]) == {"1"}
@@ -232,7 +237,7 @@ def test_report_before_fit_says_so_at_the_top_and_on_the_console(tmp_path):
     from fingerfriction.cli import app
 
     write_synthetic_results(tmp_path / "r")
-    res = CliRunner().invoke(app, ["report", str(tmp_path / "r")])
+    res = CliRunner().invoke(app, ["report", str(tmp_path / "r"), "--sample", "0"])
     assert res.exit_code == 0, res.output
     notes = [ln for ln in res.output.splitlines() if ln.startswith("note:")]
     assert len(notes) == 1 and "not fitted" in notes[0] and "fingerfriction fit" in notes[0]
@@ -251,7 +256,7 @@ def test_mu_at_the_end_of_the_grid_is_said(tmp_path):
     write_synthetic_results(tmp_path / "r")
     # the paper's variant forced: its mu is the study's (truth 0.55, 0.60)
     fit(tmp_path / "r", progress=False, validate=False, mu_grid=(0.30, 0.50, 0.05), model="paper")
-    rep = make_report(tmp_path / "r")
+    rep = make_report(tmp_path / "r", sample=0)
     html = rep.html.read_text()
     summary = html[html.index("<h2>Summary</h2>"):html.index("</ul>", html.index("<h2>Summary</h2>"))]
     assert summary.count("is at the end of the grid [0.30, 0.50]") == 2
