@@ -2,8 +2,8 @@
 
 :func:`simulate_source` runs the virtual experiment (``fingerfriction.sim``) on 2 subjects
 x 2 surfaces x 2 repetitions at 120 mm/s, with a lab camera of 1280 x 360 pixels (the
-paper's analysis crop) at 250 frames/s and coarse contact tables; :func:`write_lab_folder` rewrites its recordings
-the way a lab's instruments would have left them, with lab file names and no manifest:
+paper's analysis crop) at 250 frames/s and coarse contact tables; :func:`write_lab_folder`
+rewrites its recordings the way a lab's instruments would have left them, with lab file names and no manifest:
 
 * videos ``raw/S<subject>_<surface>_120mms_<rep>``: ``.cine`` (Phantom) for subject 1,
   multi-page ``.tif`` (no frame rate in the file) for subject 2, through
