@@ -49,10 +49,11 @@ _FORWARD: dict = {}
 
 def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: dict | None = None,
                             transient_mm: float | None = None, regions: str = "toy",
-                            force_law: str = "eq4") -> dict:
+                            force_law: str = "eq4", speeds: tuple = SPEEDS) -> dict:
     """Write a results folder; return the true per-trial parameters and blind spots.
 
-    ``subjects`` (subject -> mu) defaults to :data:`SUBJECTS`. ``transient_mm``: add to the
+    ``subjects`` (subject -> mu) defaults to :data:`SUBJECTS`, ``speeds`` (mm/s) to
+    :data:`SPEEDS`. ``transient_mm``: add to the
     absolute tangential force the start transient real slides show (a friction ratio 0.15
     higher at the window's start, decaying over this length in mm). ``regions``: ``'toy'``
     (contact [x - 4, x + 4] mm with a gap never touched: the blind spots of ``truth``) or
@@ -73,7 +74,7 @@ def write_synthetic_results(root, *, truth_dir=None, seed: int = 0, subjects: di
             a, _ = surf.feature_extent
             gap = (a - 0.5, a + 0.2)
             truth["gaps"][sname] = gap
-            for v in SPEEDS:
+            for v in speeds:
                 for r in range(1, REPS + 1):
                     tid = f"s{subj}-{sname}-v{int(v):03d}-r{r}"
                     t = np.arange(0.0, 34.0 / v, 1e-3)
