@@ -174,13 +174,19 @@ def heldout_blind_spots(results: Path, held: dict, true: dict) -> float:
                 if f is None:
                     got[label] = None
                     continue
-                reg = forward_regions(surf, fe_finger_from_mapping(f), xs, load=0.3)
+                try:
+                    reg = forward_regions(surf, fe_finger_from_mapping(f), xs, load=0.3)
+                except RuntimeError:  # the solver failed (validate's "not predicted" line says where)
+                    got[label] = "not predicted"
+                    continue
                 got[label] = blind_spots(reg, min_width=0.05).intervals
             cells = []
             for label in ("calibrated", "true"):
                 pr = got[label]
-                if pr is None:
-                    cells.append("no finger")
+                if pr is None or isinstance(pr, str):
+                    cells.append(pr or "no finger")
+                    if label == "calibrated" and pr:
+                        worst = math.inf  # a surface without a prediction is not within the criterion
                     continue
                 pairs = _pair(meas, pr)
                 if label == "calibrated":
