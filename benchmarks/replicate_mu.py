@@ -11,7 +11,7 @@ shows in both; a fluctuation of the drawn trials does not carry over to the new 
 
 Per trial it takes the flat-ground ``mu_k`` of :func:`fingerfriction.fit.mu.flat_ground_mu`
 (the estimate every variant on the absolute footing uses) and its error against the trial's
-drawn ``mu_trial`` as the sensor records it (``worlds.through_sensor``: the instrument's
+drawn ``mu_trial`` as the sensor records it (``worlds.trial_truth``: the instrument's
 residual crosstalk, which no analysis can undo). It prints the error per speed and block of
 repetitions (mean, SD, standard error) and each block's mean with its 95 % bootstrap CI
 (the fit's own: the percentile interval of 2000 resampled means, seed 0) and whether it
@@ -40,25 +40,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _studies import simulated_study  # noqa: E402
 from fingerfriction.fit.mu import flat_ground_mu  # noqa: E402
 from fingerfriction.pipeline.validation import trials_from_results  # noqa: E402
-from worlds import WORLDS, analysed, through_sensor  # noqa: E402
+from worlds import WORLDS, analysed, trial_truth  # noqa: E402
 
 N_BOOT = 2000
-
-
-def recorded_truth(study: Path) -> dict[str, tuple[float, float]]:
-    """Per trial id, ``(mu_trial, mu_trial as the sensor records it)`` from the truth files."""
-    out = {}
-    for p in sorted((study / "truth").glob("*.npz")):
-        with np.load(p, allow_pickle=False) as z:  # our own simulator's output
-            if "mu_trial" not in z.files:
-                continue
-            mu = float(z["mu_trial"])
-            seen = mu
-            if "sensor_crosstalk" in z.files:
-                cal = z["sensor_calibration"] if "sensor_calibration" in z.files else None
-                seen = through_sensor(mu, z["sensor_crosstalk"], cal)
-            out[p.stem] = (mu, seen)
-    return out
 
 
 def per_trial(results: Path, truth: dict) -> pd.DataFrame:
@@ -109,7 +93,7 @@ def main(argv=None) -> int:
                             *[x for s in speeds for x in ("--speeds", s)], "--quiet")
     t_sim = time.perf_counter() - t0
     results = analysed(study)
-    df = per_trial(results, recorded_truth(study))
+    df = per_trial(results, trial_truth(study))
     df["block"] = np.where(df["rep"] <= a.original, f"r1-{a.original}", f"r{a.original + 1}-{a.reps}")
     print(f"\n=== {a.world}, seed {a.seed}, subject {a.subject}, {', '.join(speeds)} mm/s, "
           f"{a.reps} repetitions ({study}); simulate {t_sim:.0f} s, all {time.perf_counter() - t0:.0f} s")

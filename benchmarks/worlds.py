@@ -89,11 +89,10 @@ def through_sensor(mu: float, crosstalk, calibration) -> float:
     return float((f1 - f2) / (f1 + f2))
 
 
-def realised_mu(study: Path) -> tuple[dict[str, float], dict[str, float]]:
-    """Per subject, the mean of the trials' drawn friction coefficients (truth files), and
-    the same mean seen through the sensor (:func:`through_sensor`; equal with the ideal
-    chain)."""
-    by: dict[str, list[tuple[float, float]]] = {}
+def trial_truth(study: Path) -> dict[str, tuple[float, float]]:
+    """Per trial id, its drawn ``mu_trial`` (truth files) and the same seen through the
+    sensor (:func:`through_sensor`; equal with the ideal chain)."""
+    out = {}
     for p in sorted((study / "truth").glob("*.npz")):
         with np.load(p, allow_pickle=False) as z:  # our own simulator's output
             if "mu_trial" in z.files:
@@ -102,7 +101,16 @@ def realised_mu(study: Path) -> tuple[dict[str, float], dict[str, float]]:
                 if "sensor_crosstalk" in z.files:
                     cal = z["sensor_calibration"] if "sensor_calibration" in z.files else None
                     seen = through_sensor(mu, z["sensor_crosstalk"], cal)
-                by.setdefault(p.stem.split("-")[0].lstrip("s"), []).append((mu, seen))
+                out[p.stem] = (mu, seen)
+    return out
+
+
+def realised_mu(study: Path) -> tuple[dict[str, float], dict[str, float]]:
+    """Per subject, the mean of the trials' drawn friction coefficients and the same mean
+    seen through the sensor (:func:`trial_truth`)."""
+    by: dict[str, list[tuple[float, float]]] = {}
+    for tid, v in trial_truth(study).items():
+        by.setdefault(tid.split("-")[0].lstrip("s"), []).append(v)
     return ({s: float(np.mean([a for a, _ in v])) for s, v in by.items()},
             {s: float(np.mean([b for _, b in v])) for s, v in by.items()})
 
