@@ -114,18 +114,31 @@ def test_recovers_a_stand_in_finger_inside_the_grid(fake):
     assert d["parameters"]["radius"] == pytest.approx(res.finger.radius) and "surrogate_rms_mm" in d
 
 
-def test_a_finger_outside_the_grid_is_not_a_success(fake):
-    true = finger_with(BASE, {"tissue_modulus": 1.7})
+def test_the_grid_moves_to_a_finger_outside_it_and_says_so(fake):
+    true = finger_with(BASE, {"tissue_modulus": 1.45})  # outside the first grid (0.75-1.25)
     trials = [_trial(true, s, 0.3, s.name) for s in (FLAT, BUMP)]
-    opts = FECalibrationOptions(**{**FAST, "fit": ("tissue_modulus",)})
+    opts = FECalibrationOptions(**{**FAST, "fit": ("tissue_modulus",), "bootstrap": 0})
     res = calibrate_fe_finger(trials, BASE, options=opts)
-    assert not res.success and "edge of the tabulated range" in res.message
+    assert res.success, res.message
+    assert "the grid moved tissue_modulus x1.25" in res.message
+    assert res.finger.tissue_modulus == pytest.approx(true.tissue_modulus, rel=0.03)
+    assert res.initial == BASE  # the given start, not the moved grid's centre
+    # tables (2 surfaces x 2 loads) of both grids' three nodes (the stand-in has no cache, so the
+    # shared node counts twice) and of the optimum: the abandoned grid's cost is counted
+    assert res.n_solves == (2 * 3 + 1) * 2 * 2
+    # a grid that may not move stops at its edge, and so does one that runs out of moves
+    res = calibrate_fe_finger(trials, BASE, options=dataclasses.replace(opts, max_shifts=0))
+    assert not res.success and "edge of the tabulated range (tissue_modulus 0.015..0.025)" in res.message
+    far = [_trial(finger_with(BASE, {"tissue_modulus": 3.0}), s, 0.3, s.name) for s in (FLAT, BUMP)]
+    res = calibrate_fe_finger(far, BASE, options=opts)
+    assert not res.success and "after 2 move(s) of the grid" in res.message, res.message
 
 
 def test_bad_options_and_inputs_are_one_line_errors(fake):
     for kw, match in [({"fit": ("modulus",)}, "fit"), ({"fit": ()}, "non-empty"),
                       ({"levels": (0.8, 1.2)}, "including 1"), ({"loads": (0.3, 0.2)}, "increasing"),
                       ({"step": 0.0}, "step"), ({"workers": 0}, "workers"), ({"mesh": {}}, "mesh"),
+                      ({"max_shifts": -1}, "max_shifts"),
                       ({"design": "sparse"}, "design")]:
         with pytest.raises((ValueError, TypeError), match=match):
             FECalibrationOptions(**kw)

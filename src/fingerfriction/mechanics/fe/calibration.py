@@ -29,6 +29,16 @@ calibrations of one subject on different subsets of its surfaces (leave-one-surf
 share it, and so do studies with the same subject finger. The optimiser stays inside the
 grid (its bounds).
 
+A moving grid: the nodes span a fixed range around the grid's centre, but a subject's finger
+need not lie within it (the drawn fingers of a study's subject 2 are drawn around a larger
+default finger than the literature one; a real subject may be anywhere in the literature's
+range). When the optimum sits at the grid's edge in some field, the grid moves: its centre
+becomes the edge node in those fields (the others keep theirs), the new nodes' tables are
+solved (or read from the cache: the moved grid shares its centre node and, on a star grid,
+the other fields' nodes' outlines are new), and the fit starts again from the new centre; at
+most ``max_shifts`` times. A fit still at the edge after that is not a success. The
+reported ``initial`` stays the given finger; the message says where the grid moved.
+
 With ``verify`` (default) the FE finger at the optimum is solved exactly (one more set of
 tables) and the per-surface figures (end-point RMS, blind spots measured -> predicted) are
 those of the exact finger; the surrogate's error at the optimum is reported beside them.
@@ -118,6 +128,11 @@ class FECalibrationOptions:
     max_surrogate_mm : float
         A surrogate whose end-point residuals differ from the exact finger's by more than this
         (RMS, mm) at the optimum is flagged.
+    max_shifts : int
+        Times the grid may move when the optimum sits at its edge (module notes; default 2:
+        with the default levels, ratios 0.42-2.4 of the initial finger are reachable, which
+        spans the literature's ranges of docs/mechanics-fe.md from the literature finger).
+        0: the grid stays where it is.
     """
 
     fit: tuple = ("tissue_modulus", "radius")
@@ -131,6 +146,7 @@ class FECalibrationOptions:
     workers: int = 1
     verify: bool = True
     max_surrogate_mm: float = 0.03
+    max_shifts: int = 2
     coarse_stride: int = 4
     coarse_soft: float = 0.2
     fine_soft: float = 0.05
@@ -172,8 +188,8 @@ class FECalibrationOptions:
             raise ValueError(f"{own}.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
         if self.mesh is not None and not isinstance(self.mesh, FEMeshParams):
             raise TypeError(f"{own}.mesh must be an FEMeshParams or None, got {type(self.mesh).__name__}")
-        for name, lo in (("workers", 1), ("coarse_stride", 1), ("max_nfev", 1), ("bootstrap", 0),
-                         ("seed", 0), ("min_trials", 1), ("min_frames", 1)):
+        for name, lo in (("workers", 1), ("max_shifts", 0), ("coarse_stride", 1), ("max_nfev", 1),
+                         ("bootstrap", 0), ("seed", 0), ("min_trials", 1), ("min_frames", 1)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"{own}.{name} must be an integer >= {lo}, got {v!r}")
@@ -444,18 +460,40 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
         except ValueError as exc:
             raise ValueError(f"the calibration grid leaves the valid fingers at ratios {ratios}: "
                              f"{exc}") from None
-    pb = FECalibrationProblem(trials, initial, opts, cache_dir=cache_dir)
-    if pb.n_trials < opts.min_trials:
-        raise CalibrationError(f"only {pb.n_trials} trial(s) with usable contact regions (need at least "
-                               f"{opts.min_trials}); a finger calibrated on so little data would be a guess")
-    if pb.n_frames < opts.min_frames:
-        raise CalibrationError(f"only {pb.n_frames} usable frames (need at least {opts.min_frames}): frames "
-                               "need a finite position, a normal force and a contact region")
-    t_build = time.process_time()
-    pb.build(progress)
-    t_build = time.process_time() - t_build
-    lo, hi = np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1])
-    z, fine, fun, jac, state, nfev, pass_cpu = optimise(pb, opts, bounds=(lo, hi))
+    centre, moves, spent = initial, [], {"t_fe": 0.0, "fe_tables": 0, "fe_unconverged": 0, "fe_positions": 0}
+    t_build = 0.0
+    while True:
+        pb = FECalibrationProblem(trials, centre, opts, cache_dir=cache_dir)
+        if pb.n_trials < opts.min_trials:
+            raise CalibrationError(f"only {pb.n_trials} trial(s) with usable contact regions (need at "
+                                   f"least {opts.min_trials}); a finger calibrated on so little data would "
+                                   "be a guess")
+        if pb.n_frames < opts.min_frames:
+            raise CalibrationError(f"only {pb.n_frames} usable frames (need at least {opts.min_frames}): "
+                                   "frames need a finite position, a normal force and a contact region")
+        t = time.process_time()
+        pb.build(progress)
+        t_build += time.process_time() - t
+        lo, hi = np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1])
+        z, fine, fun, jac, state, nfev, pass_cpu = optimise(pb, opts, bounds=(lo, hi))
+        shift = {f: (opts.levels[0] if zi - a < 1e-3 else opts.levels[-1])
+                 for f, zi, a, b in zip(opts.fit, z, lo, hi, strict=True) if min(zi - a, b - zi) < 1e-3}
+        if not shift or len(moves) >= opts.max_shifts:
+            break
+        try:
+            nxt = finger_with(centre, shift)
+            for node in grid_nodes(len(opts.fit), opts.levels, opts.design):
+                finger_with(nxt, {f: opts.levels[i] for f, i in zip(opts.fit, node, strict=True)})
+        except ValueError as exc:  # the moved grid would leave the valid fingers: stay
+            log.warning("the calibration grid cannot move to %s: %s", shift, exc)
+            break
+        for key in spent:
+            spent[key] += getattr(pb, key)
+        moves.append(shift)
+        log.info("FE calibration at the grid's edge in %s: the grid moves there", ", ".join(shift))
+        centre = nxt
+    for key, v in spent.items():  # the abandoned grids' tables count in the cost
+        setattr(pb, key, getattr(pb, key) + v)
     finger = pb.finger(z)
     r0 = fun(z)
     J = jac(z)
@@ -477,7 +515,10 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
                          f"{surrogate_rms:.3f} mm RMS at the optimum (> {opts.max_surrogate_mm:g} mm)")
     t_v = time.process_time() - t_v
     surfaces = surface_fits(pb, tabs, r_fig)
-    success, message, more = _assess(fine, z, lo, hi, finger, std, surfaces, opts)
+    success, message, more = _assess(fine, z, lo, hi, finger, std, surfaces, opts, centre, len(moves))
+    if moves:
+        message += "; the grid moved " + ", then ".join(
+            " and ".join(f"{f} x{r:g}" for f, r in m.items()) for m in moves)
     flags += more
     if pb.fe_unconverged:
         flags.append(f"{pb.fe_unconverged} of {pb.fe_positions} tabulated FE positions did not converge "
@@ -494,8 +535,9 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     return res
 
 
-def _assess(fine, z, lo, hi, finger, std: dict, surfaces, opts: FECalibrationOptions):
-    """``(success, message, flags)`` of a finished FE calibration."""
+def _assess(fine, z, lo, hi, finger, std: dict, surfaces, opts: FECalibrationOptions, centre,
+            n_moves: int):
+    """``(success, message, flags)`` of a finished FE calibration (``centre``: the final grid's)."""
     flags, parts = [], []
     success = bool(fine.status > 0)
     if not success:
@@ -503,8 +545,10 @@ def _assess(fine, z, lo, hi, finger, std: dict, surfaces, opts: FECalibrationOpt
     edge = [f for f, zi, a, b in zip(opts.fit, z, lo, hi, strict=True) if min(zi - a, b - zi) < 1e-3]
     if edge:
         success = False
-        parts.append(f"parameter(s) {', '.join(edge)} at the edge of the tabulated range (ratios "
-                     f"{opts.levels[0]:g}..{opts.levels[-1]:g} of the initial finger): the data want a "
-                     "finger outside it")
+        span = ", ".join(f"{f} {getattr(centre, f) * opts.levels[0]:.4g}.."
+                         f"{getattr(centre, f) * opts.levels[-1]:.4g}" for f in edge)
+        moved = f", after {n_moves} move(s) of the grid" if n_moves else ""
+        parts.append(f"parameter(s) {', '.join(edge)} at the edge of the tabulated range ({span}{moved}): "
+                     "the data want a finger outside it")
     flags.extend(identification_flags(opts.fit, finger, std, opts.max_rel_std, surfaces))
     return success, ("; ".join(parts) if parts else f"converged ({fine.message})"), flags
