@@ -43,3 +43,29 @@ def test_the_finger_calibration_options_default_to_the_stage():
                              ("--workers", FECalibrationOptions().workers)):
             p = _option(cmd, opt)
             assert p.default is None and p.show_default.value() == default, (cmd, opt)
+
+
+def test_fit_chooses_the_calibrated_fields_and_bad_fields_are_one_line_errors(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    import fingerfriction.pipeline.finger_calibration as fc
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake(results, subject, *, options=None, **kw):
+        seen["fit"] = options.fit
+        raise Stop
+
+    monkeypatch.setattr(fc, "calibrate_results", fake)
+    runner = CliRunner()
+    base = ["calibrate-finger", str(tmp_path), "--subject", "1", "--out", str(tmp_path / "f.json")]
+    for model, fields in (("fe", ("tissue_modulus", "skin_modulus")), ("halfspace", ("radius",))):
+        r = runner.invoke(app, [*base, "--finger-model", model, "--fit", ",".join(fields)])
+        assert isinstance(r.exception, Stop) and seen.pop("fit") == fields, r.output
+    r = runner.invoke(app, [*base, "--finger-model", "fe", "--fit", "tissue_modulus,stiffness"])
+    assert r.exit_code == 2 and "stiffness" in r.output and "Traceback" not in r.output
+    r = runner.invoke(app, ["validate", str(tmp_path), "--fit", "radius"])
+    assert r.exit_code == 2 and "--calibrated-fingers" in r.output

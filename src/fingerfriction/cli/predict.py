@@ -43,6 +43,9 @@ _COMMAND = "fingerfriction.predict.render:HapticRenderer.write_command"
 _FINGER_MODEL = "fingerfriction.pipeline.finger_calibration:calibrate_results.model"
 _HELD_OUT_MODEL = "fingerfriction.pipeline.finger_calibration:calibrate_held_out.model"
 _FE_WORKERS = "fingerfriction.mechanics.fe.calibration:FECalibrationOptions.workers"
+_FIT_HELP = ("The finger's fields to fit (comma list; default: halfspace radius,modulus,flat_length; fe "
+             "tissue_modulus,radius, of tissue_modulus, skin_modulus, skin_thickness, radius, semi_height, "
+             "pulp_thickness: each FE field adds two nodes to the grid of FE tables).")
 
 
 def predict_contact(
@@ -230,12 +233,15 @@ def validate_cmd(
                                          "tables cached)."),
     workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS, help="Processes solving the "
                                     "FE calibration's tables (--finger-model fe)."),
+    fit_fields: str = typer.Option(None, "--fit", help=_FIT_HELP),
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from ..pipeline.finger_calibration import FINGER_FAMILIES, calibrate_held_out  # heavy (numba); likewise
     from ..pipeline.validation import validate_results  # heavy (the forward model); likewise
 
+    if fit_fields and not calibrated:
+        fail("--fit sets the fields of the calibrated fingers: add --calibrated-fingers")
     fingers = read_fingers(items=finger, model="any")  # half-space or FE finger files
     try:
         finger_model = check_option("--finger-model", or_default(finger_model, _HELD_OUT_MODEL),
@@ -246,7 +252,11 @@ def validate_cmd(
             if finger_model == "fe":
                 from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-                opts = FECalibrationOptions(verify=False, **given(workers=workers))
+                opts = FECalibrationOptions(verify=False, **given(workers=workers, fit=csv_list(fit_fields)))
+            elif fit_fields:
+                from ..mechanics.calibrate import CalibrationOptions  # heavy (numba); likewise
+
+                opts = CalibrationOptions(fit=csv_list(fit_fields))
             with console.status("calibrating the fingers without each surface...") as st:
                 held = calibrate_held_out(results, options=opts, model=finger_model,
                                           progress=lambda k, n, what: st.update(
@@ -311,6 +321,7 @@ def calibrate_finger_cmd(
                                    "study's fitted flat-ground mu)."),
     workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS,
                                     help="Processes solving the FE grid's tables (--finger-model fe)."),
+    fit_fields: str = typer.Option(None, "--fit", help=_FIT_HELP),
 ) -> None:
     """Fit the subject's finger to its measured contact regions and write it as a finger JSON
     that predict, validate and render accept (predict-contact and render: half-space only)."""
@@ -329,9 +340,9 @@ def calibrate_finger_cmd(
         if finger_model == "fe":
             from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-            opts = FECalibrationOptions(**given(seed=seed, workers=workers))
+            opts = FECalibrationOptions(**given(seed=seed, workers=workers, fit=csv_list(fit_fields)))
         else:
-            opts = CalibrationOptions(**given(seed=seed))
+            opts = CalibrationOptions(**given(seed=seed, fit=csv_list(fit_fields)))
         t0 = time.process_time()
         with console.status(f"calibrating the finger of subject {subject}..."):
             res = calibrate_results(results, subject, initial=start, options=opts, load=load,
