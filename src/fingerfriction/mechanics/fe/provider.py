@@ -41,7 +41,7 @@ __all__ = ["FEProvider", "FE_SUBJECTS", "CACHE_VERSION", "default_cache_dir", "d
 log = logging.getLogger(__name__)
 
 #: Bumped whenever a change of the solver changes its results (invalidates every cache entry).
-CACHE_VERSION = 2
+CACHE_VERSION = 3
 
 #: The FE provider's default fingers of the two simulated subjects: the literature finger,
 #: and for subject 2 the same layers on a slightly larger outline (the paper's subjects
