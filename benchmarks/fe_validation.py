@@ -22,6 +22,10 @@ For each finger seed (the three the previous session drew from ``SeedSequence()`
 7. the table: rho out of sample (nominal load, the fit's model) per subject and surface, and
    the cells >= 0.75 of each column.
 
+``--fit FIELDS`` calibrates other fields of the FE finger (for example
+``tissue_modulus,radius,skin_modulus``) in steps 4 and 6, with outputs of their own beside
+the default's (``*-fit-FIELDS.*``; the study and the true fingers' validation are shared).
+
 Every step whose output exists is skipped (``--redo STEP`` to run it again); each prints its
 CPU time (user + sys of its processes) and wall time. The FE tables are cached
 (``$FINGERFRICTION_CACHE``) and shared between steps and seeds.
@@ -69,8 +73,11 @@ def run(step: str, args: list[str], log: Path) -> None:
         raise SystemExit(f"{step} failed (exit {rc}); see {log}")
 
 
-def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table") -> dict | None:
+def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table",
+             fit: str = "") -> dict | None:
     out = root / f"seed-{seed}"
+    tag = f"-fit-{fit.replace(',', '+')}" if fit else ""  # a non-default --fit: its own outputs
+    fit_args = ["--fit", fit] if fit else []
     out.mkdir(parents=True, exist_ok=True)
     study, results, fingers = out / "study", out / "results", out / "fingers"
     fingers.mkdir(exist_ok=True)
@@ -78,8 +85,8 @@ def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table
         "simulate": (study / "manifest.json").is_file(),
         "analyze": (results / "run.json").is_file(),
         "fit": (results / "fit" / "fit.json").is_file(),
-        "calibrate": all((fingers / f"fe-s{s}.json").is_file() for s in ("1", "2")),
-        "validate": (out / "loso-calibrated.csv").is_file(),
+        "calibrate": all((fingers / f"fe-s{s}{tag}.json").is_file() for s in ("1", "2")),
+        "validate": (out / f"loso-calibrated{tag}.csv").is_file(),
         "true": (out / "loso-true.csv").is_file(),
     }
     print(f"finger seed {seed}: {out}")
@@ -103,8 +110,9 @@ def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table
         return None
     if "validate" in redo or not done["validate"]:
         run("validate, calibrated FE", ["validate", str(results), "--calibrated-fingers", "--finger-model",
-                                         "fe", "--workers", w, "--out", str(out / "loso-calibrated.csv")],
-            out / "validate-calibrated.log")
+                                         "fe", "--workers", w, *fit_args,
+                                         "--out", str(out / f"loso-calibrated{tag}.csv")],
+            out / f"validate-calibrated{tag}.log")
     if until == "validate":
         return None
     if "true" in redo or not done["true"]:
@@ -113,14 +121,14 @@ def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table
                                            "--finger", f"2={fingers / 'true-s2.json'}",
                                            "--out", str(out / "loso-true.csv")], out / "validate-true.log")
     if until == "true":
-        return table(seed, out, fingers)
+        return table(seed, out, fingers, tag)
     for s in ("1", "2"):
-        if "calibrate" in redo or not (fingers / f"fe-s{s}.json").is_file():
+        if "calibrate" in redo or not (fingers / f"fe-s{s}{tag}.json").is_file():
             run(f"calibrate-finger s{s} (FE)", ["calibrate-finger", str(results), "--subject", s,
-                                                 "--finger-model", "fe", "--workers", w,
-                                                 "--out", str(fingers / f"fe-s{s}.json")],
-                out / f"calibrate-s{s}.log")
-    return table(seed, out, fingers)
+                                                 "--finger-model", "fe", "--workers", w, *fit_args,
+                                                 "--out", str(fingers / f"fe-s{s}{tag}.json")],
+                out / f"calibrate-s{s}{tag}.log")
+    return table(seed, out, fingers, tag)
 
 
 def _blind_spots(path: Path) -> list:
@@ -216,8 +224,8 @@ def _pair(meas: np.ndarray, pred: np.ndarray) -> list:
     return out
 
 
-def table(seed: int, out: Path, fingers: Path) -> dict:
-    cal = pd.read_csv(out / "loso-calibrated.csv", dtype={"subject": str})
+def table(seed: int, out: Path, fingers: Path, tag: str = "") -> dict:
+    cal = pd.read_csv(out / f"loso-calibrated{tag}.csv", dtype={"subject": str})
     true = pd.read_csv(out / "loso-true.csv", dtype={"subject": str})
     model = cal["model"].iloc[0]
     cal = cal[cal["model"] == model]
@@ -238,13 +246,14 @@ def table(seed: int, out: Path, fingers: Path) -> dict:
           f"calibrated FE {counts['calibrated']}/{n}")
     worst = 0.0
     for s in ("1", "2"):
-        p = fingers / f"fe-s{s}.json"
+        p = fingers / f"fe-s{s}{tag}.json"
         if not p.is_file():
-            print(f"   subject {s}: no calibrated FE finger (see calibrate-s{s}.log)")
+            print(f"   subject {s}: no calibrated FE finger (see calibrate-s{s}{tag}.log)")
             continue
         f = json.loads(p.read_text())["finger"]
         print(f"   subject {s} calibrated FE finger: tissue_modulus {f['tissue_modulus']:.4g} MPa, radius "
-              f"{f['radius']:.4g} mm, friction {f['friction']:g}; blind spots measured -> calibrated (mm):")
+              f"{f['radius']:.4g} mm, skin_modulus {f['skin_modulus']:.4g} MPa, friction {f['friction']:g}; "
+              "blind spots measured -> calibrated (mm):")
         for surf, m, pr, rms in _blind_spots(p):
             pairs = []
             for i in range(max(len(m), len(pr))):
@@ -255,7 +264,7 @@ def table(seed: int, out: Path, fingers: Path) -> dict:
             print(f"      {surf:14s} end RMS {rms:.3f} mm; " + (", ".join(pairs) or "none"))
     print(f"   largest |calibrated (all six surfaces) - measured| blind spot: {worst:.3f} mm "
           "(criterion 0.1 mm)")
-    held_path = out / "loso-calibrated-fingers.json"
+    held_path = out / f"loso-calibrated{tag}-fingers.json"
     held_worst = math.nan
     if held_path.is_file():
         true = {s: json.loads((fingers / f"true-s{s}.json").read_text()) for s in ("1", "2")}
@@ -271,6 +280,8 @@ def main() -> None:
     ap.add_argument("--redo", default="", help=f"steps to run again (comma list of {', '.join(STEPS)})")
     ap.add_argument("--until", default="table", choices=("fit", "validate", "true", "table"),
                     help="stop after this step")
+    ap.add_argument("--fit", default="", help="the calibrated FE fingers' fields (comma list; default: "
+                    "calibrate-finger's); a non-default list writes its own outputs beside the default's")
     args = ap.parse_args()
     redo = {s for s in args.redo.split(",") if s}
     for s in redo:
@@ -279,7 +290,7 @@ def main() -> None:
     os.environ.setdefault("FINGERFRICTION_FE_MESH", json.dumps(COARSE_MESH))  # the commands' mesh
     print(f"mesh: FINGERFRICTION_FE_MESH={os.environ['FINGERFRICTION_FE_MESH']}; "
           f"cache: {os.environ.get('FINGERFRICTION_CACHE', '~/.cache/fingerfriction')}")
-    summary = [seed_run(int(s), Path(args.out), args.workers, redo, args.until)
+    summary = [seed_run(int(s), Path(args.out), args.workers, redo, args.until, args.fit)
                for s in args.seeds.split(",")]
     summary = [r for r in summary if r is not None]
     print("summary: " + "; ".join(f"seed {r['seed']}: calibrated FE {r['calibrated']}/{r['n']} cells >= 0.75 "
