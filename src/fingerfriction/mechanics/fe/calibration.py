@@ -460,40 +460,8 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
         except ValueError as exc:
             raise ValueError(f"the calibration grid leaves the valid fingers at ratios {ratios}: "
                              f"{exc}") from None
-    centre, moves, spent = initial, [], {"t_fe": 0.0, "fe_tables": 0, "fe_unconverged": 0, "fe_positions": 0}
-    t_build = 0.0
-    while True:
-        pb = FECalibrationProblem(trials, centre, opts, cache_dir=cache_dir)
-        if pb.n_trials < opts.min_trials:
-            raise CalibrationError(f"only {pb.n_trials} trial(s) with usable contact regions (need at "
-                                   f"least {opts.min_trials}); a finger calibrated on so little data would "
-                                   "be a guess")
-        if pb.n_frames < opts.min_frames:
-            raise CalibrationError(f"only {pb.n_frames} usable frames (need at least {opts.min_frames}): "
-                                   "frames need a finite position, a normal force and a contact region")
-        t = time.process_time()
-        pb.build(progress)
-        t_build += time.process_time() - t
-        lo, hi = np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1])
-        z, fine, fun, jac, state, nfev, pass_cpu = optimise(pb, opts, bounds=(lo, hi))
-        shift = {f: (opts.levels[0] if zi - a < 1e-3 else opts.levels[-1])
-                 for f, zi, a, b in zip(opts.fit, z, lo, hi, strict=True) if min(zi - a, b - zi) < 1e-3}
-        if not shift or len(moves) >= opts.max_shifts:
-            break
-        try:
-            nxt = finger_with(centre, shift)
-            for node in grid_nodes(len(opts.fit), opts.levels, opts.design):
-                finger_with(nxt, {f: opts.levels[i] for f, i in zip(opts.fit, node, strict=True)})
-        except ValueError as exc:  # the moved grid would leave the valid fingers: stay
-            log.warning("the calibration grid cannot move to %s: %s", shift, exc)
-            break
-        for key in spent:
-            spent[key] += getattr(pb, key)
-        moves.append(shift)
-        log.info("FE calibration at the grid's edge in %s: the grid moves there", ", ".join(shift))
-        centre = nxt
-    for key, v in spent.items():  # the abandoned grids' tables count in the cost
-        setattr(pb, key, getattr(pb, key) + v)
+    fitted = _fit_on_moving_grid(trials, initial, opts, cache_dir, progress)
+    pb, z, fine, fun, jac, state, nfev, pass_cpu, lo, hi, centre, moves, t_build = fitted
     finger = pb.finger(z)
     r0 = fun(z)
     J = jac(z)
@@ -533,6 +501,48 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
         nfev=nfev, n_solves=pb.fe_tables, timings=timings, cost=float(fine.cost), options=opts,
         surrogate_rms_mm=surrogate_rms)
     return res
+
+
+def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOptions, cache_dir, progress):
+    """The least squares on the surrogate, the grid moved to its edge node while the optimum
+    sits there (module notes). Returns the last grid's problem and optimum, its bounds, its
+    centre, the moves and the CPU of the tables' builds; the abandoned grids' table counts
+    and CPU are added to the last problem's."""
+    centre, moves, spent = initial, [], {"t_fe": 0.0, "fe_tables": 0, "fe_unconverged": 0, "fe_positions": 0}
+    t_build = 0.0
+    while True:
+        pb = FECalibrationProblem(trials, centre, opts, cache_dir=cache_dir)
+        if pb.n_trials < opts.min_trials:
+            raise CalibrationError(f"only {pb.n_trials} trial(s) with usable contact regions (need at "
+                                   f"least {opts.min_trials}); a finger calibrated on so little data would "
+                                   "be a guess")
+        if pb.n_frames < opts.min_frames:
+            raise CalibrationError(f"only {pb.n_frames} usable frames (need at least {opts.min_frames}): "
+                                   "frames need a finite position, a normal force and a contact region")
+        t = time.process_time()
+        pb.build(progress)
+        t_build += time.process_time() - t
+        lo, hi = np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1])
+        z, fine, fun, jac, state, nfev, pass_cpu = optimise(pb, opts, bounds=(lo, hi))
+        shift = {f: (opts.levels[0] if zi - a < 1e-3 else opts.levels[-1])
+                 for f, zi, a, b in zip(opts.fit, z, lo, hi, strict=True) if min(zi - a, b - zi) < 1e-3}
+        if not shift or len(moves) >= opts.max_shifts:
+            break
+        try:
+            nxt = finger_with(centre, shift)
+            for node in grid_nodes(len(opts.fit), opts.levels, opts.design):
+                finger_with(nxt, {f: opts.levels[i] for f, i in zip(opts.fit, node, strict=True)})
+        except ValueError as exc:  # the moved grid would leave the valid fingers: stay
+            log.warning("the calibration grid cannot move to %s: %s", shift, exc)
+            break
+        for key in spent:
+            spent[key] += getattr(pb, key)
+        moves.append(shift)
+        log.info("FE calibration at the grid's edge in %s: the grid moves there", ", ".join(shift))
+        centre = nxt
+    for key, v in spent.items():  # the abandoned grids' tables count in the cost
+        setattr(pb, key, getattr(pb, key) + v)
+    return pb, z, fine, fun, jac, state, nfev, pass_cpu, lo, hi, centre, moves, t_build
 
 
 def _assess(fine, z, lo, hi, finger, std: dict, surfaces, opts: FECalibrationOptions, centre,
