@@ -453,15 +453,9 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     if not any(t.usable().any() for t in trials):
         raise CalibrationError("no trial has a usable frame (finite position, positive load, at least "
                                "one contact region): nothing to calibrate on")
-    for node in grid_nodes(len(opts.fit), opts.levels, opts.design):  # every node a valid finger
-        ratios = tuple(opts.levels[i] for i in node)
-        try:
-            finger_with(initial, dict(zip(opts.fit, ratios, strict=True)))
-        except ValueError as exc:
-            raise ValueError(f"the calibration grid leaves the valid fingers at ratios {ratios}: "
-                             f"{exc}") from None
-    fitted = _fit_on_moving_grid(trials, initial, opts, cache_dir, progress)
-    pb, z, fine, fun, jac, state, nfev, pass_cpu, lo, hi, centre, moves, t_build = fitted
+    _check_grid(initial, opts)
+    pb, (z, fine, fun, jac, state, nfev, pass_cpu), moves, t_build = _fit_on_moving_grid(
+        trials, initial, opts, cache_dir, progress)
     finger = pb.finger(z)
     r0 = fun(z)
     J = jac(z)
@@ -483,7 +477,7 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
                          f"{surrogate_rms:.3f} mm RMS at the optimum (> {opts.max_surrogate_mm:g} mm)")
     t_v = time.process_time() - t_v
     surfaces = surface_fits(pb, tabs, r_fig)
-    success, message, more = _assess(fine, z, lo, hi, finger, std, surfaces, opts, centre, len(moves))
+    success, message, more = _assess(fine, z, pb, finger, std, surfaces, opts, len(moves))
     if moves:
         message += "; the grid moved " + ", then ".join(
             " and ".join(f"{f} x{r:g}" for f, r in m.items()) for m in moves)
@@ -503,11 +497,29 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     return res
 
 
+def _check_grid(centre: FEFingerParams, opts: FECalibrationOptions) -> None:
+    """ValueError unless every node of the grid around ``centre`` is a valid finger."""
+    for node in grid_nodes(len(opts.fit), opts.levels, opts.design):
+        ratios = tuple(opts.levels[i] for i in node)
+        try:
+            finger_with(centre, dict(zip(opts.fit, ratios, strict=True)))
+        except ValueError as exc:
+            raise ValueError(f"the calibration grid leaves the valid fingers at ratios {ratios}: "
+                             f"{exc}") from None
+
+
+def _edge(z: np.ndarray, pb: FECalibrationProblem) -> dict:
+    """The fitted fields whose optimum sits at the grid's edge -> the level of that edge."""
+    lv, ax = pb.opts.levels, pb.axes
+    return {f: (lv[0] if zi - ax[0] < 1e-3 else lv[-1])
+            for f, zi in zip(pb.fit, z, strict=True) if min(zi - ax[0], ax[-1] - zi) < 1e-3}
+
+
 def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOptions, cache_dir, progress):
     """The least squares on the surrogate, the grid moved to its edge node while the optimum
-    sits there (module notes). Returns the last grid's problem and optimum, its bounds, its
-    centre, the moves and the CPU of the tables' builds; the abandoned grids' table counts
-    and CPU are added to the last problem's."""
+    sits there (module notes). Returns the last grid's problem (its ``initial`` the grid's
+    centre), :func:`optimise`'s result on it, the moves and the CPU of the tables' builds;
+    the abandoned grids' table counts and CPU are added to the last problem's."""
     centre, moves, spent = initial, [], {"t_fe": 0.0, "fe_tables": 0, "fe_unconverged": 0, "fe_positions": 0}
     t_build = 0.0
     while True:
@@ -522,16 +534,14 @@ def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOpti
         t = time.process_time()
         pb.build(progress)
         t_build += time.process_time() - t
-        lo, hi = np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1])
-        z, fine, fun, jac, state, nfev, pass_cpu = optimise(pb, opts, bounds=(lo, hi))
-        shift = {f: (opts.levels[0] if zi - a < 1e-3 else opts.levels[-1])
-                 for f, zi, a, b in zip(opts.fit, z, lo, hi, strict=True) if min(zi - a, b - zi) < 1e-3}
+        bounds = (np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1]))
+        opt = optimise(pb, opts, bounds=bounds)
+        shift = _edge(opt[0], pb)
         if not shift or len(moves) >= opts.max_shifts:
             break
         try:
             nxt = finger_with(centre, shift)
-            for node in grid_nodes(len(opts.fit), opts.levels, opts.design):
-                finger_with(nxt, {f: opts.levels[i] for f, i in zip(opts.fit, node, strict=True)})
+            _check_grid(nxt, opts)
         except ValueError as exc:  # the moved grid would leave the valid fingers: stay
             log.warning("the calibration grid cannot move to %s: %s", shift, exc)
             break
@@ -542,19 +552,20 @@ def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOpti
         centre = nxt
     for key, v in spent.items():  # the abandoned grids' tables count in the cost
         setattr(pb, key, getattr(pb, key) + v)
-    return pb, z, fine, fun, jac, state, nfev, pass_cpu, lo, hi, centre, moves, t_build
+    return pb, opt, moves, t_build
 
 
-def _assess(fine, z, lo, hi, finger, std: dict, surfaces, opts: FECalibrationOptions, centre,
+def _assess(fine, z, pb: FECalibrationProblem, finger, std: dict, surfaces, opts: FECalibrationOptions,
             n_moves: int):
-    """``(success, message, flags)`` of a finished FE calibration (``centre``: the final grid's)."""
+    """``(success, message, flags)`` of a finished FE calibration on ``pb``, the last grid's."""
     flags, parts = [], []
     success = bool(fine.status > 0)
     if not success:
         parts.append(f"the optimiser did not converge ({fine.message})")
-    edge = [f for f, zi, a, b in zip(opts.fit, z, lo, hi, strict=True) if min(zi - a, b - zi) < 1e-3]
+    edge = _edge(z, pb)
     if edge:
         success = False
+        centre = pb.initial
         span = ", ".join(f"{f} {getattr(centre, f) * opts.levels[0]:.4g}.."
                          f"{getattr(centre, f) * opts.levels[-1]:.4g}" for f in edge)
         moved = f", after {n_moves} move(s) of the grid" if n_moves else ""
