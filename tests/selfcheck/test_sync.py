@@ -37,6 +37,18 @@ def test_clean_trials_agree(finger):
         assert e.se_s < 1e-3
 
 
+def test_clean_trials_of_a_finger_slow_to_slide_agree():
+    """A finger whose friction reaches half its level only after about 0.5 mm of travel
+    (the prior's far end, a compliant fingertip): its clocks are right, and the offsets are
+    measured near 0, not at the edge of a search centred on the prior's middle (there, 20 ms
+    from 0 at the slowest trial)."""
+    slow = [_onset(i, v, d0=1.0) for i, v in enumerate(SPEEDS)]
+    est = estimate_offsets(slow, mode="check")
+    for e in est.values():
+        assert e.method == "relative"
+        assert abs(e.offset_s) < 1e-3 and abs(e.offset_s) < 3 * e.se_s, e
+
+
 @pytest.mark.parametrize("wrong_ms", [-40.0, -5.0, 5.0, 15.0])
 def test_a_wrong_offset_is_measured(finger, wrong_ms):
     """The manifest says the force record starts ``wrong_ms`` later than it did: the

@@ -152,10 +152,10 @@ def _rss(o: OnsetData, g: np.ndarray, tau: float, design=None) -> float:
     return float(e @ e) / rr
 
 
-def _best_tau(o: OnsetData, g: np.ndarray, centre: float = 0.0, span: float = 0.012) -> float:
-    """The offset minimising the trial's misfit to G: a 1 ms grid over ``centre +- span``,
-    then 0.1 ms steps around its best point, then a parabola."""
-    coarse = centre + np.arange(-span, span + 1e-9, 1e-3)
+def _best_tau(o: OnsetData, g: np.ndarray, lo: float, hi: float) -> float:
+    """The offset in ``[lo, hi]`` (s) minimising the trial's misfit to G: a 1 ms grid, then
+    0.1 ms steps around its best point, then a parabola."""
+    coarse = np.arange(lo, hi + 1e-9, 1e-3)
     r = np.array([_rss(o, g, t) for t in coarse])
     if not np.isfinite(r).any():
         return math.nan
@@ -354,10 +354,22 @@ def estimate_offsets(
     return out
 
 
+def _prior_range(o: OnsetData, margin: float) -> tuple[float, float]:
+    """The offsets (s) that put the trial's half rise anywhere in the pre-sliding distances
+    :data:`PRIOR_D_MM`, widened by ``margin`` on each side ((NaN, NaN): no half rise)."""
+    ends = [_half_rise_offset(o, d) for d in PRIOR_D_MM]
+    if not all(math.isfinite(e) for e in ends):
+        return math.nan, math.nan
+    return min(ends) - margin, max(ends) + margin
+
+
 def _loo_offsets(items, ref, taus_ref, *, centres=None, span: float = 0.012) -> dict[str, float]:
     """Each trial's offset against the law fitted on the reference trials (without itself),
-    searched within ``span`` of ``centres`` (default: each trial's half rise at the
-    prior's central pre-sliding distance)."""
+    searched within ``span`` of ``centres``, or by default over every offset that puts the
+    trial's half rise within the prior's pre-sliding distances :data:`PRIOR_D_MM`, and
+    ``span`` beyond: a finger whose friction rises over 0.4 mm is as likely as one over
+    0.1 mm, so a search centred on the prior's middle missed the first's offset by its
+    edge (a drawn layered finger's trials all came out 8 ms off, at the edge)."""
     ids = [o.trial_id for o in ref]
     g_all = _fit_g(ref, taus_ref)
     res = {}
@@ -368,15 +380,14 @@ def _loo_offsets(items, ref, taus_ref, *, centres=None, span: float = 0.012) -> 
             g = _fit_g(others, [t for j, t in enumerate(taus_ref) if j != k])
         else:
             g = g_all
-        start = (
-            _half_rise_offset(o, math.sqrt(PRIOR_D_MM[0] * PRIOR_D_MM[1]))
-            if centres is None
-            else centres[items.index(o)]
-        )
-        if g is None or not math.isfinite(start):
+        if centres is None:
+            lo, hi = _prior_range(o, span)
+        else:
+            lo, hi = centres[items.index(o)] - span, centres[items.index(o)] + span
+        if g is None or not (math.isfinite(lo) and math.isfinite(hi)):
             res[o.trial_id] = math.nan
             continue
-        res[o.trial_id] = _best_tau(o, g, centre=start, span=span)
+        res[o.trial_id] = _best_tau(o, g, lo, hi)
     return res
 
 
