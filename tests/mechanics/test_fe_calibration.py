@@ -114,6 +114,27 @@ def test_recovers_a_stand_in_finger_inside_the_grid(fake):
     assert d["parameters"]["radius"] == pytest.approx(res.finger.radius) and "surrogate_rms_mm" in d
 
 
+def test_a_coarse_surrogate_corrected_at_its_verified_optimum_finds_the_exact_one(fake):
+    """A coarse grid (levels x0.5-x2) interpolates the stand-in's outlines poorly: its optimum
+    is 16-18 % off and 0.5 mm off in the end points. Corrected at each verified optimum by the
+    exact finger's tables, the fit lands on the finger that made the data."""
+    true = finger_with(BASE, {"tissue_modulus": 1.3, "radius": 0.7})
+    trials = [_trial(true, s, load, f"{s.name}-{load}") for s in (FLAT, BUMP) for load in (0.27, 0.33)]
+    opts = FECalibrationOptions(**{**FAST, "bootstrap": 0, "levels": (0.5, 1.0, 2.0), "max_shifts": 0})
+    raw = calibrate_fe_finger(trials, BASE, options=dataclasses.replace(opts, corrections=0))
+    assert abs(raw.finger.radius / true.radius - 1) > 0.1 and raw.surrogate_rms_mm > 0.1
+    assert any("surrogate's end points differ" in f for f in raw.flags)
+    res = calibrate_fe_finger(trials, BASE, options=opts)
+    assert res.success and "the surrogate was corrected 2 time(s)" in res.message, res.message
+    assert res.finger.tissue_modulus == pytest.approx(true.tissue_modulus, rel=0.03)
+    assert res.finger.radius == pytest.approx(true.radius, rel=0.02)
+    assert res.surrogate_rms_mm < opts.max_surrogate_mm
+    assert not any("surrogate's end points differ" in f for f in res.flags)
+    assert all(s.rms_end_mm < 0.03 for s in res.surfaces)  # the exact finger's figures
+    # each correction costs one finger's tables (2 surfaces x 2 loads): 5 nodes, 1 + 2 verified
+    assert (raw.n_solves, res.n_solves) == ((5 + 1) * 4, (5 + 3) * 4)
+
+
 def test_the_grid_moves_to_a_finger_outside_it_and_says_so(fake):
     true = finger_with(BASE, {"tissue_modulus": 1.45})  # outside the first grid (0.75-1.25)
     trials = [_trial(true, s, 0.3, s.name) for s in (FLAT, BUMP)]
@@ -138,7 +159,7 @@ def test_bad_options_and_inputs_are_one_line_errors(fake):
     for kw, match in [({"fit": ("modulus",)}, "fit"), ({"fit": ()}, "non-empty"),
                       ({"levels": (0.8, 1.2)}, "including 1"), ({"loads": (0.3, 0.2)}, "increasing"),
                       ({"step": 0.0}, "step"), ({"workers": 0}, "workers"), ({"mesh": {}}, "mesh"),
-                      ({"max_shifts": -1}, "max_shifts"),
+                      ({"max_shifts": -1}, "max_shifts"), ({"corrections": -1}, "corrections"),
                       ({"design": "sparse"}, "design")]:
         with pytest.raises((ValueError, TypeError), match=match):
             FECalibrationOptions(**kw)

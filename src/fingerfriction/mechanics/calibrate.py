@@ -487,13 +487,14 @@ def _check_inputs(trials, initial, opts: CalibrationOptions) -> list[Calibration
     return trials
 
 
-def optimise(pb: CalibrationProblem, opts, bounds: tuple | None = None):
-    """The coarse then the fine least-squares pass, from the initial finger (z = 0), within
-    ``bounds`` (``(lower, upper)`` arrays of ``z = log(p / p_initial)``; default
-    ``+-log(opts.bound)``). Returns ``(z, fine result, fun, jac, state, nfev, pass_cpu)``."""
+def optimise(pb: CalibrationProblem, opts, bounds: tuple | None = None, z0=None):
+    """The coarse then the fine least-squares pass, from ``z0`` (default the initial finger,
+    z = 0), within ``bounds`` (``(lower, upper)`` arrays of ``z = log(p / p_initial)``;
+    default ``+-log(opts.bound)``). Returns ``(z, fine result, fun, jac, state, nfev,
+    pass_cpu)``."""
     lb, ub = bounds if bounds is not None else (np.full(len(opts.fit), -math.log(opts.bound)),
                                                 np.full(len(opts.fit), math.log(opts.bound)))
-    z = np.zeros(len(opts.fit))
+    z = np.zeros(len(opts.fit)) if z0 is None else np.clip(np.asarray(z0, float), lb, ub)
     nfev, pass_cpu = {}, {}
     for level, step, soft in (("coarse", opts.coarse_step, opts.coarse_soft),
                               ("fine", opts.fine_step, opts.fine_soft)):
