@@ -126,6 +126,7 @@ def test_a_coarse_surrogate_corrected_at_its_verified_optimum_finds_the_exact_on
     assert any("surrogate's end points differ" in f for f in raw.flags)
     res = calibrate_fe_finger(trials, BASE, options=opts)
     assert res.success and "the surrogate was corrected 2 time(s)" in res.message, res.message
+    assert f"were {raw.surrogate_rms_mm:.3f} mm RMS off" in res.message  # the uncorrected error
     assert res.finger.tissue_modulus == pytest.approx(true.tissue_modulus, rel=0.03)
     assert res.finger.radius == pytest.approx(true.radius, rel=0.02)
     assert res.surrogate_rms_mm < opts.max_surrogate_mm

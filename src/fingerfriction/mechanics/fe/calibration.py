@@ -484,9 +484,9 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     _check_grid(initial, opts)
     pb, opt, moves, t_build = _fit_on_moving_grid(trials, initial, opts, cache_dir, progress)
     t_v = time.process_time()
-    flags, surrogate_rms, exact, n_corr = [], math.nan, None, 0
+    flags, surrogate_rms, exact, n_corr, first_rms = [], math.nan, None, 0, math.nan
     if opts.verify:
-        opt, exact, surrogate_rms, n_corr = _verified(pb, opt, opts)
+        opt, exact, surrogate_rms, n_corr, first_rms = _verified(pb, opt, opts)
         if surrogate_rms > opts.max_surrogate_mm:
             flags.append(f"the surrogate's end points differ from the exact FE finger's by "
                          f"{surrogate_rms:.3f} mm RMS at the optimum (> {opts.max_surrogate_mm:g} mm"
@@ -507,7 +507,8 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
         message += "; the grid moved " + ", then ".join(
             " and ".join(f"{f} x{r:g}" for f, r in m.items()) for m in moves)
     if n_corr:
-        message += f"; the surrogate was corrected {n_corr} time(s) at a verified optimum"
+        message += (f"; the surrogate was corrected {n_corr} time(s) at a verified optimum (its end "
+                    f"points were {first_rms:.3f} mm RMS off the exact finger's at the first)")
     flags += more
     if pb.fe_unconverged:
         flags.append(f"{pb.fe_unconverged} of {pb.fe_positions} tabulated FE positions did not converge "
@@ -534,8 +535,9 @@ def _verified(pb: FECalibrationProblem, opt: tuple, opts: FECalibrationOptions):
     the surrogate corrected there and the fit run again while its end points differ from the
     exact finger's by more than ``opts.max_surrogate_mm`` (module notes). Returns the
     optimisation kept, ``(exact tables, exact residuals)`` at its optimum, the surrogate's
-    end-point RMS error there (mm) and the corrections made; ``pb`` is left corrected at the
-    kept optimum (so its residuals there are the exact finger's)."""
+    end-point RMS error there (mm), the corrections made and the uncorrected surrogate's error
+    at the first optimum (mm); ``pb`` is left corrected at the kept optimum (so its residuals
+    there are the exact finger's)."""
     ends = np.concatenate([np.r_[np.ones(n_e, bool), np.zeros(n_h, bool)]
                            for _, n_e, n_h in pb.residual_surfaces("fine")])
 
@@ -563,8 +565,7 @@ def _verified(pb: FECalibrationProblem, opt: tuple, opts: FECalibrationOptions):
     if n_corr:
         pb.correct(tabs, opt[0])  # the kept optimum's correction: exact there
         opt = (opt[0], opt[1], *make_fun_jac(pb, "fine", opts.fine_step), *opt[5:])
-        log.info("FE calibration: surrogate error at the optimum %.4f mm before correction", first_rms)
-    return opt, (tabs, r), rms, n_corr
+    return opt, (tabs, r), rms, n_corr, first_rms
 
 
 def _check_grid(centre: FEFingerParams, opts: FECalibrationOptions) -> None:
