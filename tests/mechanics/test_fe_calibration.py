@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from fingerfriction.mechanics.calibrate import CalibrationError, CalibrationTrial
-from fingerfriction.mechanics.fe import FE_SUBJECTS, FEFingerParams, FEMeshParams
+from fingerfriction.mechanics.fe import FE_SUBJECTS, FEFingerParams, FEMeshParams, surrogate
 from fingerfriction.mechanics.fe import calibration as cal
 from fingerfriction.mechanics.fe.calibration import (
     FECalibrationOptions,
@@ -70,7 +70,7 @@ FAST = dict(fit=("tissue_modulus", "radius"), loads=(0.25, 0.35), step=0.2, boot
 
 @pytest.fixture
 def fake(monkeypatch):
-    monkeypatch.setattr(cal, "_one_table", _fake_table)
+    monkeypatch.setattr(surrogate, "_one_table", _fake_table)
 
 
 def test_lagrange_weights_are_exact_at_the_nodes_and_reproduce_quadratics(fake):

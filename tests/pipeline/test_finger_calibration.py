@@ -216,8 +216,8 @@ def test_held_out_calibrations_use_the_other_surfaces_only(tmp_path):
 @pytest.mark.slow  # the results folder's reference sweeps; the FE tables are an analytic stand-in
 def test_fe_family_from_a_results_folder_takes_the_fits_friction(tmp_path, monkeypatch):
     import fingerfriction.pipeline.finger_calibration as fc
-    from fingerfriction.mechanics.fe import FEFingerParams
-    from fingerfriction.mechanics.fe import calibration as cal
+    from fingerfriction.mechanics.fe import FEFingerParams, surrogate
+    from fingerfriction.mechanics.fe.calibration import FECalibrationOptions
     from fingerfriction.model import LoadParams
     from fingerfriction.pipeline.finger_calibration import calibrate_held_out, fitted_friction
 
@@ -232,9 +232,9 @@ def test_fe_family_from_a_results_folder_takes_the_fits_friction(tmp_path, monke
             y.append(np.maximum(h, np.max(h - par) - delta + par))
         return np.asarray(y, np.float32), np.ones(pos.size, bool), 1, 0.0
 
-    monkeypatch.setattr(cal, "_one_table", stand_in)
+    monkeypatch.setattr(surrogate, "_one_table", stand_in)
     _write(tmp_path / "r", DESIGN)
-    opts = cal.FECalibrationOptions(fit=("tissue_modulus",), loads=(0.25, 0.35), step=0.3, bootstrap=10,
+    opts = FECalibrationOptions(fit=("tissue_modulus",), loads=(0.25, 0.35), step=0.3, bootstrap=10,
                                     min_frames=50, verify=False)
     res = calibrate_results(tmp_path / "r", "7", model="fe", options=opts)  # no fit: frictionless
     assert isinstance(res.finger, FEFingerParams) and res.finger.friction == 0.0
