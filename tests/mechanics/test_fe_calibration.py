@@ -134,6 +134,25 @@ def test_a_coarse_surrogate_corrected_at_its_verified_optimum_finds_the_exact_on
     assert all(s.rms_end_mm < 0.03 for s in res.surfaces)  # the exact finger's figures
     # each correction costs one finger's tables (2 surfaces x 2 loads): 5 nodes, 1 + 2 verified
     assert (raw.n_solves, res.n_solves) == ((5 + 1) * 4, (5 + 3) * 4)
+    # the bootstrap linearises at the kept optimum, a stationary point of its surrogate
+    boot = calibrate_fe_finger(trials, BASE, options=dataclasses.replace(opts, bootstrap=30))
+    for f in ("tissue_modulus", "radius"):
+        lo, hi = boot.ci95[f]
+        assert lo <= getattr(boot.finger, f) <= hi, (f, lo, hi)
+
+
+def test_a_corrected_fit_that_fits_the_exact_finger_worse_is_not_taken(fake):
+    """At the grid's edge (no move allowed) the corrected surrogate's fit does not fit the
+    exact finger better: the first optimum is kept, and the message says so."""
+    true = finger_with(BASE, {"tissue_modulus": 1.3, "radius": 0.7})
+    trials = [_trial(true, s, load, f"{s.name}-{load}") for s in (FLAT, BUMP) for load in (0.27, 0.33)]
+    opts = FECalibrationOptions(**{**FAST, "bootstrap": 0, "max_shifts": 0})
+    raw = calibrate_fe_finger(trials, BASE, options=dataclasses.replace(opts, corrections=0))
+    res = calibrate_fe_finger(trials, BASE, options=opts)
+    assert "fitted the exact finger worse and was not taken" in res.message
+    assert "the surrogate was corrected" not in res.message
+    assert res.finger == raw.finger and res.surrogate_rms_mm == raw.surrogate_rms_mm
+    assert res.n_solves == raw.n_solves + 4  # the refused fit's exact tables
 
 
 def test_the_grid_moves_to_a_finger_outside_it_and_says_so(fake):

@@ -47,7 +47,6 @@ from .._calibration_problem import (
     bootstrap_spread,
     end_bias_sensitivity,
     identification_flags,
-    make_fun_jac,
 )
 from ..calibrate import CalibrationError, CalibrationTrial, FingerCalibration, optimise
 from ..surface_fit import surface_fits
@@ -228,9 +227,9 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     _check_grid(initial, opts)
     pb, opt, moves, t_build = _fit_on_moving_grid(trials, initial, opts, cache_dir, progress)
     t_v = time.process_time()
-    flags, surrogate_rms, exact, n_corr, first_rms = [], math.nan, None, 0, math.nan
+    flags, surrogate_rms, exact, n_corr, first_rms, refused = [], math.nan, None, 0, math.nan, False
     if opts.verify:
-        opt, exact, surrogate_rms, n_corr, first_rms = _verified(pb, opt, opts)
+        opt, exact, surrogate_rms, n_corr, first_rms, refused = _verified(pb, opt, opts)
         if surrogate_rms > opts.max_surrogate_mm:
             flags.append(f"the surrogate's end points differ from the exact FE finger's by "
                          f"{surrogate_rms:.3f} mm RMS at the optimum (> {opts.max_surrogate_mm:g} mm"
@@ -253,6 +252,9 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     if n_corr:
         message += (f"; the surrogate was corrected {n_corr} time(s) at a verified optimum (its end "
                     f"points were {first_rms:.3f} mm RMS off the exact finger's at the first)")
+    if refused:
+        message += ("; a fit on the surrogate corrected at the optimum fitted the exact finger worse "
+                    "and was not taken")
     flags += more
     if pb.fe_unconverged:
         flags.append(f"{pb.fe_unconverged} of {pb.fe_positions} tabulated FE positions did not converge "
@@ -279,9 +281,10 @@ def _verified(pb: FECalibrationProblem, opt: tuple, opts: FECalibrationOptions):
     the surrogate corrected there and the fit run again while its end points differ from the
     exact finger's by more than ``opts.max_surrogate_mm`` (module notes). Returns the
     optimisation kept, ``(exact tables, exact residuals)`` at its optimum, the surrogate's
-    end-point RMS error there (mm), the corrections made and the uncorrected surrogate's error
-    at the first optimum (mm); ``pb`` is left corrected at the kept optimum (so its residuals
-    there are the exact finger's)."""
+    end-point RMS error there (mm), the corrections taken, the uncorrected surrogate's error
+    at the first optimum (mm), and whether a corrected fit was refused (it fitted the exact
+    finger worse). ``pb`` is left with the surrogate the kept optimisation ran on, so that
+    the kept optimum is its stationary point (the bootstrap linearises there)."""
     ends = np.concatenate([np.r_[np.ones(n_e, bool), np.zeros(n_h, bool)]
                            for _, n_e, n_h in pb.residual_surfaces("fine")])
 
@@ -293,23 +296,22 @@ def _verified(pb: FECalibrationProblem, opt: tuple, opts: FECalibrationOptions):
         return tabs, r, rms
 
     tabs, r, rms = verify(opt)
-    first_rms, n_corr = rms, 0
+    first_rms, n_corr, refused = rms, 0, False
     bounds = (np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1]))
     while rms > opts.max_surrogate_mm and n_corr < opts.corrections:
+        before = pb.correction
         pb.correct(tabs, opt[0])
         new = optimise(pb, opts, bounds=bounds, z0=opt[0])
-        n_corr += 1
         tabs_n, r_n, rms_n = verify(new)
         cost, cost_n = _robust_cost(r, opts.fine_soft), _robust_cost(r_n, opts.fine_soft)
-        log.info("FE calibration: surrogate corrected (%d), exact cost %.5g -> %.5g, surrogate error "
-                 "%.4f -> %.4f mm", n_corr, cost, cost_n, rms, rms_n)
-        if cost_n >= cost:
-            break  # the corrected fit made the exact finger's fit worse: keep the last one
+        log.info("FE calibration: surrogate corrected, exact cost %.5g -> %.5g, surrogate error "
+                 "%.4f -> %.4f mm", cost, cost_n, rms, rms_n)
+        if cost_n >= cost:  # the corrected fit fits the exact finger worse: keep the last one
+            pb.correction, refused = before, True
+            break
         opt, tabs, r, rms = new, tabs_n, r_n, rms_n
-    if n_corr:
-        pb.correct(tabs, opt[0])  # the kept optimum's correction: exact there
-        opt = (opt[0], opt[1], *make_fun_jac(pb, "fine", opts.fine_step), *opt[5:])
-    return opt, (tabs, r), rms, n_corr, first_rms
+        n_corr += 1
+    return opt, (tabs, r), rms, n_corr, first_rms, refused
 
 
 def _check_grid(centre: FEFingerParams, opts: FECalibrationOptions) -> None:

@@ -201,7 +201,8 @@ class FECalibrationProblem(CalibrationProblem):
         self.axes = np.log(np.asarray(opts.levels))
         self.nodes = grid_nodes(len(self.fit), opts.levels, opts.design)
         self._node_tabs: dict | None = None
-        self._delta: dict | None = None  # the additive correction (module notes)
+        #: The additive correction (:meth:`correct`): surface name -> tables added, or None.
+        self.correction: dict | None = None
 
     # the fixed cells and loads are the options', not the data's: the grid is shared
     @staticmethod
@@ -262,8 +263,8 @@ class FECalibrationProblem(CalibrationProblem):
         w = self.weights(z)
         out = {name: (pos, np.tensordot(w, Y, axes=1).astype(float))
                for name, (pos, Y) in self._node_tabs.items()}
-        if self._delta is not None:
-            out = {name: (pos, Y + self._delta[name]) for name, (pos, Y) in out.items()}
+        if self.correction is not None:
+            out = {name: (pos, Y + self.correction[name]) for name, (pos, Y) in out.items()}
         self.t_bem += time.process_time() - t0
         self.last_failures = 0
         return out
@@ -277,6 +278,6 @@ class FECalibrationProblem(CalibrationProblem):
         """Make the surrogate exact at ``z``: from now on :meth:`tables` adds ``exact`` (the
         tables of ``self.finger(z)``, :meth:`exact_tables`) minus the uncorrected surrogate's
         tables at ``z`` (module notes; replaces an earlier correction)."""
-        self._delta = None
+        self.correction = None
         raw = self.tables(z, "fine", self.opts.step)
-        self._delta = {name: exact[name][1] - Y for name, (_, Y) in raw.items()}
+        self.correction = {name: exact[name][1] - Y for name, (_, Y) in raw.items()}
