@@ -26,7 +26,7 @@ from collections.abc import Iterable
 
 __all__ = ["positive", "nonnegative", "integer", "in_range", "interval", "SamplingRate", "check_fs",
            "check_freq", "check_option", "choices_text", "option_message", "validate_type", "check_bool",
-           "parse_json", "MAX_JSON_DEPTH"]
+           "parse_json", "MAX_JSON_DEPTH", "lookup"]
 
 
 def positive(name: str, value, unit: str, *, what: str = "number") -> float:
@@ -231,6 +231,15 @@ def choices_text(allowed: Iterable) -> str:
     """The allowed values as a message lists them: names bare, anything else as its repr
     (``'hybrid, cf-centroid, chord'``, ``'1, 2'``, ``'None'``)."""
     return ", ".join(a if isinstance(a, str) else repr(a) for a in allowed)
+
+
+def lookup(mapping, key, what: str):
+    """``mapping[str(key)]``, or a ValueError "unknown <what> 'key'; known: a, b" (the keys of a
+    mapping of named things: a provider's subjects' fingers)."""
+    try:
+        return mapping[str(key)]
+    except KeyError:
+        raise ValueError(f"unknown {what} {key!r}; known: {', '.join(mapping)}") from None
 
 
 def check_option(name: str, value, allowed: Iterable) -> object:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -16,6 +17,45 @@ from .finger import FingerParams
 from .solution import regions_within_gap
 
 __all__: list[str] = []
+
+
+@dataclass(frozen=True)
+class ResidualOptions:
+    """The residual, optimiser and bootstrap settings both calibrations share (documented
+    with :class:`fingerfriction.mechanics.calibrate.CalibrationOptions`): the base of its
+    options and of :class:`fingerfriction.mechanics.fe.calibration.FECalibrationOptions`,
+    which check these fields with :meth:`check_shared`."""
+
+    coarse_stride: int = 4
+    coarse_soft: float = 0.2
+    fine_soft: float = 0.05
+    s_min: float = 0.1
+    s_0: float = 0.1
+    diff_step: float = 0.005
+    max_nfev: int = 25
+    end_bias_px: float = 0.5
+    bootstrap: int = 400
+    seed: int = 0
+    min_trials: int = 3
+    min_frames: int = 200
+    max_rel_std: float = 0.1
+
+    def check_shared(self, floats=(), ints=()) -> None:
+        """ValueError unless the shared fields, and a subclass's ``floats`` (positive
+        numbers) and ``ints`` (``(name, lowest)`` integers), are valid."""
+        own = type(self).__name__
+        for name in ("coarse_soft", "fine_soft", "s_min", "s_0", "diff_step", "max_rel_std", *floats):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{own}.{name} must be a positive number, got {v!r}")
+        if not (isinstance(self.end_bias_px, (int, float)) and math.isfinite(self.end_bias_px)
+                and self.end_bias_px >= 0):
+            raise ValueError(f"{own}.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
+        for name, lo in (("coarse_stride", 1), ("max_nfev", 1), ("bootstrap", 0), ("seed", 0),
+                         ("min_trials", 1), ("min_frames", 1), *ints):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"{own}.{name} must be an integer >= {lo}, got {v!r}")
 
 
 # ------------------------------------------------------------------------------ problem

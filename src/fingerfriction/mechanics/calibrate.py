@@ -75,6 +75,7 @@ from ..regions import as_regions
 from ..surfaces import Surface
 from ._calibration_problem import (
     CalibrationProblem,
+    ResidualOptions,
     bootstrap_spread,
     end_bias_sensitivity,
     identification_flags,
@@ -166,7 +167,7 @@ class CalibrationTrial:
 
 
 @dataclass(frozen=True)
-class CalibrationOptions:
+class CalibrationOptions(ResidualOptions):
     """Settings of :func:`calibrate_finger` (defaults measured in ``benchmarks/calibrate.py``).
 
     Parameters
@@ -230,44 +231,21 @@ class CalibrationOptions:
     clearance: float = 2.0
     coarse_step: float = 0.2
     fine_step: float = 0.05
-    coarse_stride: int = 4
     n_loads: int = 3
-    coarse_soft: float = 0.2
-    fine_soft: float = 0.05
-    s_min: float = 0.1
-    s_0: float = 0.1
     bound: float = 2.0
-    diff_step: float = 0.005
-    max_nfev: int = 25
     solver_tol: float = 1e-6
     warm_start: str = "positions"
-    end_bias_px: float = 0.5
-    bootstrap: int = 400
-    seed: int = 0
-    min_trials: int = 3
-    min_frames: int = 200
-    max_rel_std: float = 0.1
 
     def __post_init__(self) -> None:
         fit = tuple(self.fit)
         if not fit or any(f not in FIT_FIELDS for f in fit) or len(set(fit)) != len(fit):
             raise ValueError(f"fit must be a non-empty subset of {FIT_FIELDS}, got {self.fit!r}")
         object.__setattr__(self, "fit", fit)
-        for name in ("dx", "clearance", "coarse_step", "fine_step", "coarse_soft", "fine_soft", "s_min",
-                     "s_0", "diff_step", "solver_tol", "max_rel_std"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"CalibrationOptions.{name} must be a positive number, got {v!r}")
+        self.check_shared(floats=("dx", "clearance", "coarse_step", "fine_step", "solver_tol"),
+                          ints=(("n_loads", 1),))
         check_option("CalibrationOptions.warm_start", self.warm_start, ("positions", "parameters", "none"))
-        if not (math.isfinite(self.end_bias_px) and self.end_bias_px >= 0):
-            raise ValueError(f"CalibrationOptions.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
         if not self.bound > 1:
             raise ValueError(f"CalibrationOptions.bound must be > 1, got {self.bound!r}")
-        for name, lo in (("coarse_stride", 1), ("n_loads", 1), ("max_nfev", 1), ("bootstrap", 0),
-                         ("seed", 0), ("min_trials", 1), ("min_frames", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ValueError(f"CalibrationOptions.{name} must be an integer >= {lo}, got {v!r}")
 
 
 # ------------------------------------------------------------------------------ result

@@ -98,6 +98,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from scipy.integrate import cumulative_simpson, cumulative_trapezoid
 
+from .._check import in_range
 from ..regions import as_regions
 from ..surfaces import Surface
 
@@ -115,6 +116,18 @@ __all__ = [
 #: Smallest vertical support ``K - mu S`` (mm) of the load-bearing contact for which the
 #: load-consistent pressure is defined; below it (no load-bearing contact) it is NaN.
 MIN_SUPPORT_MM = 1e-3
+
+
+def _finite_fields(obj, names, optional=()) -> None:
+    """Set each field ``names`` of the frozen dataclass ``obj`` to its value as a finite
+    float, or raise the ValueError of :func:`~fingerfriction._check.in_range` naming it
+    ("FrictionParams.mu must be a finite number, got nan"); a field of ``optional`` may be
+    None."""
+    own = type(obj).__name__
+    for name in names:
+        v = getattr(obj, name)
+        if not (v is None and name in optional):
+            object.__setattr__(obj, name, in_range(f"{own}.{name}", v))
 
 
 @dataclass(frozen=True)
@@ -137,11 +150,7 @@ class FrictionParams:
     p1: float
 
     def __post_init__(self) -> None:
-        for name in ("mu", "p0", "p1"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
-                raise ValueError(f"FrictionParams.{name} must be a finite number, got {v!r}")
-            object.__setattr__(self, name, float(v))
+        _finite_fields(self, ("mu", "p0", "p1"))
         if not 0.0 <= self.mu <= 5.0:
             raise ValueError(f"FrictionParams.mu must be in [0, 5], got {self.mu!r}")
         if self.p0 < 0:
@@ -192,13 +201,8 @@ class LoadParams:
         if (self.push_up is None) != (self.push_down is None):
             raise ValueError("LoadParams.push_up and push_down must be given together (or neither), got "
                              f"{self.push_up!r} and {self.push_down!r}")
-        for name in ("mu", "p1", "inset", "kappa", "push_up", "push_down"):
-            v = getattr(self, name)
-            if name in ("push_up", "push_down") and v is None:
-                continue
-            if not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v):
-                raise ValueError(f"LoadParams.{name} must be a finite number, got {v!r}")
-            object.__setattr__(self, name, float(v))
+        _finite_fields(self, ("mu", "p1", "inset", "kappa", "push_up", "push_down"),
+                       optional=("push_up", "push_down"))
         if not 0.0 <= self.mu <= 5.0:
             raise ValueError(f"LoadParams.mu must be in [0, 5], got {self.mu!r}")
         if self.inset < 0:

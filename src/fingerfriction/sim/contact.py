@@ -44,6 +44,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from .. import mechanics
+from .._check import lookup
 from ..mechanics import ContactSolver, sweep
 from ..mechanics.fe import FEProvider
 from ..surfaces import Surface
@@ -152,10 +153,7 @@ class BridgedFoundation:
         self._cache: dict = {}
 
     def _finger(self, subject: str) -> SimFinger:
-        try:
-            return self.fingers[str(subject)]
-        except KeyError:
-            raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
+        return lookup(self.fingers, subject, "subject")
 
     def finger_dict(self, subject: str) -> dict:
         return {"model": self.name, **self._finger(subject).to_dict()}
@@ -254,10 +252,7 @@ class MechanicsProvider:
 
     def _finger(self, subject: str):
         if self.fingers is not None:
-            try:
-                return self.fingers[str(subject)]
-            except KeyError:
-                raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
+            return lookup(self.fingers, subject, "subject")
         try:
             return mechanics.get_subject(int(subject))
         except (TypeError, ValueError):

@@ -44,6 +44,7 @@ import numpy as np
 
 from ..._check import check_option
 from .._calibration_problem import (
+    ResidualOptions,
     bootstrap_spread,
     end_bias_sensitivity,
     identification_flags,
@@ -66,7 +67,7 @@ __all__ = ["FE_FIT_FIELDS", "FECalibrationOptions", "FECalibrationProblem", "cal
 log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
-class FECalibrationOptions:
+class FECalibrationOptions(ResidualOptions):
     """Settings of :func:`calibrate_fe_finger` (the residual and bootstrap settings are those of
     :class:`fingerfriction.mechanics.calibrate.CalibrationOptions`).
 
@@ -121,19 +122,7 @@ class FECalibrationOptions:
     max_surrogate_mm: float = 0.03
     max_shifts: int = 2
     corrections: int = 2
-    coarse_stride: int = 4
-    coarse_soft: float = 0.2
-    fine_soft: float = 0.05
-    s_min: float = 0.1
-    s_0: float = 0.1
-    diff_step: float = 0.005
     max_nfev: int = 50
-    end_bias_px: float = 0.5
-    bootstrap: int = 400
-    seed: int = 0
-    min_trials: int = 3
-    min_frames: int = 200
-    max_rel_std: float = 0.1
 
     def __post_init__(self) -> None:
         own = "FECalibrationOptions"
@@ -153,21 +142,10 @@ class FECalibrationOptions:
         if ld.ndim != 1 or ld.size == 0 or not np.all(ld > 0) or np.any(np.diff(ld) <= 0):
             raise ValueError(f"{own}.loads must be increasing normal forces > 0 in N, got {self.loads!r}")
         object.__setattr__(self, "loads", tuple(float(v) for v in ld))
-        for name in ("step", "grid_step", "clearance", "max_surrogate_mm", "coarse_soft", "fine_soft",
-                     "s_min", "s_0", "diff_step", "max_rel_std"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{own}.{name} must be a positive number, got {v!r}")
-        if not (math.isfinite(self.end_bias_px) and self.end_bias_px >= 0):
-            raise ValueError(f"{own}.end_bias_px must be >= 0 px, got {self.end_bias_px!r}")
+        self.check_shared(floats=("step", "grid_step", "clearance", "max_surrogate_mm"),
+                          ints=(("workers", 1), ("max_shifts", 0), ("corrections", 0)))
         if self.mesh is not None and not isinstance(self.mesh, FEMeshParams):
             raise TypeError(f"{own}.mesh must be an FEMeshParams or None, got {type(self.mesh).__name__}")
-        for name, lo in (("workers", 1), ("max_shifts", 0), ("corrections", 0), ("coarse_stride", 1),
-                         ("max_nfev", 1), ("bootstrap", 0), ("seed", 0), ("min_trials", 1),
-                         ("min_frames", 1)):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-                raise ValueError(f"{own}.{name} must be an integer >= {lo}, got {v!r}")
         if not isinstance(self.verify, bool):
             raise TypeError(f"{own}.verify must be True or False, got {self.verify!r}")
 

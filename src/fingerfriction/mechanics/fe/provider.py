@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._atomic import atomic_write_bytes
+from ..._check import lookup
 from ...surfaces import Surface
 from .params import LITERATURE_FINGER, FEFingerParams, FEMeshParams, params_key
 from .solver import FEContactSolver, FEState
@@ -131,10 +132,7 @@ class FEProvider:
         self._solvers: dict = {}
 
     def _finger(self, subject: str) -> FEFingerParams:
-        try:
-            return self.fingers[str(subject)]
-        except KeyError:
-            raise ValueError(f"unknown subject {subject!r}; known: {', '.join(self.fingers)}") from None
+        return lookup(self.fingers, subject, "subject")
 
     def mu(self, subject: str) -> float:
         """The friction coefficient of the subject's contact traction (0: frictionless): the
