@@ -141,6 +141,20 @@ def test_a_coarse_surrogate_corrected_at_its_verified_optimum_finds_the_exact_on
         assert lo <= getattr(boot.finger, f) <= hi, (f, lo, hi)
 
 
+def test_a_corrected_optimum_at_the_grids_edge_moves_the_grid(fake):
+    """On a coarse grid the uncorrected optimum of a finger just inside its edge (radius x0.52,
+    edge x0.5) lies inside; corrected, it sits at the edge: the grid moves there and the fit
+    ends on the finger, where it used to stop at the edge as a failure."""
+    true = finger_with(BASE, {"radius": 0.52})
+    trials = [_trial(true, s, load, f"{s.name}-{load}") for s in (FLAT, BUMP) for load in (0.27, 0.33)]
+    opts = FECalibrationOptions(**{**FAST, "fit": ("radius",), "bootstrap": 0, "levels": (0.5, 1.0, 2.0),
+                                   "max_shifts": 1})
+    res = calibrate_fe_finger(trials, BASE, options=opts)
+    assert res.success and "the grid moved radius x0.5" in res.message, res.message
+    assert res.finger.radius == pytest.approx(true.radius, rel=0.02)
+    assert res.surrogate_rms_mm < opts.max_surrogate_mm
+
+
 def test_a_corrected_fit_that_fits_the_exact_finger_worse_is_not_taken(fake):
     """At the grid's edge (no move allowed) the corrected surrogate's fit does not fit the
     exact finger better: the first optimum is kept, and the message says so."""

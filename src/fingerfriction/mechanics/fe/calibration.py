@@ -14,8 +14,9 @@ range). When the optimum sits at the grid's edge in some field, the grid moves: 
 becomes the edge node in those fields (the others keep theirs), the new nodes' tables are
 solved (or read from the cache: the moved grid shares its centre node and, on a star grid,
 the other fields' nodes' outlines are new), and the fit starts again from the new centre; at
-most ``max_shifts`` times. A fit still at the edge after that is not a success. The
-reported ``initial`` stays the given finger; the message says where the grid moved.
+most ``max_shifts`` times (an optimum that the surrogate's corrections, below, take to the
+edge moves it too). A fit still at the edge after that is not a success. The reported
+``initial`` stays the given finger; the message says where the grid moved.
 
 With ``verify`` (default) the FE finger at the optimum is solved exactly (one more set of
 tables) and the per-surface figures (end-point RMS, blind spots measured -> predicted) are
@@ -203,16 +204,14 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
         raise CalibrationError("no trial has a usable frame (finite position, positive load, at least "
                                "one contact region): nothing to calibrate on")
     _check_grid(initial, opts)
-    pb, opt, moves, t_build = _fit_on_moving_grid(trials, initial, opts, cache_dir, progress)
-    t_v = time.process_time()
+    pb, opt, moves, t_build, ver, t_v = _fit_on_moving_grid(trials, initial, opts, cache_dir, progress)
     flags, surrogate_rms, exact, n_corr, first_rms, refused = [], math.nan, None, 0, math.nan, False
-    if opts.verify:
-        opt, exact, surrogate_rms, n_corr, first_rms, refused = _verified(pb, opt, opts)
+    if ver is not None:
+        opt, exact, surrogate_rms, n_corr, first_rms, refused = ver
         if surrogate_rms > opts.max_surrogate_mm:
             flags.append(f"the surrogate's end points differ from the exact FE finger's by "
                          f"{surrogate_rms:.3f} mm RMS at the optimum (> {opts.max_surrogate_mm:g} mm"
                          + (f", after {n_corr} correction(s))" if n_corr else ")"))
-    t_v = time.process_time() - t_v
     z, fine, fun, jac, state, nfev, pass_cpu = opt
     finger = pb.finger(z)
     r0 = fun(z)
@@ -310,13 +309,26 @@ def _edge(z: np.ndarray, pb: FECalibrationProblem) -> dict:
             for f, zi in zip(pb.fit, z, strict=True) if min(zi - ax[0], ax[-1] - zi) < 1e-3}
 
 
+def _movable(centre: FEFingerParams, shift: dict, opts: FECalibrationOptions) -> bool:
+    """Whether the grid around ``centre`` moved by ``shift`` keeps every node a valid finger."""
+    try:
+        _check_grid(finger_with(centre, shift), opts)
+    except ValueError as exc:  # the moved grid would leave the valid fingers: stay
+        log.warning("the calibration grid cannot move to %s: %s", shift, exc)
+        return False
+    return True
+
+
 def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOptions, cache_dir, progress):
     """The least squares on the surrogate, the grid moved to its edge node while the optimum
-    sits there (module notes). Returns the last grid's problem (its ``initial`` the grid's
-    centre), :func:`optimise`'s result on it, the moves and the CPU of the tables' builds;
-    the abandoned grids' table counts and CPU are added to the last problem's."""
+    sits there (module notes). With ``opts.verify`` the optimum the grid keeps is verified
+    (:func:`_verified`); a corrected optimum at the grid's edge moves the grid too. Returns
+    the last grid's problem (its ``initial`` the grid's centre), :func:`optimise`'s result on
+    it, the moves, the CPU of the tables' builds, :func:`_verified`'s result (None without
+    ``verify``) and the CPU of the verifications; the abandoned grids' table counts and CPU
+    are added to the last problem's."""
     centre, moves, spent = initial, [], {"t_fe": 0.0, "fe_tables": 0, "fe_unconverged": 0, "fe_positions": 0}
-    t_build = 0.0
+    t_build = t_verify = 0.0
     while True:
         pb = FECalibrationProblem(trials, centre, opts, cache_dir=cache_dir)
         if pb.n_trials < opts.min_trials:
@@ -330,24 +342,28 @@ def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOpti
         pb.build(progress)
         t_build += time.process_time() - t
         bounds = (np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1]))
-        opt = optimise(pb, opts, bounds=bounds)
+        opt, ver = optimise(pb, opts, bounds=bounds), None
         shift = _edge(opt[0], pb)
-        if not shift or len(moves) >= opts.max_shifts:
-            break
-        try:
-            nxt = finger_with(centre, shift)
-            _check_grid(nxt, opts)
-        except ValueError as exc:  # the moved grid would leave the valid fingers: stay
-            log.warning("the calibration grid cannot move to %s: %s", shift, exc)
+        move = bool(shift) and len(moves) < opts.max_shifts and _movable(centre, shift, opts)
+        if opts.verify and not move:
+            t = time.process_time()
+            ver = _verified(pb, opt, opts)
+            t_verify += time.process_time() - t
+            opt, shift = ver[0], _edge(ver[0][0], pb)
+            move = bool(shift) and len(moves) < opts.max_shifts and _movable(centre, shift, opts)
+            if move:
+                log.info("FE calibration: the corrected optimum sits at the grid's edge in %s",
+                         ", ".join(shift))
+        if not move:
             break
         for key in spent:
             spent[key] += getattr(pb, key)
         moves.append(shift)
         log.info("FE calibration at the grid's edge in %s: the grid moves there", ", ".join(shift))
-        centre = nxt
+        centre = finger_with(centre, shift)
     for key, v in spent.items():  # the abandoned grids' tables count in the cost
         setattr(pb, key, getattr(pb, key) + v)
-    return pb, opt, moves, t_build
+    return pb, opt, moves, t_build, ver, t_verify
 
 
 def _assess(fine, z, pb: FECalibrationProblem, finger, std: dict, surfaces, opts: FECalibrationOptions,
