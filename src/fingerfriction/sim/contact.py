@@ -44,7 +44,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from .. import mechanics
-from .._check import lookup
+from .._check import lookup, positive
 from ..mechanics import ContactSolver, sweep
 from ..mechanics.fe import FEProvider
 from ..surfaces import Surface
@@ -94,11 +94,9 @@ class SimFinger:
     spread: float = 0.35
 
     def __post_init__(self) -> None:
-        for name in ("radius", "depth", "stiffness", "bridge_radius", "spread"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"SimFinger.{name} must be a finite positive number, got {v!r}")
-            object.__setattr__(self, name, float(v))
+        for name, unit in (("radius", "mm"), ("depth", "mm"), ("stiffness", "N/mm^3"), ("bridge_radius", "mm"),
+                           ("spread", "mm")):
+            object.__setattr__(self, name, positive(f"SimFinger.{name}", getattr(self, name), unit))
 
     def to_dict(self) -> dict:
         return asdict(self)
