@@ -94,8 +94,8 @@ class SimFinger:
     spread: float = 0.35
 
     def __post_init__(self) -> None:
-        for name, unit in (("radius", "mm"), ("depth", "mm"), ("stiffness", "N/mm^3"), ("bridge_radius", "mm"),
-                           ("spread", "mm")):
+        for name, unit in (("radius", "mm"), ("depth", "mm"), ("stiffness", "N/mm^3"),
+                           ("bridge_radius", "mm"), ("spread", "mm")):
             object.__setattr__(self, name, positive(f"SimFinger.{name}", getattr(self, name), unit))
 
     def to_dict(self) -> dict:
