@@ -343,14 +343,20 @@ def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOpti
         t_build += time.process_time() - t
         bounds = (np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1]))
         opt, ver = optimise(pb, opts, bounds=bounds), None
+
+        def may_move(shift, centre=centre):
+            return bool(shift) and len(moves) < opts.max_shifts and _movable(centre, shift, opts)
+
         shift = _edge(opt[0], pb)
-        move = bool(shift) and len(moves) < opts.max_shifts and _movable(centre, shift, opts)
+        move = may_move(shift)
         if opts.verify and not move:
             t = time.process_time()
             ver = _verified(pb, opt, opts)
             t_verify += time.process_time() - t
-            opt, shift = ver[0], _edge(ver[0][0], pb)
-            move = bool(shift) and len(moves) < opts.max_shifts and _movable(centre, shift, opts)
+            opt = ver[0]
+            if _edge(opt[0], pb) != shift:  # the corrections moved the optimum to (another) edge
+                shift = _edge(opt[0], pb)
+                move = may_move(shift)
             if move:
                 log.info("FE calibration: the corrected optimum sits at the grid's edge in %s",
                          ", ".join(shift))
