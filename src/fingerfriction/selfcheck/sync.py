@@ -368,8 +368,8 @@ def _loo_offsets(items, ref, taus_ref, *, centres=None, span: float = 0.012) -> 
     searched within ``span`` of ``centres``, or by default over every offset that puts the
     trial's half rise within the prior's pre-sliding distances :data:`PRIOR_D_MM`, and
     ``span`` beyond: a finger whose friction rises over 0.4 mm is as likely as one over
-    0.1 mm, so a search centred on the prior's middle missed the first's offset by its
-    edge (a drawn layered finger's trials all came out 8 ms off, at the edge)."""
+    0.1 mm, and a search centred on the prior's middle can miss the first's offset
+    (``docs/selfcheck.md``)."""
     ids = [o.trial_id for o in ref]
     g_all = _fit_g(ref, taus_ref)
     res = {}
@@ -383,7 +383,8 @@ def _loo_offsets(items, ref, taus_ref, *, centres=None, span: float = 0.012) -> 
         if centres is None:
             lo, hi = _prior_range(o, span)
         else:
-            lo, hi = centres[items.index(o)] - span, centres[items.index(o)] + span
+            c = centres[items.index(o)]
+            lo, hi = c - span, c + span
         if g is None or not (math.isfinite(lo) and math.isfinite(hi)):
             res[o.trial_id] = math.nan
             continue
