@@ -257,7 +257,7 @@ def table(seed: int, out: Path, fingers: Path, tag: str = "") -> dict:
             worst = math.inf  # no finger: its surfaces are not within the criterion
             continue
         d = json.loads(p.read_text())
-        f, fitted = d["finger"], (d.get("calibration") or {}).get("fitted") or ("tissue_modulus", "radius")
+        f, fitted = d["finger"], d["calibration"]["fitted"]  # calibrate-finger's provenance
         print(f"   subject {s} calibrated FE finger: "
               + ", ".join(f"{k} {f[k]:.4g} {'MPa' if 'modulus' in k else 'mm'}" for k in fitted)
               + f", friction {f['friction']:g}; blind spots measured -> calibrated (mm):")
