@@ -16,7 +16,7 @@ Sections (each prints measured figures; nothing is asserted):
 4. Cost: the contact tables of one finger (6 surfaces x 3 loads, 0.1 mm steps) on two
    worker processes from an empty cache, then again from the cache.
 5. Sensitivity (``--only sensitivity``): which FE finger parameters move the 70 um contact
-   ends, and how much of the drawn fingers' spread a calibration of 1, 2 or 3 of them can
+   ends, and how much of the drawn fingers' spread a calibration of 1 to 4 of them can
    absorb. The layered finger of subject 1 (friction 0.55) and the same finger with each
    parameter x 1.25 (the FE calibration's tables: same positions, cells and cache), at 0.34 N
    (one of the calibration's table loads), on the six surfaces; each end of the base
@@ -306,7 +306,7 @@ def sensitivity(workers: int) -> None:
                    for s in (0.125 if f == "pulp_thickness" else 0.25 for f in FE_FIT_FIELDS)])
     total = float(np.sqrt(np.sum((S * sd) ** 2) / S.shape[0]))
     print(f"   {S.shape[0]} ends; RMS end spread of the drawn fingers (linearised): {total:.3f} mm")
-    for k in (1, 2, 3):
+    for k in (1, 2, 3, 4):
         res = []
         for sub in itertools.combinations(range(len(FE_FIT_FIELDS)), k):
             A = S[:, sub]
