@@ -189,12 +189,19 @@ def test_the_grid_moves_to_a_finger_outside_it_and_says_so(fake):
     assert not res.success and "after 2 move(s) of the grid" in res.message, res.message
 
 
+def test_the_evaluation_budget_grows_with_the_fitted_fields():
+    assert FECalibrationOptions().evaluations() == 50  # the default two fields: as before
+    four = ("tissue_modulus", "skin_thickness", "radius", "semi_height")
+    assert FECalibrationOptions(fit=four).evaluations() == 100
+    assert FECalibrationOptions(fit=four, max_nfev=7).evaluations() == 7
+
+
 def test_bad_options_and_inputs_are_one_line_errors(fake):
     for kw, match in [({"fit": ("modulus",)}, "fit"), ({"fit": ()}, "non-empty"),
                       ({"levels": (0.8, 1.2)}, "including 1"), ({"loads": (0.3, 0.2)}, "increasing"),
                       ({"step": 0.0}, "step"), ({"workers": 0}, "workers"), ({"mesh": {}}, "mesh"),
                       ({"max_shifts": -1}, "max_shifts"), ({"corrections": -1}, "corrections"),
-                      ({"design": "sparse"}, "design")]:
+                      ({"design": "sparse"}, "design"), ({"max_nfev": 0}, "max_nfev")]:
         with pytest.raises((ValueError, TypeError), match=match):
             FECalibrationOptions(**kw)
     tr = [_trial(BASE, FLAT, 0.3, "t")]

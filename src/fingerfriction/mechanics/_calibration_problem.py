@@ -40,9 +40,14 @@ class ResidualOptions:
     min_frames: int = 200
     max_rel_std: float = 0.1
 
-    def check_shared(self, floats=(), ints=()) -> None:
+    def evaluations(self) -> int:
+        """Evaluations of the residuals allowed per least-squares pass (``max_nfev``)."""
+        return self.max_nfev
+
+    def check_shared(self, floats=(), ints=(), optional=()) -> None:
         """ValueError unless the shared fields, and a subclass's ``floats`` (positive
-        numbers) and ``ints`` (``(name, lowest)`` integers), are valid."""
+        numbers) and ``ints`` (``(name, lowest)`` integers), are valid; a field named in
+        ``optional`` may also be None."""
         own = type(self).__name__
         for name in ("coarse_soft", "fine_soft", "s_min", "s_0", "diff_step", "max_rel_std", *floats):
             v = getattr(self, name)
@@ -54,6 +59,8 @@ class ResidualOptions:
         for name, lo in (("coarse_stride", 1), ("max_nfev", 1), ("bootstrap", 0), ("seed", 0),
                          ("min_trials", 1), ("min_frames", 1), *ints):
             v = getattr(self, name)
+            if v is None and name in optional:
+                continue
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"{own}.{name} must be an integer >= {lo}, got {v!r}")
 

@@ -479,7 +479,7 @@ def optimise(pb: CalibrationProblem, opts, bounds: tuple | None = None, z0=None)
         fun, jac, state = make_fun_jac(pb, level, step)
         t_pass = time.process_time()
         r = least_squares(fun, z, jac=jac, bounds=(lb, ub), loss="soft_l1", f_scale=soft,
-                          x_scale=1.0, max_nfev=opts.max_nfev, xtol=1e-4, ftol=1e-6, gtol=1e-8)
+                          x_scale=1.0, max_nfev=opts.evaluations(), xtol=1e-4, ftol=1e-6, gtol=1e-8)
         nfev[level] = int(r.nfev)
         pass_cpu[level] = time.process_time() - t_pass
         z = r.x
