@@ -26,6 +26,12 @@ For each finger seed (the three the previous session drew from ``SeedSequence()`
 ``tissue_modulus,radius,skin_modulus``) in steps 4 and 6, with outputs of their own beside
 the default's (``*-fit-FIELDS.*``; the study and the true fingers' validation are shared).
 
+``--thresholds SURFACE`` (for example ``step-up-2mm``) adds, after each seed's table, the
+blind-spot widths of each subject's true and calibrated (all six surfaces) fingers over that
+surface at contact criteria of 50-90 um instead of 70 um (forward sweeps at 0.3 N, 0.1 mm
+steps over the trials' span, cached): how close a blind spot sits to the criterion
+(``docs/mechanics-fe.md``).
+
 Every step whose output exists is skipped (``--redo STEP`` to run it again); each prints its
 CPU time (user + sys of its processes) and wall time. The FE tables are cached
 (``$FINGERFRICTION_CACHE``) and shared between steps and seeds.
@@ -79,7 +85,7 @@ def run(step: str, args: list[str], log: Path, ok: tuple = (0, 1)) -> None:
 
 
 def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table",
-             fit: str = "") -> dict | None:
+             fit: str = "", thresholds: str = "") -> dict | None:
     out = root / f"seed-{seed}"
     tag = f"-fit-{fit.replace(',', '+')}" if fit else ""  # a non-default --fit: its own outputs
     fit_args = ["--fit", fit] if fit else []
@@ -133,7 +139,55 @@ def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table
                                                  "--finger-model", "fe", "--workers", w, *fit_args,
                                                  "--out", str(fingers / f"fe-s{s}{tag}.json")],
                 out / f"calibrate-s{s}{tag}.log", ok=(0, 1, 2))
-    return table(seed, out, fingers, tag)
+    summary = table(seed, out, fingers, tag)
+    if thresholds:
+        threshold_widths(results, fingers, tag, thresholds)
+    return summary
+
+
+THRESHOLDS_UM = (50, 60, 65, 70, 75, 80, 90)
+
+
+def threshold_widths(results: Path, fingers: Path, tag: str, surface_name: str) -> None:
+    """Print the blind-spot widths (>= 0.05 mm) of each subject's true and calibrated FE
+    fingers over ``surface_name`` at the contact criteria :data:`THRESHOLDS_UM`."""
+    from fingerfriction.mechanics.fe.provider import FEProvider
+    from fingerfriction.mechanics.finger_file import fe_finger_from_mapping
+    from fingerfriction.model.blindspots import blind_spots
+    from fingerfriction.pipeline.validation import trials_from_results
+    from fingerfriction.regions import regions_from_mask
+
+    trials = [t for t in trials_from_results(results) if t.surface.name == surface_name]
+    if not trials:
+        print(f"   --thresholds: no analysed trial on {surface_name!r}")
+        return
+    surf = trials[0].surface
+    print(f"   blind-spot widths (mm, >= 0.05) on {surface_name} at contact criteria (um) "
+          + " ".join(f"{t:>5d}" for t in THRESHOLDS_UM))
+    for subj in sorted({t.subject for t in trials}):
+        ts = [t for t in trials if t.subject == subj]
+        lo, hi = min(float(t.x[0]) for t in ts), max(float(t.x[-1]) for t in ts)
+        xs = lo + 0.1 * np.arange(int(math.ceil((hi - lo) / 0.1 - 1e-9)) + 1)
+        for label, path in (("true", fingers / f"true-s{subj}.json"),
+                            ("calibrated", fingers / f"fe-s{subj}{tag}.json")):
+            if not path.is_file():
+                print(f"      s{subj} {label:10s} no finger file")
+                continue
+            prov = FEProvider(fingers={"f": fe_finger_from_mapping(json.loads(path.read_text()))})
+            y, _ = prov.solve(surf, "f", xs, 0.3)
+            xg = xs[:, None] + prov.grid("f")[None, :]
+            gap = y - np.asarray(surf.h(xg), float)
+            cells = []
+            for um in THRESHOLDS_UM:
+                rows = [regions_from_mask(xg[i], m)[0] if m.any() else np.empty((0, 2))
+                        for i, m in enumerate(gap <= um / 1000)]
+                k = max(max(r.shape[0] for r in rows), 1)
+                arr = np.full((xs.size, k, 2), np.nan)
+                for i, r in enumerate(rows):
+                    arr[i, : r.shape[0]] = r
+                iv = blind_spots(arr, min_width=0.05).intervals
+                cells.append(",".join(f"{b - a:.2f}" for a, b in iv) or "-")
+            print(f"      s{subj} {label:10s} " + " ".join(f"{c:>5s}" for c in cells))
 
 
 def _blind_spots(path: Path) -> list:
@@ -289,6 +343,8 @@ def main() -> None:
                     help="stop after this step")
     ap.add_argument("--fit", default="", help="the calibrated FE fingers' fields (comma list; default: "
                     "calibrate-finger's); a non-default list writes its own outputs beside the default's")
+    ap.add_argument("--thresholds", default="", metavar="SURFACE",
+                    help="also print each finger's blind spots on SURFACE at contact criteria of 50-90 um")
     args = ap.parse_args()
     redo = {s for s in args.redo.split(",") if s}
     for s in redo:
@@ -297,7 +353,7 @@ def main() -> None:
     os.environ.setdefault("FINGERFRICTION_FE_MESH", json.dumps(COARSE_MESH))  # the commands' mesh
     print(f"mesh: FINGERFRICTION_FE_MESH={os.environ['FINGERFRICTION_FE_MESH']}; "
           f"cache: {os.environ.get('FINGERFRICTION_CACHE', '~/.cache/fingerfriction')}")
-    summary = [seed_run(int(s), Path(args.out), args.workers, redo, args.until, args.fit)
+    summary = [seed_run(int(s), Path(args.out), args.workers, redo, args.until, args.fit, args.thresholds)
                for s in args.seeds.split(",")]
     summary = [r for r in summary if r is not None]
     print("summary: " + "; ".join(f"seed {r['seed']}: calibrated FE {r['calibrated']}/{r['n']} cells >= 0.75 "
