@@ -258,13 +258,19 @@ def heldout_blind_spots(results: Path, held: dict, true: dict) -> float:
                 pairs = _pair(meas, pr)
                 if label == "calibrated":
                     for m, q in pairs:
-                        worst = max(worst, abs(m - q) if math.isfinite(m - q) else math.inf)
+                        worst = max(worst, _width_error(m, q))
                 cells.append(", ".join(f"{q:.3f}" if math.isfinite(q) else "-" for _, q in pairs) or "none")
             mtxt = ", ".join(f"{b - a:.3f}" for a, b in meas) or "none"
             print(f"      s{subj} {surf_name:14s} {mtxt:>14s} | {cells[0]:>14s} | {cells[1]:>14s}")
     print(f"   largest |calibrated without the surface - measured| blind spot: {worst:.3f} mm "
           "(criterion 0.1)")
     return worst
+
+
+def _width_error(measured: float, predicted: float) -> float:
+    """|predicted - measured| blind-spot width (mm); a blind spot without a partner (NaN on
+    the other side) counts its whole width: none is a width of 0."""
+    return abs((0.0 if math.isnan(predicted) else predicted) - (0.0 if math.isnan(measured) else measured))
 
 
 def _pair(meas: np.ndarray, pred: np.ndarray) -> list:
@@ -321,7 +327,7 @@ def table(seed: int, out: Path, fingers: Path, tag: str = "") -> dict:
                 a = m[i] if i < len(m) else math.nan
                 b = pr[i] if i < len(pr) else math.nan
                 pairs.append(f"{a:.3f} -> {b:.3f}")
-                worst = max(worst, abs(a - b) if math.isfinite(a - b) else math.inf)
+                worst = max(worst, _width_error(a, b))
             print(f"      {surf:14s} end RMS {rms:.3f} mm; " + (", ".join(pairs) or "none"))
     print(f"   largest |calibrated (all six surfaces) - measured| blind spot: {worst:.3f} mm "
           "(criterion 0.1 mm)")
