@@ -370,9 +370,9 @@ def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOpti
             ver = _verified(pb, opt, opts)
             t_verify += time.process_time() - t
             opt = ver[0]
-            if _edge(opt[0], pb) != shift:  # the corrections moved the optimum to (another) edge
-                shift = _edge(opt[0], pb)
-                move = may_move(shift)
+            corrected = _edge(opt[0], pb)
+            if corrected != shift:  # the corrections moved the optimum to (another) edge
+                shift, move = corrected, may_move(corrected)
             if move:
                 log.info("FE calibration: the corrected optimum sits at the grid's edge in %s",
                          ", ".join(shift))
