@@ -26,6 +26,9 @@ For each finger seed (the three the previous session drew from ``SeedSequence()`
 ``tissue_modulus,radius,skin_modulus``) in steps 4 and 6, with outputs of their own beside
 the default's (``*-fit-FIELDS.*``; the study and the true fingers' validation are shared).
 
+``--position-offset`` adds the offset of the tracked finger position to the calibrated FE
+fingers (``calibrate-finger --position-offset``; outputs ``*-offset.*``).
+
 ``--thresholds SURFACE`` (for example ``step-up-2mm``) adds, after each seed's table, the
 blind-spot widths of each subject's true and calibrated (all six surfaces) fingers over that
 surface at contact criteria of 50-90 um instead of 70 um (forward sweeps at 0.3 N, 0.1 mm
@@ -85,10 +88,11 @@ def run(step: str, args: list[str], log: Path, ok: tuple = (0, 1)) -> None:
 
 
 def seed_run(seed: int, root: Path, workers: int, redo: set, until: str = "table",
-             fit: str = "", thresholds: str = "") -> dict | None:
+             fit: str = "", thresholds: str = "", offset: bool = False) -> dict | None:
     out = root / f"seed-{seed}"
-    tag = f"-fit-{fit.replace(',', '+')}" if fit else ""  # a non-default --fit: its own outputs
-    fit_args = ["--fit", fit] if fit else []
+    # a non-default --fit or --position-offset: outputs of their own
+    tag = (f"-fit-{fit.replace(',', '+')}" if fit else "") + ("-offset" if offset else "")
+    fit_args = (["--fit", fit] if fit else []) + (["--position-offset"] if offset else [])
     out.mkdir(parents=True, exist_ok=True)
     study, results, fingers = out / "study", out / "results", out / "fingers"
     fingers.mkdir(exist_ok=True)
@@ -320,7 +324,10 @@ def table(seed: int, out: Path, fingers: Path, tag: str = "") -> dict:
         f, fitted = d["finger"], d["calibration"]["fitted"]  # calibrate-finger's provenance
         print(f"   subject {s} calibrated FE finger: "
               + ", ".join(f"{k} {f[k]:.4g} {'MPa' if 'modulus' in k else 'mm'}" for k in fitted)
-              + f", friction {f['friction']:g}; blind spots measured -> calibrated (mm):")
+              + f", friction {f['friction']:g}"
+              + (f", position offset {d['calibration']['position_offset_mm']:+.3f} mm"
+                 if "position_offset_mm" in d["calibration"] else "")
+              + "; blind spots measured -> calibrated (mm):")
         for surf, m, pr, rms in _blind_spots(p):
             pairs = []
             for i in range(max(len(m), len(pr))):
@@ -349,6 +356,9 @@ def main() -> None:
                     help="stop after this step")
     ap.add_argument("--fit", default="", help="the calibrated FE fingers' fields (comma list; default: "
                     "calibrate-finger's); a non-default list writes its own outputs beside the default's")
+    ap.add_argument("--position-offset", action="store_true",
+                    help="the calibrated FE fingers also fit the offset of the tracked position "
+                    "(calibrate-finger --position-offset); outputs of their own (*-offset.*)")
     ap.add_argument("--thresholds", default="", metavar="SURFACE",
                     help="also print each finger's blind spots on SURFACE at contact criteria of 50-90 um")
     args = ap.parse_args()
@@ -359,7 +369,8 @@ def main() -> None:
     os.environ.setdefault("FINGERFRICTION_FE_MESH", json.dumps(COARSE_MESH))  # the commands' mesh
     print(f"mesh: FINGERFRICTION_FE_MESH={os.environ['FINGERFRICTION_FE_MESH']}; "
           f"cache: {os.environ.get('FINGERFRICTION_CACHE', '~/.cache/fingerfriction')}")
-    summary = [seed_run(int(s), Path(args.out), args.workers, redo, args.until, args.fit, args.thresholds)
+    summary = [seed_run(int(s), Path(args.out), args.workers, redo, args.until, args.fit, args.thresholds,
+                        args.position_offset)
                for s in args.seeds.split(",")]
     summary = [r for r in summary if r is not None]
     print("summary: " + "; ".join(f"seed {r['seed']}: calibrated FE {r['calibrated']}/{r['n']} cells >= 0.75 "

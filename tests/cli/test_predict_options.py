@@ -69,3 +69,28 @@ def test_fit_chooses_the_calibrated_fields_and_bad_fields_are_one_line_errors(tm
     assert r.exit_code == 2 and "stiffness" in r.output and "Traceback" not in r.output
     r = runner.invoke(app, ["validate", str(tmp_path), "--fit", "radius"])
     assert r.exit_code == 2 and "--calibrated-fingers" in r.output
+
+
+def test_position_offset_reaches_the_fe_calibration_and_needs_the_fe_family(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    import fingerfriction.pipeline.finger_calibration as fc
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake(results, subject, *, options=None, **kw):
+        seen["offset"] = options.position_offset
+        raise Stop
+
+    monkeypatch.setattr(fc, "calibrate_results", fake)
+    runner = CliRunner()
+    base = ["calibrate-finger", str(tmp_path), "--subject", "1", "--out", str(tmp_path / "f.json")]
+    r = runner.invoke(app, [*base, "--finger-model", "fe", "--position-offset"])
+    assert isinstance(r.exception, Stop) and seen.pop("offset") is True, r.output
+    r = runner.invoke(app, [*base, "--finger-model", "halfspace", "--position-offset"])
+    assert r.exit_code == 2 and "--finger-model fe" in r.output and "Traceback" not in r.output
+    r = runner.invoke(app, ["validate", str(tmp_path), "--position-offset"])
+    assert r.exit_code == 2 and "--calibrated-fingers" in r.output

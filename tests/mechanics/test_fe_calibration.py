@@ -114,6 +114,29 @@ def test_recovers_a_stand_in_finger_inside_the_grid(fake):
     assert d["parameters"]["radius"] == pytest.approx(res.finger.radius) and "surrogate_rms_mm" in d
 
 
+def test_a_constant_offset_of_the_tracked_position_is_fitted_with_position_offset(fake):
+    """The tracked x trails the finger by 0.15 mm (as a chord midpoint trails a finger that
+    leans under friction): with ``position_offset`` the offset comes back and the finger with
+    it; without, the ends are fitted worse."""
+    true = finger_with(BASE, {"tissue_modulus": 1.15, "radius": 0.92})
+    made = [_trial(true, s, load, f"{s.name}-{load}") for s in (FLAT, BUMP) for load in (0.27, 0.33)]
+    trials = [dataclasses.replace(t, x=t.x - 0.15) for t in made]
+    res = calibrate_fe_finger(trials, BASE, options=FECalibrationOptions(**FAST, position_offset=True))
+    assert res.success, res.message
+    assert res.position_offset_mm == pytest.approx(0.15, abs=0.01)
+    assert res.finger.tissue_modulus == pytest.approx(true.tissue_modulus, rel=0.03)
+    assert res.finger.radius == pytest.approx(true.radius, rel=0.02)
+    assert max(s.rms_end_mm for s in res.surfaces) < 0.05
+    lo, hi = res.ci95["position_offset"]
+    assert lo <= res.position_offset_mm <= hi and math.isfinite(res.std["position_offset"])
+    assert "position offset (mm)" in res.summary()
+    saved = json.loads(json.dumps(res.to_dict()))
+    assert saved["position_offset_mm"] == pytest.approx(res.position_offset_mm)
+    plain = calibrate_fe_finger(trials, BASE, options=FECalibrationOptions(**FAST))
+    assert math.isnan(plain.position_offset_mm) and "position_offset_mm" not in plain.to_dict()
+    assert max(s.rms_end_mm for s in plain.surfaces) > 2 * max(s.rms_end_mm for s in res.surfaces)
+
+
 def test_a_coarse_surrogate_corrected_at_its_verified_optimum_finds_the_exact_one(fake):
     """A coarse grid (levels x0.5-x2) interpolates the stand-in's outlines poorly: its optimum
     is 16-18 % off and 0.5 mm off in the end points. Corrected at each verified optimum by the

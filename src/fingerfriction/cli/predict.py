@@ -46,6 +46,9 @@ _FE_WORKERS = "fingerfriction.mechanics.fe.calibration:FECalibrationOptions.work
 _FIT_HELP = ("The finger's fields to fit (comma list; default: halfspace radius,modulus,flat_length; fe "
              "tissue_modulus,radius, of tissue_modulus, skin_modulus, skin_thickness, radius, semi_height, "
              "pulp_thickness: each FE field adds two nodes to the grid of FE tables).")
+_OFFSET_HELP = ("FE finger: also fit one offset (mm) between the tracked finger position and the model "
+                "finger's reference point (a finger leaning under friction is tracked behind it; "
+                "docs/mechanics-fe.md).")
 
 
 def predict_contact(
@@ -234,14 +237,16 @@ def validate_cmd(
     workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS, help="Processes solving the "
                                     "FE calibration's tables (--finger-model fe)."),
     fit_fields: str = typer.Option(None, "--fit", help=_FIT_HELP),
+    position_offset: bool = typer.Option(False, "--position-offset", help=_OFFSET_HELP),
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from ..pipeline.finger_calibration import FINGER_FAMILIES, calibrate_held_out  # heavy (numba); likewise
     from ..pipeline.validation import validate_results  # heavy (the forward model); likewise
 
-    if fit_fields and not calibrated:
-        fail("--fit sets the fields of the calibrated fingers: add --calibrated-fingers")
+    if (fit_fields or position_offset) and not calibrated:
+        fail(f"{'--fit' if fit_fields else '--position-offset'} sets the calibrated fingers: add "
+             "--calibrated-fingers")
     fingers = read_fingers(items=finger, model="any")  # half-space or FE finger files
     try:
         finger_model = check_option("--finger-model", or_default(finger_model, _HELD_OUT_MODEL),
@@ -252,7 +257,10 @@ def validate_cmd(
             if finger_model == "fe":
                 from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-                opts = FECalibrationOptions(verify=False, **given(workers=workers, fit=csv_list(fit_fields)))
+                opts = FECalibrationOptions(verify=False, position_offset=position_offset,
+                                            **given(workers=workers, fit=csv_list(fit_fields)))
+            elif position_offset:
+                raise ValueError("--position-offset needs --finger-model fe")
             elif fit_fields:
                 from ..mechanics.calibrate import CalibrationOptions  # heavy (numba); likewise
 
@@ -322,6 +330,7 @@ def calibrate_finger_cmd(
     workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS,
                                     help="Processes solving the FE grid's tables (--finger-model fe)."),
     fit_fields: str = typer.Option(None, "--fit", help=_FIT_HELP),
+    position_offset: bool = typer.Option(False, "--position-offset", help=_OFFSET_HELP),
 ) -> None:
     """Fit the subject's finger to its measured contact regions and write it as a finger JSON
     that predict, validate and render accept (predict-contact and render: half-space only)."""
@@ -340,7 +349,10 @@ def calibrate_finger_cmd(
         if finger_model == "fe":
             from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-            opts = FECalibrationOptions(**given(seed=seed, workers=workers, fit=csv_list(fit_fields)))
+            opts = FECalibrationOptions(position_offset=position_offset,
+                                        **given(seed=seed, workers=workers, fit=csv_list(fit_fields)))
+        elif position_offset:
+            raise ValueError("--position-offset needs --finger-model fe")
         else:
             opts = CalibrationOptions(**given(seed=seed, fit=csv_list(fit_fields)))
         t0 = time.process_time()

@@ -162,6 +162,9 @@ class CalibrationProblem:
         self.initial = initial
         self.fit = opts.fit
         self.p0 = np.array([float(getattr(initial, f)) for f in self.fit])
+        #: Whether ``z`` ends with the position offset (mm, :meth:`offset`) after the fields.
+        self.fit_offset = bool(getattr(opts, "position_offset", False))
+        self.n_params = len(self.fit) + int(self.fit_offset)
         self.hw, self.u = self._grid(initial, opts)
         self.n = self.u.size
         self.n_solves = 0
@@ -225,8 +228,18 @@ class CalibrationProblem:
         return np.unique(np.round(np.quantile(allload, q), 6))
 
     # ---------------------------------------------------------------- parameters
+    def fields(self, z: np.ndarray) -> np.ndarray:
+        """The fitted fields' part of ``z`` (``log`` ratios to the initial finger)."""
+        return np.asarray(z, dtype=float)[: len(self.fit)]
+
+    def offset(self, z: np.ndarray) -> float:
+        """The position offset in ``z`` (mm; 0 when it is not fitted): the model finger sits
+        at the tracked position plus this (the tracked point, e.g. the chord midpoint of a
+        finger leaning under friction, is not the model finger's reference point)."""
+        return float(np.asarray(z, dtype=float)[len(self.fit)]) if self.fit_offset else 0.0
+
     def finger(self, z: np.ndarray) -> FingerParams:
-        vals = self.p0 * np.exp(np.asarray(z, dtype=float))
+        vals = self.p0 * np.exp(self.fields(z))
         return dataclasses.replace(self.initial, **{f: float(v) for f, v in zip(self.fit, vals, strict=True)})
 
     # ---------------------------------------------------------------- levels
@@ -304,9 +317,11 @@ class CalibrationProblem:
             prev2, prev = prev, sol.pressure
         return Y, P, fails
 
-    def distances(self, sd: _SurfaceData, idx: np.ndarray, pos: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """Model distance ``d`` (mm) from each surface cell to the finger, ``(len(idx), n)``."""
-        x = sd.x[idx]
+    def distances(self, sd: _SurfaceData, idx: np.ndarray, pos: np.ndarray, Y: np.ndarray,
+                  offset: float = 0.0) -> np.ndarray:
+        """Model distance ``d`` (mm) from each surface cell to the finger, ``(len(idx), n)``,
+        with the model finger at the frames' positions plus ``offset`` (mm)."""
+        x = sd.x[idx] + offset
         ld = sd.load[idx]
         step = pos[1] - pos[0]
         uu = np.clip((x - pos[0]) / step, 0.0, pos.size - 1.0)
@@ -326,17 +341,26 @@ class CalibrationProblem:
         # interpolation keeps the shape; heights are surface heights.
         i1 = i0 + 1
         yf = (1 - v) * ((1 - w) * Y[j0, i0] + w * Y[j0, i1]) + v * ((1 - w) * Y[j1, i0] + w * Y[j1, i1])
+        if offset:
+            # the cells stay at the frames' surface coordinates x + u_i: the finger moved by
+            # the offset is read at its own cell u_i - offset (linear, the end cells held)
+            c = np.clip(np.arange(sd.u.size) - offset / sd.dx, 0.0, sd.u.size - 1.0)
+            k0 = np.minimum(np.floor(c).astype(int), sd.u.size - 2)
+            f = c - k0
+            yf = (1 - f) * yf[:, k0] + f * yf[:, k0 + 1]
         slope = np.gradient(yf, sd.dx, axis=1)
         return (yf - sd.H[idx]) / np.sqrt(1.0 + slope * slope)
 
-    def residuals(self, level: str, tabs: dict) -> np.ndarray:
+    def residuals(self, level: str, tabs: dict, offset: float = 0.0) -> np.ndarray:
+        """End-point then hinge residuals (mm), surface after surface, of the tables ``tabs``
+        with the model finger at the frames' positions plus ``offset`` (mm)."""
         t0 = time.process_time()
         o = self.opts
         out = []
         for sd in self.surfaces:
             st = self.structure(level, sd)
             pos, Y = tabs[sd.name]
-            d = self.distances(sd, st.idx, pos, Y)
+            d = self.distances(sd, st.idx, pos, Y, offset)
             tol_f = sd.tol[st.idx]
             # end residuals
             d0 = d[st.fe, st.je]
@@ -390,7 +414,7 @@ def make_fun_jac(pb: CalibrationProblem, level: str, step: float):
         key = key_of(z)
         if state.get("key") != key:
             tabs = pb.tables(z, level, step)
-            r = pb.residuals(level, tabs)
+            r = pb.residuals(level, tabs, pb.offset(z))
             state.update(key=key, tabs=tabs, r=r, fail=pb.last_failures, gain=dict(pb.last_end_gain))
         pb.last_failures = state["fail"]
         return state["r"]
@@ -405,8 +429,9 @@ def make_fun_jac(pb: CalibrationProblem, level: str, step: float):
         for k in range(z.size):
             zk = z.copy()
             zk[k] += h
-            tabs = pb.tables(zk, level, step, perturbed=True)
-            J[:, k] = (pb.residuals(level, tabs) - r0) / h
+            # the offset (the last entry, when fitted) moves the finger, not its tables
+            tabs = state["tabs"] if k >= len(pb.fit) else pb.tables(zk, level, step, perturbed=True)
+            J[:, k] = (pb.residuals(level, tabs, pb.offset(zk)) - r0) / h
         state.update(jkey=key, J=J)
         return J
 
@@ -420,8 +445,9 @@ def _soft_weights(r: np.ndarray, f_scale: float) -> np.ndarray:
 
 def bootstrap_spread(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J: np.ndarray, opts):
     """Linearised stratified cluster bootstrap (see the module notes). Returns (std, ci95)."""
+    names = opts.fit + (("position_offset",) if pb.fit_offset else ())
     if opts.bootstrap == 0:
-        return ({f: math.nan for f in opts.fit}, {f: (math.nan, math.nan) for f in opts.fit})
+        return ({f: math.nan for f in names}, {f: (math.nan, math.nan) for f in names})
     rng = np.random.default_rng(opts.seed)
     w = _soft_weights(r, opts.fine_soft)
     tr = pb.residual_trials("fine")
@@ -450,9 +476,12 @@ def bootstrap_spread(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J: np
             zs[k] = z - np.linalg.solve(Ab, bb)
         except np.linalg.LinAlgError:
             zs[k] = np.nan
-    vals = pb.p0[None, :] * np.exp(zs)
+    nf = len(opts.fit)
+    vals = pb.p0[None, :] * np.exp(zs[:, :nf])
+    if pb.fit_offset:
+        vals = np.column_stack([vals, zs[:, nf]])
     std, ci = {}, {}
-    for i, f in enumerate(opts.fit):
+    for i, f in enumerate(opts.fit + (("position_offset",) if pb.fit_offset else ())):
         v = vals[:, i][np.isfinite(vals[:, i])]
         std[f] = float(np.std(v, ddof=1)) if v.size > 1 else math.nan
         ci[f] = ((float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5))) if v.size
@@ -476,9 +505,13 @@ def end_bias_sensitivity(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J
     try:
         dz = -np.linalg.solve(Jw.T @ J, Jw.T @ dr)
     except np.linalg.LinAlgError:
-        return {f: math.nan for f in opts.fit}
-    vals = pb.p0 * np.exp(z)
-    return {f: float(v * (math.exp(d) - 1.0)) for f, v, d in zip(opts.fit, vals, dz, strict=True)}
+        return {f: math.nan for f in opts.fit + (("position_offset",) if pb.fit_offset else ())}
+    nf = len(opts.fit)
+    vals = pb.p0 * np.exp(pb.fields(z))
+    out = {f: float(v * (math.exp(d) - 1.0)) for f, v, d in zip(opts.fit, vals, dz[:nf], strict=True)}
+    if pb.fit_offset:
+        out["position_offset"] = float(dz[nf])
+    return out
 
 
 def model_regions(d: np.ndarray, X: np.ndarray, tol: np.ndarray, min_gap: np.ndarray,

@@ -296,6 +296,10 @@ class FingerCalibration:
         FE calibrations (:func:`fingerfriction.mechanics.fe.calibration.calibrate_fe_finger`):
         RMS difference (mm) of the end-point residuals of the surrogate and of the exact FE
         finger at the optimum (NaN: not verified, or a half-space calibration).
+    position_offset_mm : float
+        FE calibrations with ``position_offset``: the fitted offset (mm) of the model finger's
+        reference point from the tracked position (the model finger sits at the tracked x
+        plus this); its spread is ``std['position_offset']``. NaN: not fitted.
     """
 
     finger: FingerParams
@@ -319,6 +323,7 @@ class FingerCalibration:
     cost: float = math.nan
     options: CalibrationOptions | None = field(default=None, repr=False)
     surrogate_rms_mm: float = math.nan
+    position_offset_mm: float = math.nan
 
     def summary(self) -> str:
         """The result as plain-text tables: parameters, then per-surface figures and flags."""
@@ -331,6 +336,11 @@ class FingerCalibration:
             lines.append(f"{f + ' (' + unit + ')':22s} {getattr(self.initial, f):9.4g} "
                          f"{getattr(self.finger, f):11.4g} {self.std[f]:13.2g} {lo:9.4g}..{hi:<9.4g} "
                          f"{self.systematic[f]:+12.2g}")
+        if math.isfinite(self.position_offset_mm):
+            lo, hi = self.ci95.get("position_offset", (math.nan, math.nan))
+            lines.append(f"{'position offset (mm)':22s} {0.0:9.4g} {self.position_offset_mm:11.4g} "
+                         f"{self.std.get('position_offset', math.nan):13.2g} {lo:9.4g}..{hi:<9.4g} "
+                         f"{self.systematic.get('position_offset', math.nan):+12.2g}")
         if math.isfinite(self.surrogate_rms_mm):
             lines.append(f"FE surrogate against the exact FE finger at the optimum: end points differ by "
                          f"{self.surrogate_rms_mm:.4f} mm RMS")
@@ -362,6 +372,8 @@ class FingerCalibration:
             "surfaces": [s.to_dict() for s in self.surfaces],
             "options": dataclasses.asdict(self.options) if self.options is not None else None,
             **({"surrogate_rms_mm": self.surrogate_rms_mm} if math.isfinite(self.surrogate_rms_mm) else {}),
+            **({"position_offset_mm": self.position_offset_mm}
+               if math.isfinite(self.position_offset_mm) else {}),
         }
 
 
@@ -472,7 +484,7 @@ def optimise(pb: CalibrationProblem, opts, bounds: tuple | None = None, z0=None)
     pass_cpu)``."""
     lb, ub = bounds if bounds is not None else (np.full(len(opts.fit), -math.log(opts.bound)),
                                                 np.full(len(opts.fit), math.log(opts.bound)))
-    z = np.zeros(len(opts.fit)) if z0 is None else np.clip(np.asarray(z0, float), lb, ub)
+    z = np.zeros(len(lb)) if z0 is None else np.clip(np.asarray(z0, float), lb, ub)
     nfev, pass_cpu = {}, {}
     for level, step, soft in (("coarse", opts.coarse_step, opts.coarse_soft),
                               ("fine", opts.fine_step, opts.fine_soft)):

@@ -80,7 +80,7 @@ def _pair_spots(meas: np.ndarray, pred: np.ndarray) -> list[tuple[float, float]]
     return out
 
 
-def surface_fits(pb: CalibrationProblem, tabs: dict, r0: np.ndarray) -> list[SurfaceFit]:
+def surface_fits(pb: CalibrationProblem, tabs: dict, r0: np.ndarray, offset: float = 0.0) -> list[SurfaceFit]:
     """The per-surface figures of a calibration at its optimum.
 
     Parameters
@@ -93,6 +93,8 @@ def surface_fits(pb: CalibrationProblem, tabs: dict, r0: np.ndarray) -> list[Sur
     r0 : (m,) ndarray
         The fine pass's residuals at the optimum, surface after surface (end points, then
         hinges), in mm.
+    offset : float
+        The model finger's position offset at the optimum (mm; :meth:`CalibrationProblem.offset`).
     """
     out = []
     off = 0
@@ -103,7 +105,7 @@ def surface_fits(pb: CalibrationProblem, tabs: dict, r0: np.ndarray) -> list[Sur
         rh = r0[off + ne: off + ne + nh]
         off += ne + nh
         pos, Y = tabs[sd.name]
-        d = pb.distances(sd, st.idx, pos, Y)
+        d = pb.distances(sd, st.idx, pos, Y, offset)
         model = model_regions(d, sd.X[st.idx], sd.tol[st.idx], sd.min_gap[st.idx], sd.min_region[st.idx])
         meas = [sd.regions[i] for i in st.idx]
         out.append(SurfaceFit(

@@ -113,6 +113,15 @@ class FECalibrationOptions(ResidualOptions):
         With ``verify``: times the surrogate may be corrected at a verified optimum whose
         surrogate error exceeds ``max_surrogate_mm`` and the fit run again (module notes);
         0: the surrogate's optimum is the result.
+    position_offset : bool
+        Also fit one constant offset (mm) between the tracked finger position and the model
+        finger's reference point (the model finger sits at the tracked x plus it). The video's
+        x(t) is the midpoint of the finger's chord 4 mm above the relief; a finger that leans
+        against its motion under sliding friction is tracked behind the point its FE tables
+        are indexed by (docs/mechanics-fe.md, 2026-12-08), and freed skin fields absorb the
+        difference. Off by default until it is validated across model families.
+    max_offset : float
+        The offset is searched within +-this, in mm.
     max_nfev : int, optional
         Evaluations of the surrogate's residuals per least-squares pass; default
         :data:`NFEV_PER_FIELD` per fitted field (50 for the default two fields). A budget
@@ -134,11 +143,14 @@ class FECalibrationOptions(ResidualOptions):
     max_surrogate_mm: float = 0.03
     max_shifts: int = 2
     corrections: int = 2
+    position_offset: bool = False
+    max_offset: float = 1.0
     max_nfev: int | None = None
 
     def evaluations(self) -> int:
         """``max_nfev``, or :data:`NFEV_PER_FIELD` per fitted field when it is None."""
-        return NFEV_PER_FIELD * len(self.fit) if self.max_nfev is None else self.max_nfev
+        n = len(self.fit) + int(self.position_offset)
+        return NFEV_PER_FIELD * n if self.max_nfev is None else self.max_nfev
 
     def __post_init__(self) -> None:
         own = "FECalibrationOptions"
@@ -158,7 +170,9 @@ class FECalibrationOptions(ResidualOptions):
         if ld.ndim != 1 or ld.size == 0 or not np.all(ld > 0) or np.any(np.diff(ld) <= 0):
             raise ValueError(f"{own}.loads must be increasing normal forces > 0 in N, got {self.loads!r}")
         object.__setattr__(self, "loads", tuple(float(v) for v in ld))
-        self.check_shared(floats=("step", "grid_step", "clearance", "max_surrogate_mm"),
+        if not isinstance(self.position_offset, bool):
+            raise TypeError(f"{own}.position_offset must be True or False, got {self.position_offset!r}")
+        self.check_shared(floats=("step", "grid_step", "clearance", "max_surrogate_mm", "max_offset"),
                           ints=(("workers", 1), ("max_shifts", 0), ("corrections", 0)),
                           optional=("max_nfev",))
         if self.mesh is not None and not isinstance(self.mesh, FEMeshParams):
@@ -237,7 +251,7 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
     systematic = end_bias_sensitivity(pb, z, r0, J, state["gain"], opts)
     t_boot = time.process_time() - t_b
     tabs, r_fig = (state["tabs"], r0) if exact is None else exact
-    surfaces = surface_fits(pb, tabs, r_fig)
+    surfaces = surface_fits(pb, tabs, r_fig, pb.offset(z))
     success, message, more = _assess(fine, z, pb, finger, std, surfaces, opts, len(moves))
     if moves:
         message += "; the grid moved " + ", then ".join(
@@ -260,7 +274,7 @@ def calibrate_fe_finger(trials, initial: FEFingerParams, *, options: FECalibrati
         load_per_width=pb.load_median / finger.width, load_median=pb.load_median, surfaces=surfaces,
         success=success, message=message, flags=flags, n_trials=pb.n_trials, n_frames=pb.n_frames,
         nfev=nfev, n_solves=pb.fe_tables, timings=timings, cost=float(fine.cost), options=opts,
-        surrogate_rms_mm=surrogate_rms)
+        surrogate_rms_mm=surrogate_rms, position_offset_mm=pb.offset(z) if pb.fit_offset else math.nan)
     return res
 
 
@@ -284,13 +298,13 @@ def _verified(pb: FECalibrationProblem, opt: tuple, opts: FECalibrationOptions):
     def verify(o):
         z, fun = o[0], o[2]
         tabs = pb.exact_tables(pb.finger(z))
-        r = pb.residuals("fine", tabs)
+        r = pb.residuals("fine", tabs, pb.offset(z))
         rms = float(np.sqrt(np.mean((r[ends] - fun(z)[ends]) ** 2))) if ends.any() else math.nan
         return tabs, r, rms
 
     tabs, r, rms = verify(opt)
     first_rms, n_corr, refused = rms, 0, False
-    bounds = (np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1]))
+    bounds = _bounds(pb, opts)
     while rms > opts.max_surrogate_mm and n_corr < opts.corrections:
         before = pb.correction
         pb.correct(tabs, opt[0])
@@ -322,7 +336,16 @@ def _edge(z: np.ndarray, pb: FECalibrationProblem) -> dict:
     """The fitted fields whose optimum sits at the grid's edge -> the level of that edge."""
     lv, ax = pb.opts.levels, pb.axes
     return {f: (lv[0] if zi - ax[0] < 1e-3 else lv[-1])
-            for f, zi in zip(pb.fit, z, strict=True) if min(zi - ax[0], ax[-1] - zi) < 1e-3}
+            for f, zi in zip(pb.fit, pb.fields(z), strict=True) if min(zi - ax[0], ax[-1] - zi) < 1e-3}
+
+
+def _bounds(pb: FECalibrationProblem, opts: FECalibrationOptions) -> tuple[np.ndarray, np.ndarray]:
+    """The least squares' bounds: the grid's range of every field, then +-``max_offset`` mm."""
+    lo = np.full(len(opts.fit), pb.axes[0])
+    hi = np.full(len(opts.fit), pb.axes[-1])
+    if pb.fit_offset:
+        lo, hi = np.r_[lo, -opts.max_offset], np.r_[hi, opts.max_offset]
+    return lo, hi
 
 
 def _movable(centre: FEFingerParams, shift: dict, opts: FECalibrationOptions) -> bool:
@@ -357,7 +380,7 @@ def _fit_on_moving_grid(trials, initial: FEFingerParams, opts: FECalibrationOpti
         t = time.process_time()
         pb.build(progress)
         t_build += time.process_time() - t
-        bounds = (np.full(len(opts.fit), pb.axes[0]), np.full(len(opts.fit), pb.axes[-1]))
+        bounds = _bounds(pb, opts)
         opt, ver = optimise(pb, opts, bounds=bounds), None
 
         def may_move(shift, centre=centre):
@@ -404,5 +427,9 @@ def _assess(fine, z, pb: FECalibrationProblem, finger, std: dict, surfaces, opts
         moved = f", after {n_moves} move(s) of the grid" if n_moves else ""
         parts.append(f"parameter(s) {', '.join(edge)} at the edge of the tabulated range ({span}{moved}): "
                      "the data want a finger outside it")
+    if pb.fit_offset and abs(pb.offset(z)) > opts.max_offset - 1e-3:
+        success = False
+        parts.append(f"the position offset at the bound of the search ({pb.offset(z):+.3f} mm, "
+                     f"max_offset {opts.max_offset:g} mm): the tracked positions are off by more")
     flags.extend(identification_flags(opts.fit, finger, std, opts.max_rel_std, surfaces))
     return success, ("; ".join(parts) if parts else f"converged ({fine.message})"), flags

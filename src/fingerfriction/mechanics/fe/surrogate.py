@@ -218,7 +218,7 @@ class FECalibrationProblem(CalibrationProblem):
         return np.asarray(opts.loads, float)
 
     def finger(self, z: np.ndarray) -> FEFingerParams:
-        ratios = np.exp(np.asarray(z, float)).tolist()
+        ratios = np.exp(self.fields(z)).tolist()
         return finger_with(self.initial, dict(zip(self.fit, ratios, strict=True)))
 
     def node_finger(self, node: tuple) -> FEFingerParams:
@@ -245,7 +245,7 @@ class FECalibrationProblem(CalibrationProblem):
 
     def weights(self, z: np.ndarray) -> np.ndarray:
         """Interpolation weights of the grid's nodes at ``z`` (``log`` ratios), ``(n_nodes,)``."""
-        per = [_lagrange(self.axes, float(t)) for t in np.asarray(z, float)]
+        per = [_lagrange(self.axes, float(t)) for t in self.fields(z)]
         if self.opts.design == "tensor":
             return np.array([math.prod(per[a][i] for a, i in enumerate(node)) for node in self.nodes])
         # star: the sum over the axes of each axis' interpolation, minus (k - 1) centres
