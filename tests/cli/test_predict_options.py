@@ -88,8 +88,12 @@ def test_position_offset_reaches_the_fe_calibration_and_needs_the_fe_family(tmp_
     monkeypatch.setattr(fc, "calibrate_results", fake)
     runner = CliRunner()
     base = ["calibrate-finger", str(tmp_path), "--subject", "1", "--out", str(tmp_path / "f.json")]
-    r = runner.invoke(app, [*base, "--finger-model", "fe", "--position-offset"])
-    assert isinstance(r.exception, Stop) and seen.pop("offset") is True, r.output
+    from fingerfriction.mechanics.fe.calibration import FECalibrationOptions
+
+    for flag, want in (("--position-offset", True), ("--no-position-offset", False),
+                       (None, FECalibrationOptions().position_offset)):
+        r = runner.invoke(app, [*base, "--finger-model", "fe", *([flag] if flag else [])])
+        assert isinstance(r.exception, Stop) and seen.pop("offset") is want, (flag, r.output)
     r = runner.invoke(app, [*base, "--finger-model", "halfspace", "--position-offset"])
     assert r.exit_code == 2 and "--finger-model fe" in r.output and "Traceback" not in r.output
     r = runner.invoke(app, ["validate", str(tmp_path), "--position-offset"])

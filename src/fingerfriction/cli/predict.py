@@ -43,6 +43,7 @@ _COMMAND = "fingerfriction.predict.render:HapticRenderer.write_command"
 _FINGER_MODEL = "fingerfriction.pipeline.finger_calibration:calibrate_results.model"
 _HELD_OUT_MODEL = "fingerfriction.pipeline.finger_calibration:calibrate_held_out.model"
 _FE_WORKERS = "fingerfriction.mechanics.fe.calibration:FECalibrationOptions.workers"
+_FE_OFFSET = "fingerfriction.mechanics.fe.calibration:FECalibrationOptions.position_offset"
 _FIT_HELP = ("The finger's fields to fit (comma list; default: halfspace radius,modulus,flat_length; fe "
              "tissue_modulus,radius, of tissue_modulus, skin_modulus, skin_thickness, radius, semi_height, "
              "pulp_thickness: each FE field adds two nodes to the grid of FE tables).")
@@ -237,14 +238,15 @@ def validate_cmd(
     workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS, help="Processes solving the "
                                     "FE calibration's tables (--finger-model fe)."),
     fit_fields: str = typer.Option(None, "--fit", help=_FIT_HELP),
-    position_offset: bool = typer.Option(False, "--position-offset", help=_OFFSET_HELP),
+    position_offset: bool = dataclass_option(_FE_OFFSET, "--position-offset/--no-position-offset",
+                                             help=_OFFSET_HELP),
 ) -> None:
     """Leave-one-surface-out validation: fit on the other surfaces, predict each one from
     its geometry alone (no video), rho next to the in-sample Table 1."""
     from ..pipeline.finger_calibration import FINGER_FAMILIES, calibrate_held_out  # heavy (numba); likewise
     from ..pipeline.validation import validate_results  # heavy (the forward model); likewise
 
-    if (fit_fields or position_offset) and not calibrated:
+    if (fit_fields or position_offset is not None) and not calibrated:
         fail(f"{'--fit' if fit_fields else '--position-offset'} sets the calibrated fingers: add "
              "--calibrated-fingers")
     fingers = read_fingers(items=finger, model="any")  # half-space or FE finger files
@@ -257,9 +259,9 @@ def validate_cmd(
             if finger_model == "fe":
                 from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-                opts = FECalibrationOptions(verify=False, position_offset=position_offset,
-                                            **given(workers=workers, fit=csv_list(fit_fields)))
-            elif position_offset:
+                opts = FECalibrationOptions(verify=False, **given(workers=workers, fit=csv_list(fit_fields),
+                                                                   position_offset=position_offset))
+            elif position_offset is not None:
                 raise ValueError("--position-offset needs --finger-model fe")
             elif fit_fields:
                 from ..mechanics.calibrate import CalibrationOptions  # heavy (numba); likewise
@@ -330,7 +332,8 @@ def calibrate_finger_cmd(
     workers: int = dataclass_option(_FE_WORKERS, "--workers", callback=WORKERS,
                                     help="Processes solving the FE grid's tables (--finger-model fe)."),
     fit_fields: str = typer.Option(None, "--fit", help=_FIT_HELP),
-    position_offset: bool = typer.Option(False, "--position-offset", help=_OFFSET_HELP),
+    position_offset: bool = dataclass_option(_FE_OFFSET, "--position-offset/--no-position-offset",
+                                             help=_OFFSET_HELP),
 ) -> None:
     """Fit the subject's finger to its measured contact regions and write it as a finger JSON
     that predict, validate and render accept (predict-contact and render: half-space only)."""
@@ -349,9 +352,9 @@ def calibrate_finger_cmd(
         if finger_model == "fe":
             from ..mechanics.fe.calibration import FECalibrationOptions  # with the FE family only
 
-            opts = FECalibrationOptions(position_offset=position_offset,
-                                        **given(seed=seed, workers=workers, fit=csv_list(fit_fields)))
-        elif position_offset:
+            opts = FECalibrationOptions(**given(seed=seed, workers=workers, fit=csv_list(fit_fields),
+                                                position_offset=position_offset))
+        elif position_offset is not None:
             raise ValueError("--position-offset needs --finger-model fe")
         else:
             opts = CalibrationOptions(**given(seed=seed, fit=csv_list(fit_fields)))
