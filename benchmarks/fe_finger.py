@@ -133,16 +133,25 @@ def verification(quick: bool) -> None:
     for surf in (RaisedCosine("bump", 4.0, height=0.2, name="bump 4 mm x 0.2 mm"), get_surface("bump-4mm")):
         s = FEContactSolver(CYLINDER, FEMeshParams(surface_cell=0.04, contact_half_width=3.5, skin_layers=2,
                                                    tissue_layers=12, top_cells=24))
-        state, worst, rows = None, 0.0, []
-        for xc in np.arange(-4.0, 0.01, 0.1):
+        state, rows, lf, lb = None, [], [], []
+        xs = np.arange(-4.0, 0.01, 0.1)
+        for xc in xs:
             sol, state = s.solve(surf, xc, load=0.1, warm=state)
             b = bem.solve(surf, xc, load=0.1)
             _, p = sol.on_grid(bem.grid(xc), 0.1, 10.0)
-            r = (p > 0).sum() / (b.pressure > 0).sum() - 1
-            worst = max(worst, abs(r))
-            rows.append(r)
+            lf.append((p > 0).sum())
+            lb.append((b.pressure > 0).sum())
+            rows.append(lf[-1] / lb[-1] - 1)
+        k = int(np.argmax(np.abs(rows)))
+        # where the length changes fast (a region lost as the cylinder leaves the flat), a
+        # relative length error is a position error: the BEM's length slope turns it into mm
+        slope = np.gradient(np.asarray(lb, float) * bem.dx, xs)[k]
+        shift = (lf[k] - lb[k]) * bem.dx / slope if slope else float("nan")
         print(f"   {surf.name:22s} (max slope {surf.max_slope_angle():.2f} rad): largest |FE/BEM - 1| over "
-              f"41 positions {worst:.2%}, median {np.median(np.abs(rows)):.2%}")
+              f"{xs.size} positions {abs(rows[k]):.2%} at x = {xs[k]:+.1f} mm (the BEM's length changes "
+              f"{slope:+.2f} mm/mm there: {abs(shift) * 1000:.0f} um of position), median "
+              f"{np.median(np.abs(rows)):.2%}, within 5 % at {int(np.sum(np.abs(rows) <= 0.05))} of "
+              f"{xs.size}")
 
 
 def _table_regions(table, surface, j=0, tol=GEOMETRIC_TOL):
