@@ -45,8 +45,8 @@ _HELD_OUT_MODEL = "fingerfriction.pipeline.finger_calibration:calibrate_held_out
 _FE_WORKERS = "fingerfriction.mechanics.fe.calibration:FECalibrationOptions.workers"
 _FE_OFFSET = "fingerfriction.mechanics.fe.calibration:FECalibrationOptions.position_offset"
 _FIT_HELP = ("The finger's fields to fit (comma list; default: halfspace radius,modulus,flat_length; fe "
-             "tissue_modulus,radius, of tissue_modulus, skin_modulus, skin_thickness, radius, semi_height, "
-             "pulp_thickness: each FE field adds two nodes to the grid of FE tables).")
+             "tissue_modulus,skin_modulus,skin_thickness,radius,semi_height, of those and pulp_thickness: "
+             "each FE field adds two nodes to the grid of FE tables).")
 _OFFSET_HELP = ("FE finger: also fit one offset (mm) between the tracked finger position and the model "
                 "finger's reference point (a finger leaning under friction is tracked behind it; "
                 "docs/mechanics-fe.md).")

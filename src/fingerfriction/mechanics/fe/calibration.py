@@ -80,7 +80,10 @@ class FECalibrationOptions(ResidualOptions):
     Parameters
     ----------
     fit : tuple of str
-        Fields fitted, a subset of :data:`FE_FIT_FIELDS`.
+        Fields fitted, a subset of :data:`FE_FIT_FIELDS`. Default: the pulp's and the skin's
+        moduli, the skin's thickness, the outline's radius and semi-height (the best five by
+        the contact ends that include the skin's modulus, chosen without a study; with the
+        tracked position's offset, validated on three finger seeds, docs/mechanics-fe.md).
     design : {'star', 'tensor'}
         The grid's nodes (module notes).
     levels : tuple of float
@@ -119,18 +122,20 @@ class FECalibrationOptions(ResidualOptions):
         x(t) is the midpoint of the finger's chord 4 mm above the relief; a finger that leans
         against its motion under sliding friction is tracked behind the point its FE tables
         are indexed by (docs/mechanics-fe.md, 2026-12-08), and freed skin fields absorb the
-        difference. Off by default until it is validated across model families.
+        difference. On by default since 2026-12-08 (with the five fields: validated across
+        model families on three finger seeds, docs/mechanics-fe.md).
     max_offset : float
         The offset is searched within +-this, in mm.
     max_nfev : int, optional
         Evaluations of the surrogate's residuals per least-squares pass; default
-        :data:`NFEV_PER_FIELD` per fitted field (50 for the default two fields). A budget
+        :data:`NFEV_PER_FIELD` per fitted parameter (150 for the default five fields and the
+        position offset). A budget
         that grows with the fitted fields, as scipy's own default (100 per variable) does:
         on 2026-12-07 two of seed 9167's held-out four-field fits stopped at a fixed 50
         (docs/mechanics-fe.md).
     """
 
-    fit: tuple = ("tissue_modulus", "radius")
+    fit: tuple = ("tissue_modulus", "skin_modulus", "skin_thickness", "radius", "semi_height")
     design: str = "star"
     levels: tuple = (0.75, 1.0, 1.25)
     loads: tuple = (0.26, 0.34)
@@ -143,7 +148,7 @@ class FECalibrationOptions(ResidualOptions):
     max_surrogate_mm: float = 0.03
     max_shifts: int = 2
     corrections: int = 2
-    position_offset: bool = False
+    position_offset: bool = True
     max_offset: float = 1.0
     max_nfev: int | None = None
 
