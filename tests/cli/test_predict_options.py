@@ -45,26 +45,33 @@ def test_the_finger_calibration_options_default_to_the_stage():
             assert p.default is None and p.show_default.value() == default, (cmd, opt)
 
 
-def test_fit_chooses_the_calibrated_fields_and_bad_fields_are_one_line_errors(tmp_path, monkeypatch):
+class _Stop(Exception):
+    """Raised by the stand-in calibration once it has seen its options."""
+
+
+def _calibrate_finger(tmp_path, monkeypatch):
+    """A runner and ``calibrate-finger``'s arguments, with a stand-in ``calibrate_results`` that
+    keeps the options it was given (returned) and raises :class:`_Stop`."""
     from typer.testing import CliRunner
 
     import fingerfriction.pipeline.finger_calibration as fc
 
-    seen = {}
-
-    class Stop(Exception):
-        pass
+    seen = []
 
     def fake(results, subject, *, options=None, **kw):
-        seen["fit"] = options.fit
-        raise Stop
+        seen.append(options)
+        raise _Stop
 
     monkeypatch.setattr(fc, "calibrate_results", fake)
-    runner = CliRunner()
     base = ["calibrate-finger", str(tmp_path), "--subject", "1", "--out", str(tmp_path / "f.json")]
+    return CliRunner(), base, seen
+
+
+def test_fit_chooses_the_calibrated_fields_and_bad_fields_are_one_line_errors(tmp_path, monkeypatch):
+    runner, base, seen = _calibrate_finger(tmp_path, monkeypatch)
     for model, fields in (("fe", ("tissue_modulus", "skin_modulus")), ("halfspace", ("radius",))):
         r = runner.invoke(app, [*base, "--finger-model", model, "--fit", ",".join(fields)])
-        assert isinstance(r.exception, Stop) and seen.pop("fit") == fields, r.output
+        assert isinstance(r.exception, _Stop) and seen.pop().fit == fields, r.output
     r = runner.invoke(app, [*base, "--finger-model", "fe", "--fit", "tissue_modulus,stiffness"])
     assert r.exit_code == 2 and "stiffness" in r.output and "Traceback" not in r.output
     r = runner.invoke(app, ["validate", str(tmp_path), "--fit", "radius"])
@@ -72,28 +79,13 @@ def test_fit_chooses_the_calibrated_fields_and_bad_fields_are_one_line_errors(tm
 
 
 def test_position_offset_reaches_the_fe_calibration_and_needs_the_fe_family(tmp_path, monkeypatch):
-    from typer.testing import CliRunner
-
-    import fingerfriction.pipeline.finger_calibration as fc
-
-    seen = {}
-
-    class Stop(Exception):
-        pass
-
-    def fake(results, subject, *, options=None, **kw):
-        seen["offset"] = options.position_offset
-        raise Stop
-
-    monkeypatch.setattr(fc, "calibrate_results", fake)
-    runner = CliRunner()
-    base = ["calibrate-finger", str(tmp_path), "--subject", "1", "--out", str(tmp_path / "f.json")]
     from fingerfriction.mechanics.fe.calibration import FECalibrationOptions
 
+    runner, base, seen = _calibrate_finger(tmp_path, monkeypatch)
     for flag, want in (("--position-offset", True), ("--no-position-offset", False),
                        (None, FECalibrationOptions().position_offset)):
         r = runner.invoke(app, [*base, "--finger-model", "fe", *([flag] if flag else [])])
-        assert isinstance(r.exception, Stop) and seen.pop("offset") is want, (flag, r.output)
+        assert isinstance(r.exception, _Stop) and seen.pop().position_offset is want, (flag, r.output)
     r = runner.invoke(app, [*base, "--finger-model", "halfspace", "--position-offset"])
     assert r.exit_code == 2 and "--finger-model fe" in r.output and "Traceback" not in r.output
     r = runner.invoke(app, ["validate", str(tmp_path), "--position-offset"])

@@ -164,7 +164,8 @@ class CalibrationProblem:
         self.p0 = np.array([float(getattr(initial, f)) for f in self.fit])
         #: Whether ``z`` ends with the position offset (mm, :meth:`offset`) after the fields.
         self.fit_offset = bool(getattr(opts, "position_offset", False))
-        self.n_params = len(self.fit) + int(self.fit_offset)
+        #: The names of ``z``'s entries: the fitted fields, then ``'position_offset'`` if fitted.
+        self.param_names = tuple(self.fit) + (("position_offset",) if self.fit_offset else ())
         self.hw, self.u = self._grid(initial, opts)
         self.n = self.u.size
         self.n_solves = 0
@@ -445,7 +446,7 @@ def _soft_weights(r: np.ndarray, f_scale: float) -> np.ndarray:
 
 def bootstrap_spread(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J: np.ndarray, opts):
     """Linearised stratified cluster bootstrap (see the module notes). Returns (std, ci95)."""
-    names = opts.fit + (("position_offset",) if pb.fit_offset else ())
+    names = pb.param_names
     if opts.bootstrap == 0:
         return ({f: math.nan for f in names}, {f: (math.nan, math.nan) for f in names})
     rng = np.random.default_rng(opts.seed)
@@ -481,7 +482,7 @@ def bootstrap_spread(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J: np
     if pb.fit_offset:
         vals = np.column_stack([vals, zs[:, nf]])
     std, ci = {}, {}
-    for i, f in enumerate(opts.fit + (("position_offset",) if pb.fit_offset else ())):
+    for i, f in enumerate(names):
         v = vals[:, i][np.isfinite(vals[:, i])]
         std[f] = float(np.std(v, ddof=1)) if v.size > 1 else math.nan
         ci[f] = ((float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5))) if v.size
@@ -505,7 +506,7 @@ def end_bias_sensitivity(pb: CalibrationProblem, z: np.ndarray, r: np.ndarray, J
     try:
         dz = -np.linalg.solve(Jw.T @ J, Jw.T @ dr)
     except np.linalg.LinAlgError:
-        return {f: math.nan for f in opts.fit + (("position_offset",) if pb.fit_offset else ())}
+        return {f: math.nan for f in pb.param_names}
     nf = len(opts.fit)
     vals = pb.p0 * np.exp(pb.fields(z))
     out = {f: float(v * (math.exp(d) - 1.0)) for f, v, d in zip(opts.fit, vals, dz[:nf], strict=True)}
